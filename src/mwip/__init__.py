@@ -1,0 +1,12 @@
+"""mwip: robust and intelligent control of mobile wheeled inverted pendulums.
+
+Models (Chapter 2), disturbance observers (Chapter 3), controllers (Chapters 3-5) and a fast
+batch simulation engine, after Huang et al., *Robust and Intelligent Control of a Typical
+Underactuated Robot: Mobile Wheeled Inverted Pendulum* (2023).
+"""
+
+from mwip.linearize import linearize
+from mwip.params import NOMINAL, REAL, Params
+
+__all__ = ["Params", "REAL", "NOMINAL", "linearize", "__version__"]
+__version__ = "0.1.0"

@@ -1,0 +1,152 @@
+"""Linear-quadratic regulator about the upright equilibrium (Section 4.4.2).
+
+State ``x = [theta, alpha, theta', v, alpha']``, input ``u = [u_r, u_l]``, law ``u = -K (x - x_ref)``.
+
+Two designs from the same weights (SPEC.md section 2):
+
+- continuous (the book's): ``K = R^{-1} B^T P`` with ``A^T P + P A - P B R^{-1} B^T P + Q = 0``.
+  With the book's ``Q = diag(1000, 100, 100, 100, 1000)``, ``R = 0.01 I`` the closed loop has
+  poles near -1e5 rad/s: usable only in continuous time (``mode="continuous"``).
+- sampled: the discrete Riccati equation on the zero-order-hold discretisation
+  ``(Ad, Bd) = zoh(A, B, Ts)``; ``K = (R + Bd^T P Bd)^{-1} Bd^T P Ad``. This is what a 5 ms
+  loop must use: the continuous gain applied with 5 ms hold is violently unstable.
+
+The book prints both rows of K equal; the yaw columns must flip sign between the wheels
+(SPEC.md section 3). The design here gives rows ``[-223.99, +-70.71, -70.32, -23.12, +-218.99]``
+on the nominal parameters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+from numpy.typing import ArrayLike, NDArray
+
+from mwip.linearize import linearize
+from mwip.params import NOMINAL, Params
+from mwip.sim.sensors import Measurement
+
+__all__ = [
+    "BOOK_Q", "BOOK_R", "lqr", "dlqr", "zoh", "LQRDesign", "design_lqr", "LQR",
+]  # fmt: skip
+
+#: The book's weights (Section 4.4.2).
+BOOK_Q = np.diag([1000.0, 100.0, 100.0, 100.0, 1000.0])
+BOOK_R = np.diag([0.01, 0.01])
+
+
+def _check_weights(Q: NDArray[np.float64], R: NDArray[np.float64], n: int, m: int) -> None:
+    if Q.shape != (n, n) or not np.allclose(Q, Q.T) or np.min(np.linalg.eigvalsh(Q)) < -1e-12:
+        raise ValueError(f"Q must be a symmetric positive semidefinite {n}x{n} matrix")
+    if R.shape != (m, m) or not np.allclose(R, R.T) or np.min(np.linalg.eigvalsh(R)) <= 0:
+        raise ValueError(f"R must be a symmetric positive definite {m}x{m} matrix")
+
+
+def lqr(A: ArrayLike, B: ArrayLike, Q: ArrayLike, R: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
+    """Continuous-time LQR: returns ``(K, P, E)`` (gain, Riccati solution, closed-loop poles)."""
+    A, B, Q, R = (np.asarray(x, dtype=float) for x in (A, B, Q, R))
+    _check_weights(Q, R, A.shape[0], B.shape[1])
+    P = sla.solve_continuous_are(A, B, Q, R)
+    K = np.linalg.solve(R, B.T @ P)
+    return K, P, np.linalg.eigvals(A - B @ K)
+
+
+def zoh(A: ArrayLike, B: ArrayLike, Ts: float) -> tuple[NDArray, NDArray]:
+    """Zero-order-hold discretisation via the block matrix exponential ``expm([[A, B], [0, 0]] Ts)``."""
+    A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+    n, m = B.shape
+    blk = np.zeros((n + m, n + m))
+    blk[:n, :n], blk[:n, n:] = A, B
+    E = sla.expm(blk * Ts)
+    return E[:n, :n], E[:n, n:]
+
+
+def dlqr(A: ArrayLike, B: ArrayLike, Q: ArrayLike, R: ArrayLike, Ts: float) -> tuple[NDArray, NDArray, NDArray]:
+    """LQR for sample period ``Ts``: discrete Riccati on the ZOH model. Returns ``(K, P, z)``.
+
+    ``z`` are the closed-loop eigenvalues of ``Ad - Bd K`` (inside the unit circle).
+    The continuous cost is approximated by ``Q, R`` per sample (not scaled by Ts) as in the
+    usual ``dlqr(c2d(sys), Q, R)`` practice.
+    """
+    if not (np.isfinite(Ts) and Ts > 0):
+        raise ValueError(f"Ts must be finite and in (0, inf), got {Ts!r}")
+    Q, R = np.asarray(Q, dtype=float), np.asarray(R, dtype=float)
+    Ad, Bd = zoh(A, B, Ts)
+    _check_weights(Q, R, Ad.shape[0], Bd.shape[1])
+    P = sla.solve_discrete_are(Ad, Bd, Q, R)
+    K = np.linalg.solve(R + Bd.T @ P @ Bd, Bd.T @ P @ Ad)
+    return K, P, np.linalg.eigvals(Ad - Bd @ K)
+
+
+@dataclass(frozen=True)
+class LQRDesign:
+    """A designed gain: ``K`` (2, 5), its sample period (``None``: continuous), and poles.
+
+    ``poles`` are continuous-time closed-loop poles (rad/s) for a continuous design and the
+    discrete eigenvalues for a sampled one.
+    """
+
+    K: NDArray[np.float64]
+    Ts: float | None
+    Q: NDArray[np.float64]
+    R: NDArray[np.float64]
+    poles: NDArray[np.complex128]
+    params: Params = field(repr=False)
+
+
+def design_lqr(
+    params: Params = NOMINAL,
+    Q: ArrayLike = BOOK_Q,
+    R: ArrayLike = BOOK_R,
+    Ts: float | None = 0.005,
+) -> LQRDesign:
+    """Design the LQR on ``params`` (nominal by default); ``Ts=None`` gives the continuous gain."""
+    A, B = linearize(params)
+    Qa, Ra = np.asarray(Q, dtype=float), np.asarray(R, dtype=float)
+    K, _, poles = lqr(A, B, Qa, Ra) if Ts is None else dlqr(A, B, Qa, Ra, Ts)
+    return LQRDesign(K=K, Ts=Ts, Q=Qa, R=Ra, poles=poles, params=params)
+
+
+class LQR:
+    """State feedback ``u = -K (x - x_ref)`` on measured ``x = [theta, alpha, theta', v, alpha']``.
+
+    ``v`` is formed from the measured wheel rate with the *nominal* radius, ``v = r_nom psi'``.
+    Static (no internal state), so it also runs inside the right-hand side (continuous mode).
+    """
+
+    static = True
+
+    def __init__(
+        self,
+        design: LQRDesign,
+        reference: ArrayLike = (0.0, 0.0, 0.0, 0.0, 0.0),
+    ) -> None:
+        self.K = np.asarray(design.K, dtype=float)
+        self.Ts = design.Ts
+        self.r_nominal = float(design.params.r)
+        self.reference = np.asarray(reference, dtype=float)
+        if self.reference.shape != (5,):
+            raise ValueError(f"reference must have 5 entries, got shape {self.reference.shape}")
+        # x = y[:, :6] @ sel with v = r_nom psi': fold the selection into the gain once
+        sel = np.zeros((6, 5))
+        sel[1, 0] = sel[2, 1] = sel[4, 2] = sel[5, 4] = 1.0
+        sel[3, 3] = self.r_nominal
+        self._sel = sel
+        self._gain = -sel @ self.K.T  # (6, 2)
+        self._offset = self.reference @ self.K.T  # (2,)
+
+    def reset(self, meas: Measurement) -> None:
+        """Nothing to reset (static law)."""
+
+    def state(self, meas: Measurement) -> NDArray[np.float64]:
+        """The LQR state from a measurement, (N, 5)."""
+        return meas.y[:, :6] @ self._sel
+
+    def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
+        return meas.y[:, :6] @ self._gain + self._offset
+
+    def log(self) -> Mapping[str, NDArray[np.float64]]:
+        return {}

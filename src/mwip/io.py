@@ -1,0 +1,41 @@
+"""Atomic file output: a reader never sees a half-written file.
+
+Every writer goes through a temporary file in the destination folder followed by
+``os.replace``, so an interrupted or failed write leaves any previous file untouched.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO, Any
+
+__all__ = ["write_atomic", "write_text_atomic", "write_json_atomic"]
+
+
+def write_atomic(path: str | os.PathLike[str], writer: Callable[[IO[bytes]], None]) -> Path:
+    """Call ``writer(fh)`` on a temporary binary file, then rename it onto ``path``."""
+    dest = Path(path)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            writer(fh)
+        os.replace(tmp, dest)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return dest
+
+
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
+    """Write UTF-8 text atomically."""
+    return write_atomic(path, lambda fh: fh.write(text.encode("utf-8")))
+
+
+def write_json_atomic(path: str | os.PathLike[str], data: Any) -> Path:
+    """Write JSON (indented, keys in insertion order) atomically."""
+    return write_text_atomic(path, json.dumps(data, indent=2, allow_nan=True) + "\n")

@@ -1,0 +1,310 @@
+"""Physical parameters of a mobile wheeled inverted pendulum.
+
+A :class:`Params` holds the book's symbols (list of Symbols, Tables 3.1/3.2 = 6.1/6.2):
+
+==========  ==========================================================  ========
+symbol      meaning                                                     unit
+==========  ==========================================================  ========
+``mb``      body mass                                                   kg
+``mw``      mass of one wheel                                           kg
+``Iby``     body inertia about the wheel axle (pitch)                   kg m^2
+``Ibz``     body inertia about its vertical axis (yaw)                  kg m^2
+``Iwa``     wheel inertia about the axle                                kg m^2
+``Iwd``     wheel inertia about a diameter                              kg m^2
+``l``       distance from the axle to the body's centre of mass         m
+``b``       half the distance between the wheels                        m
+``r``       wheel radius                                                m
+``Db``      body-wheel (motor/gearbox) rotational damping               N m s/rad
+``Dw``      wheel-ground rotational damping                             N m s/rad
+``g``       gravitational acceleration                                  m/s^2
+==========  ==========================================================  ========
+
+The book prints ``Db, Dw`` with unit N s/m but uses them as rotational damping in (2.32);
+we do the same (SPEC.md section 2).
+
+Fields may be floats (one robot) or NumPy arrays of a common shape (a batch of robots, e.g.
+for Monte Carlo); every derived coefficient and every model function broadcasts over them.
+
+The derived coefficients of (2.32) are properties: ``m11, m12, m22, m33, Ibl, Gb``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tomli_w
+
+from mwip.io import write_text_atomic
+
+__all__ = [
+    "Params",
+    "REAL",
+    "NOMINAL",
+    "GRAVITY",
+    "PARAM_FIELDS",
+    "load_params",
+    "save_params",
+    "stack_params",
+]
+
+GRAVITY = 9.81
+
+#: (lower bound, upper bound, lower bound inclusive?) for each field: the allowed ranges.
+_RANGES: dict[str, tuple[float, float, bool]] = {
+    "mb": (0.0, math.inf, False),
+    "mw": (0.0, math.inf, False),
+    "Iby": (0.0, math.inf, False),
+    "Ibz": (0.0, math.inf, False),
+    "Iwa": (0.0, math.inf, False),
+    "Iwd": (0.0, math.inf, True),
+    "l": (0.0, math.inf, False),
+    "b": (0.0, math.inf, False),
+    "r": (0.0, math.inf, False),
+    "Db": (0.0, math.inf, True),
+    "Dw": (0.0, math.inf, True),
+    "g": (0.0, math.inf, False),
+}
+
+
+def _range_text(name: str) -> str:
+    lo, hi, closed = _RANGES[name]
+    return f"{'[' if closed else '('}{lo:g}, {'inf' if math.isinf(hi) else f'{hi:g}'})"
+
+
+@dataclass(frozen=True)
+class Params:
+    """Parameters of one MWIP (or of a batch, when the fields are arrays).
+
+    Raises ``ValueError`` naming the field and its allowed range when a value is not finite
+    or is outside the physical range (masses, inertias and lengths > 0; damping >= 0).
+
+    Examples
+    --------
+    >>> from mwip.params import REAL
+    >>> round(REAL.m11, 6)     # (mb + 2 mw) r^2 + 2 Iwa
+    0.004856
+    """
+
+    mb: float
+    mw: float
+    Iby: float
+    Ibz: float
+    Iwa: float
+    Iwd: float
+    l: float
+    b: float
+    r: float
+    Db: float
+    Dw: float
+    g: float = GRAVITY
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            raw = getattr(self, f.name)
+            try:
+                value = np.asarray(raw, dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"parameter {f.name!r} must be a number in {_range_text(f.name)}, got {raw!r}"
+                ) from None
+            lo, hi, closed = _RANGES[f.name]
+            ok_lo = value >= lo if closed else value > lo
+            if not (np.all(np.isfinite(value)) and np.all(ok_lo) and np.all(value < hi)):
+                raise ValueError(
+                    f"parameter {f.name!r} must be finite and in {_range_text(f.name)}, "
+                    f"got {raw!r}"
+                )
+            object.__setattr__(self, f.name, float(value) if value.ndim == 0 else value)
+
+    # ---- derived coefficients of (2.32) --------------------------------------------------
+    @property
+    def m11(self) -> Any:
+        """m11 = (mb + 2 mw) r^2 + 2 Iwa  (2.32)."""
+        return (self.mb + 2.0 * self.mw) * self.r**2 + 2.0 * self.Iwa
+
+    @property
+    def m12(self) -> Any:
+        """m12 = mb l r  (2.32)."""
+        return self.mb * self.l * self.r
+
+    @property
+    def m22(self) -> Any:
+        """m22 = mb l^2 + Iby  (2.32)."""
+        return self.mb * self.l**2 + self.Iby
+
+    @property
+    def Ibl(self) -> Any:
+        """Ibl = Ibz + mb l^2  (2.32)."""
+        return self.Ibz + self.mb * self.l**2
+
+    @property
+    def Gb(self) -> Any:
+        """Gb = mb g l  (2.32)."""
+        return self.mb * self.g * self.l
+
+    @property
+    def m33(self) -> Any:
+        """m33 = 2 Iwd + (2 b^2 / r^2) (Iwa + mw r^2)  (2.32)."""
+        return 2.0 * self.Iwd + 2.0 * self.b**2 / self.r**2 * (self.Iwa + self.mw * self.r**2)
+
+    @property
+    def batch_shape(self) -> tuple[int, ...]:
+        """Common broadcast shape of the fields: ``()`` for a single robot."""
+        return np.broadcast_shapes(*(np.shape(getattr(self, f.name)) for f in fields(self)))
+
+    # ---- conversions ----------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """Field values as a plain dict (arrays become lists)."""
+        return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, base: Params | None = None) -> Params:
+        """Build from a mapping. With ``base``, missing fields are taken from it.
+
+        Unknown keys raise ``ValueError`` (a typo must not be silently ignored).
+        """
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValueError(
+                f"unknown parameter {unknown[0]!r}; allowed: {', '.join(sorted(names))}"
+            )
+        if base is not None:
+            return replace(base, **dict(data))
+        missing = [n for n in names if n not in data and n != "g"]
+        if missing:
+            raise ValueError(f"parameter {sorted(missing)[0]!r} is missing")
+        return cls(**dict(data))
+
+    def with_payload(
+        self,
+        mass: float = 0.5,
+        height: float = 0.1,
+        body_height: float | None = None,
+        pan_radius: float = 0.08,
+    ) -> Params:
+        """The robot with a payload on top (Chapter 6, Case 2; SPEC.md section 5).
+
+        Geometry assumed (the book gives only "a 0.5 kg pan on four 0.1 m rods", Fig. 6.2):
+        the body is a uniform slender block whose centre of mass is at ``l`` above the axle,
+        so its top is at ``body_height`` above the axle (default ``2 l``). The payload is a
+        thin uniform disc ("pan") of radius ``pan_radius`` whose centre sits ``height`` above
+        the top of the body, i.e. at ``h_p = body_height + height`` above the axle. The rods'
+        mass is neglected. Then, with ``m_p = mass``:
+
+        - ``mb' = mb + m_p``
+        - ``l' = (mb l + m_p h_p) / mb'``  (combined centre of mass)
+        - ``Iby' = Iby + mb (l - l')^2 + m_p (h_p - l')^2 + m_p R^2 / 4``  (parallel axes,
+          about the new centre of mass; a disc about a diameter has ``m R^2 / 4``)
+        - ``Ibz' = Ibz + m_p R^2 / 2``  (disc about its axis, on the yaw axis)
+
+        The wheels and damping are unchanged.
+        """
+        for name, value, lo in (("mass", mass, 0.0), ("height", height, 0.0)):
+            if not (np.isfinite(value) and value >= lo):
+                raise ValueError(f"payload {name!r} must be finite and in [0, inf), got {value!r}")
+        if not (np.isfinite(pan_radius) and pan_radius >= 0):
+            raise ValueError(f"payload 'pan_radius' must be finite and in [0, inf), got {pan_radius!r}")
+        top = 2.0 * self.l if body_height is None else body_height
+        if not (np.all(np.isfinite(top)) and np.all(np.asarray(top) > 0)):
+            raise ValueError(f"payload 'body_height' must be finite and in (0, inf), got {top!r}")
+        hp = top + height
+        mb2 = self.mb + mass
+        l2 = (self.mb * self.l + mass * hp) / mb2
+        iby2 = (
+            self.Iby
+            + self.mb * (self.l - l2) ** 2
+            + mass * (hp - l2) ** 2
+            + mass * pan_radius**2 / 4.0
+        )
+        ibz2 = self.Ibz + mass * pan_radius**2 / 2.0
+        return replace(self, mb=mb2, l=l2, Iby=iby2, Ibz=ibz2)
+
+    def __getitem__(self, index: Any) -> Params:
+        """Select robots of a batch (fields indexed after broadcasting to the batch shape)."""
+        shape = self.batch_shape
+        return Params(
+            **{
+                f.name: np.broadcast_to(getattr(self, f.name), shape)[index]
+                for f in fields(self)
+            }
+        )
+
+
+PARAM_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Params))
+
+#: Real parameters of the robot: Table 3.1 (= Table 6.1). The plant.
+REAL = Params(
+    mb=2.58, mw=0.14, Iby=1.77e-3, Ibz=1.77e-3, Iwa=1.4e-4, Iwd=8.4e-4,
+    l=0.0622, b=0.15, r=0.04, Db=0.5, Dw=0.8, g=GRAVITY,
+)  # fmt: skip
+
+#: Nominal (estimated) parameters: Table 3.2 (= Table 6.2). What designs use.
+NOMINAL = Params(
+    mb=2.50, mw=0.12, Iby=1.57e-3, Ibz=1.57e-3, Iwa=1.2e-4, Iwd=8.1e-4,
+    l=0.0582, b=0.14, r=0.03, Db=0.4, Dw=0.6, g=GRAVITY,
+)  # fmt: skip
+
+
+def stack_params(items: Iterable[Params]) -> Params:
+    """Stack robots into one batched :class:`Params` (fields of shape (N,))."""
+    items = list(items)
+    if not items:
+        raise ValueError("stack_params needs at least one Params")
+    return Params(
+        **{
+            name: np.array([np.asarray(getattr(p, name), dtype=float) for p in items])
+            for name in PARAM_FIELDS
+        }
+    )
+
+
+def load_params(path: str | os.PathLike[str], *, base: Params | None = None) -> Params:
+    """Read parameters from a TOML file.
+
+    The file holds the symbols at top level or under a ``[params]`` table, e.g.::
+
+        [params]
+        mb = 2.58   # kg
+        l = 0.0622  # m
+
+    With ``base`` (e.g. ``REAL``) missing fields are taken from it; without it every field
+    but ``g`` is required. A value may also be ``"real"``/``"nominal"`` at the top level
+    key ``base``.
+    """
+    p = Path(path)
+    try:
+        with p.open("rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ValueError(f"parameter file {str(p)!r} does not exist") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"parameter file {str(p)!r} is not valid TOML: {exc}") from None
+    if "params" in data and isinstance(data["params"], dict):
+        extra = {k: v for k, v in data.items() if k not in ("params", "base")}
+        if extra:
+            raise ValueError(f"unknown key {sorted(extra)[0]!r} in {str(p)!r}")
+        body = data["params"]
+    else:
+        body = {k: v for k, v in data.items() if k != "base"}
+    if "base" in data:
+        named = {"real": REAL, "nominal": NOMINAL}
+        key = str(data["base"]).lower()
+        if key not in named:
+            raise ValueError(f"'base' must be one of 'real', 'nominal', got {data['base']!r}")
+        base = named[key]
+    return Params.from_dict(body, base=base)
+
+
+def save_params(params: Params, path: str | os.PathLike[str]) -> None:
+    """Write parameters to a TOML file (atomically: a temporary file, then rename)."""
+    text = tomli_w.dumps({"params": params.to_dict()})
+    write_text_atomic(Path(path), text)
+
