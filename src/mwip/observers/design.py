@@ -243,8 +243,10 @@ class GainDesign:
     radius : float or None
         Pole-radius bound used (None: the book's unbounded problem).
     eps : float
-        Margin used for the strict inequalities.
+        Margin used for the strict inequalities (in the scaled problem).
     structure : "full" or "scalar"
+    scale : float
+        The preconditioning ``rho`` of the state scaling (1: the problem as printed).
     """
 
     gains: tuple[NDArray[np.float64], ...]
@@ -259,6 +261,7 @@ class GainDesign:
     radius: float | None
     eps: float
     structure: str
+    scale: float = 1.0
 
     @property
     def order(self) -> int:
@@ -277,24 +280,45 @@ class GainDesign:
         return tuple(v)
 
 
+def _scaling(n: int, m: int, rho: float) -> tuple[NDArray[np.float64], float]:
+    """Diagonal state scaling ``T = diag(1, 1/rho, ..., 1/rho^(n-1)) (x) I_m`` and ``c``.
+
+    The LMIs are solved in the variables ``P^ = P_ / c``, ``W^`` with ``P = c T P^ T``,
+    ``W = c T W^``, ``c = rho^(2(n-1))`` (a congruence with ``T^-1``: exact, it only
+    preconditions the problem, since with poles of size ``rho`` the entries of P span
+    ``rho^-1 .. rho^-(2n-1)``).
+    """
+    t = rho ** -np.arange(n, dtype=float)
+    return np.kron(np.diag(t), np.eye(m)), float(rho ** (2 * (n - 1)))
+
+
 def _build_problem(
-    n: int, m: int, eps: float, with_radius: bool
+    n: int, m: int, eps: float, with_radius: bool, rho: float
 ) -> tuple[cp.Problem, cp.Variable, cp.Variable, cp.Variable, cp.Parameter | None]:
+    """The LMIs of (3.36) in scaled variables (see :func:`_scaling`).
+
+    Scaled: ``P^ A~ + A~^T P^ + W^ B + B^T W^^T + T^-2 / c < 0`` with ``A~ = T A T^-1``,
+    ``t_n^2 c E^T P^ E = E^T P^ E <= alpha I`` and the disk ``[[-r P^, P^ A~ + W^ B], ...]``.
+    With ``rho = 1`` this is (3.36) literally.
+    """
     A, B, E = lmi_matrices(n, m)
+    T, c = _scaling(n, m, rho)
+    Tinv = np.diag(1.0 / np.diag(T))
+    At = T @ A @ Tinv
     N = m * n
     P = cp.Variable((N, N), symmetric=True)
     W = cp.Variable((N, m))
     alpha = cp.Variable()
-    lyap = P @ A + A.T @ P + W @ B + B.T @ W.T + np.eye(N)  # (3.48)
+    lyap = P @ At + At.T @ P + W @ B + B.T @ W.T + (Tinv @ Tinv) / c  # (3.48), scaled
     cons = [
         0.5 * (lyap + lyap.T) << -eps * np.eye(N),  # strict < 0 with margin  (3.36)/(3.48)
-        E.T @ P @ E << alpha * np.eye(m),  # E^T P E <= alpha I3  (3.45)
+        E.T @ P @ E << alpha * np.eye(m),  # E^T P E <= alpha I3  (3.45)  (t_n^2 c = 1)
         P >> eps * np.eye(N),  # P = P^T > 0  (3.45)
     ]
     r: cp.Parameter | None = None
     if with_radius:
         r = cp.Parameter(nonneg=True)
-        PD = P @ A + W @ B  # P D_n  (3.46)-(3.47)
+        PD = P @ At + W @ B  # P D_n  (3.46)-(3.47), scaled
         disk = cp.bmat([[-r * P, PD], [PD.T, -r * P]])
         cons.append(0.5 * (disk + disk.T) << -eps * np.eye(2 * N))
     return cp.Problem(cp.Minimize(alpha), cons), P, W, alpha, r
@@ -303,24 +327,14 @@ def _build_problem(
 _OK_STATUS = (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
 
 
-def _solve(
-    prob: cp.Problem, solver: str, solver_options: Mapping[str, Any] | None, what: str
-) -> None:
-    try:
-        prob.solve(solver=solver, **dict(solver_options or {}))
-    except cp.error.SolverError as exc:
-        raise ObserverDesignError(f"{what}: solver {solver} failed ({exc})") from None
-    if prob.status not in _OK_STATUS:
-        raise ObserverDesignError(f"{what}: solver {solver} returned status {prob.status!r}")
-
-
 def _finish(
     n: int,
     m: int,
-    P_val: NDArray[np.float64],
-    W_val: NDArray[np.float64],
+    Ph: NDArray[np.float64],
+    Wh: NDArray[np.float64],
     alpha: float,
     *,
+    rho: float,
     solver: str,
     status: str,
     radius: float | None,
@@ -328,16 +342,21 @@ def _finish(
     structure: str,
     what: str,
 ) -> GainDesign:
-    """Read the gains off ``X = P^{-1} W`` (3.36), check them, and package the result."""
+    """Read the gains off ``X = P^{-1} W`` (3.36), check them, and package the result.
+
+    ``Ph, Wh`` are the scaled variables of :func:`_build_problem`.
+    """
     if m == 1:  # lift the scalar-channel solution:  P = P_s (x) I3,  W = W_s (x) I3
-        P_val = np.kron(P_val, np.eye(3))
-        W_val = np.kron(W_val, np.eye(3))
-    P_val = 0.5 * (P_val + P_val.T)
-    if not (np.all(np.isfinite(P_val)) and np.all(np.isfinite(W_val)) and math.isfinite(alpha)):
+        Ph = np.kron(Ph, np.eye(3))
+        Wh = np.kron(Wh, np.eye(3))
+    Ph = 0.5 * (Ph + Ph.T)
+    if not (np.all(np.isfinite(Ph)) and np.all(np.isfinite(Wh)) and math.isfinite(alpha)):
         raise ObserverDesignError(f"{what}: the solver returned non-finite values")
-    if np.min(np.linalg.eigvalsh(P_val)) <= 0.0:
+    if np.min(np.linalg.eigvalsh(Ph)) <= 0.0:
         raise ObserverDesignError(f"{what}: P is not positive definite at the solution")
-    X = np.linalg.solve(P_val, W_val)  # X = P^{-1} W = [-L_1; ...; -L_n]
+    T, c = _scaling(n, 3, rho)
+    t = np.diag(T)
+    X = np.linalg.solve(Ph, Wh) / t[:, None]  # X = P^{-1} W = T^-1 P^^-1 W^ = [-L_1; ...]
     gains = tuple(-X[3 * i : 3 * i + 3, :] for i in range(n))
     if not all(np.all(np.isfinite(g)) for g in gains):
         raise ObserverDesignError(f"{what}: non-finite gains")
@@ -362,11 +381,12 @@ def _finish(
         solver=solver,
         status=status,
         alpha=float(alpha),
-        P=P_val,
-        W=W_val,
+        P=c * (t[:, None] * Ph * t[None, :]),  # P = c T P^ T
+        W=c * (t[:, None] * Wh),  # W = c T W^
         radius=radius,
         eps=eps,
         structure=structure,
+        scale=rho,
     )
 
 
@@ -382,6 +402,29 @@ def _check_args(n: int, eps: float, structure: str, radius: float | None) -> int
     return 3 if structure == "full" else 1
 
 
+def _solve_scaled(
+    n: int,
+    m: int,
+    eps: float,
+    radius: float | None,
+    rho: float,
+    solver: str,
+    solver_options: Mapping[str, Any] | None,
+    what: str,
+) -> tuple[str, NDArray[np.float64], NDArray[np.float64], float]:
+    """Build and solve the (scaled) LMI problem; raise ``ObserverDesignError`` on failure."""
+    prob, P, W, alpha, r = _build_problem(n, m, eps, radius is not None, rho)
+    if r is not None:
+        r.value = float(radius)  # type: ignore[arg-type]
+    try:
+        prob.solve(solver=solver, **dict(solver_options or {}))
+    except cp.error.SolverError as exc:
+        raise ObserverDesignError(f"{what}: solver {solver} failed ({exc})") from None
+    if prob.status not in _OK_STATUS or P.value is None or W.value is None:
+        raise ObserverDesignError(f"{what}: solver {solver} returned status {prob.status!r}")
+    return str(prob.status), np.asarray(P.value), np.asarray(W.value), float(alpha.value)
+
+
 def solve_ie_lmi(
     n: int,
     *,
@@ -389,18 +432,21 @@ def solve_ie_lmi(
     eps: float = 1e-7,
     solver: str = "CLARABEL",
     structure: Structure = "full",
+    scale: float | None = None,
     solver_options: Mapping[str, Any] | None = None,
 ) -> GainDesign:
     """Minimum impulse-to-energy gain by the LMI problem (3.36) (Theorem 3.2).
 
     ::
 
-        min alpha  s.t.  P A + A^T P + W B + B^T W^T + I <= -eps I      (3.36), (3.48)
+        min alpha  s.t.  P A + A^T P + W B + B^T W^T + I < 0              (3.36), (3.48)
                          E^T P E <= alpha I3                              (3.45)
-                         P >= eps I                                       (P > 0)
-                         [[-r P, P A + W B], [(.)^T, -r P]] <= -eps I     (only if radius=r)
+                         P > 0                                            (3.45)
+                         [[-r P, P A + W B], [(.)^T, -r P]] < 0           (only if radius=r)
 
     with ``A, B`` of (3.37); ``X = P^{-1} W = [-L_1; ...; -L_n]``, ``min ie = sqrt(alpha)``.
+    Strict inequalities are posed as ``<= -eps I`` (``P >= eps I``) in the scaled variables
+    of the preconditioning congruence (``scale``; see :func:`_scaling`).
 
     Parameters
     ----------
@@ -409,7 +455,7 @@ def solve_ie_lmi(
     radius : float, optional
         Pole-radius bound ``r`` (rad/s): ``|eig(D_n)| < r``. ``None`` is the book's problem,
         which has no minimiser (ie -> 0 as the gains grow; see the module docstring): the
-        result is then set by ``eps`` and the solver's tolerances.
+        result is then set by ``eps`` and the solver's tolerances, not by the problem.
     eps : float
         Margin of the strict inequalities.
     solver : str
@@ -417,6 +463,9 @@ def solve_ie_lmi(
     structure : "full" or "scalar"
         ``"full"``: the 3n x 3n problem as printed. ``"scalar"``: ``P = P_s (x) I3``,
         ``W = W_s (x) I3`` (exact by symmetry, faster); gains are then ``v_i I3``.
+    scale : float, optional
+        Preconditioning ``rho`` (rad/s, about the expected pole size); default ``radius``,
+        or 1 (the problem exactly as printed) without a radius.
 
     Raises
     ------
@@ -425,14 +474,13 @@ def solve_ie_lmi(
         recomputed ie <= sqrt(alpha)).
     """
     m = _check_args(n, eps, structure, radius)
+    rho = float(scale if scale is not None else (radius if radius is not None else 1.0))
+    if not (math.isfinite(rho) and rho > 0):
+        raise ValueError(f"scale must be finite and > 0, got {scale!r}")
     what = f"LMI (3.36), n={n}" + (f", radius={radius:g}" if radius is not None else "")
-    prob, P, W, alpha, r = _build_problem(n, m, eps, radius is not None)
-    if r is not None:
-        r.value = float(radius)  # type: ignore[arg-type]
-    _solve(prob, solver, solver_options, what)
+    status, Ph, Wh, alpha = _solve_scaled(n, m, eps, radius, rho, solver, solver_options, what)
     return _finish(
-        n, m, np.asarray(P.value), np.asarray(W.value), float(alpha.value),
-        solver=solver, status=str(prob.status), radius=radius, eps=eps,
+        n, m, Ph, Wh, alpha, rho=rho, solver=solver, status=status, radius=radius, eps=eps,
         structure=structure, what=what,
     )  # fmt: skip
 
@@ -451,60 +499,64 @@ def design_for_ie(
 
     Posing (documented choice; the book picks ``ie = 0.3`` but does not say how): for a
     radius ``r`` let ``alpha*(r)`` be the optimum of :func:`solve_ie_lmi` with
-    ``|eig(D_n)| < r`` (3.36 plus the disk region). ``alpha*`` is non-increasing in ``r``;
+    ``|eig(D_n)| < r`` ((3.36) plus the disk region). ``alpha*`` is non-increasing in ``r``;
     bisect (geometrically, to relative width ``rtol``) for the smallest ``r`` with
     ``sqrt(alpha*(r)) <= ie_target`` and return the optimum there. The pole radius bounds
     the gains (``|v_i| <= C(n, i) r^i``) and the bandwidth, so the design is the
-    slowest / lowest-gain observer that the LMI certifies for the target.
+    slowest / lowest-gain observer that the LMI certifies for the target. (The common
+    Lyapunov matrix for the ie bound and the disk makes it conservative: the poles often
+    end up inside ``r`` and ``ie`` below the target.)
 
     The returned ``ie`` (recomputed from the gains, (3.39)-(3.41)) is checked to be
     ``<= ie_target``; ``ObserverDesignError`` otherwise.
+
+    Examples
+    --------
+    >>> d = design_for_ie(2, 0.3)
+    >>> d.ie <= 0.3 and d.radius < 20.0
+    True
     """
     if not (math.isfinite(ie_target) and ie_target > 0):
         raise ValueError(f"ie_target must be finite and > 0, got {ie_target!r}")
     if not (0 < rtol < 1):
         raise ValueError(f"rtol must be in (0, 1), got {rtol!r}")
     m = _check_args(n, eps, structure, None)
-    prob, P, W, alpha, r = _build_problem(n, m, eps, True)
-    assert r is not None
+    base = f"design_for_ie(n={n}, ie_target={ie_target:g})"
 
     def attempt(radius: float) -> bool:
-        r.value = radius
         try:
-            prob.solve(solver=solver, **dict(solver_options or {}))
-        except cp.error.SolverError:
+            _, _, _, alpha = _solve_scaled(n, m, eps, radius, radius, solver, solver_options, base)
+        except ObserverDesignError:
             return False
-        return prob.status in _OK_STATUS and math.sqrt(max(alpha.value, 0.0)) <= ie_target
+        return math.sqrt(max(alpha, 0.0)) <= ie_target
 
-    # n = 1: r = 1 / (2 ie^2) exactly; use it as the starting bracket for every order.
+    # n = 1: r = 1 / (2 ie^2) exactly; start every order's bracket there.
     hi = 1.0 / (2.0 * ie_target**2)
     lo = hi
-    for _ in range(60):
+    for _ in range(40):
         if attempt(hi):
             break
         lo, hi = hi, 2.0 * hi
     else:
-        raise ObserverDesignError(f"design_for_ie(n={n}, ie_target={ie_target}): no radius found")
+        raise ObserverDesignError(f"{base}: no pole radius up to {hi:.3g} meets the target")
     if lo == hi:
-        for _ in range(60):
+        for _ in range(40):
             lo /= 2.0
             if not attempt(lo):
                 break
             hi = lo
         else:
-            raise ObserverDesignError(f"design_for_ie(n={n}): radius bracket failed")
+            raise ObserverDesignError(f"{base}: the radius bracket did not close")
     while hi / lo > 1.0 + rtol:
         mid = math.sqrt(lo * hi)
         if attempt(mid):
             hi = mid
         else:
             lo = mid
-    what = f"design_for_ie(n={n}, ie_target={ie_target:g}), radius={hi:.6g}"
-    r.value = hi
-    _solve(prob, solver, solver_options, what)
+    what = f"{base}, radius={hi:.6g}"
+    status, Ph, Wh, alpha = _solve_scaled(n, m, eps, hi, hi, solver, solver_options, what)
     out = _finish(
-        n, m, np.asarray(P.value), np.asarray(W.value), float(alpha.value),
-        solver=solver, status=str(prob.status), radius=hi, eps=eps,
+        n, m, Ph, Wh, alpha, rho=hi, solver=solver, status=status, radius=hi, eps=eps,
         structure=structure, what=what,
     )  # fmt: skip
     if not out.ie <= ie_target:

@@ -160,6 +160,8 @@ def simulate(
         Ts = ctrl_ts if ctrl_ts is not None else DEFAULT_TS
     elif ctrl_ts is not None and mode == "sampled" and abs(ctrl_ts - Ts) > 1e-12:
         raise ValueError(f"Ts={Ts:g} differs from the controller's design period {ctrl_ts:g}")
+    if not (np.isfinite(Ts) and Ts > 0):
+        raise ValueError(f"Ts must be finite and in (0, inf), got {Ts!r}")
     if dt is None:
         dt = min(Ts, DEFAULT_DT)
         if abs(round(Ts / dt) * dt - Ts) > 1e-9 * Ts:
@@ -257,7 +259,7 @@ def _finish(
     # squeeze scalar logs to (N, K)
     logs = {k: (v[..., 0] if v.shape[-1] == 1 else v) for k, v in logs.items()}
     res = SimResult(
-        t=t_rec, state=states, u=us, status=np.array([STATUS_NAMES[s] for s in status]),
+        t=t_rec, states=states, inputs=us, status=np.array([STATUS_NAMES[s] for s in status]),
         t_end=t_end, final_state=y.copy(), r=r, batched=batched, logs=logs, settings=settings,
     )  # fmt: skip
     if not batched:

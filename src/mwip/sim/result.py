@@ -33,8 +33,11 @@ class SimResult:
     Attributes
     ----------
     t : (K,) record times (s)
-    state : (N, K, 8) ``[psi, theta, alpha, psi', theta', alpha', x, y]``
-    u : (N, K, 2) controller output ``[u_r, u_l]`` computed at each record time
+    states : (N, K, 8) ``[psi, theta, alpha, psi', theta', alpha', x, y]``
+    inputs : (N, K, 2) controller output ``[u_r, u_l]`` computed at each record time
+
+    The properties ``state``, ``u``, ``q``, ``q_dot``, ``theta``, ``v``, ``x``, ... give the
+    same data without the batch axis for a single run.
     logs : name -> (N, K, ...) whatever the controller logged
     status : (N,) ``"ok"``, ``"fell"`` or ``"diverged"``
     t_end : (N,) time the plant stopped (the duration when ``ok``)
@@ -45,8 +48,8 @@ class SimResult:
     """
 
     t: NDArray[np.float64]
-    state: NDArray[np.float64]
-    u: NDArray[np.float64]
+    states: NDArray[np.float64]
+    inputs: NDArray[np.float64]
     status: NDArray[np.str_]
     t_end: NDArray[np.float64]
     final_state: NDArray[np.float64]
@@ -62,51 +65,61 @@ class SimResult:
     def series(self) -> dict[str, NDArray[np.float64]]:
         """All named series, batch axis dropped for a single run."""
         out: dict[str, NDArray[np.float64]] = {
-            name: self._out(self.state[..., i]) for i, name in enumerate(STATE_COLUMNS)
+            name: self._out(self.states[..., i]) for i, name in enumerate(STATE_COLUMNS)
         }
         out["v"] = self.v
-        out["u_r"] = self._out(self.u[..., 0])
-        out["u_l"] = self._out(self.u[..., 1])
+        out["u_r"] = self._out(self.inputs[..., 0])
+        out["u_l"] = self._out(self.inputs[..., 1])
         for name, arr in self.logs.items():
             out[name] = self._out(arr)
         return out
 
     @property
+    def state(self) -> NDArray[np.float64]:
+        """State records, (N, K, 8) or (K, 8)."""
+        return self._out(self.states)
+
+    @property
+    def u(self) -> NDArray[np.float64]:
+        """Controller outputs ``[u_r, u_l]``, (N, K, 2) or (K, 2)."""
+        return self._out(self.inputs)
+
+    @property
     def n_plants(self) -> int:
-        return int(self.state.shape[0])
+        return int(self.states.shape[0])
 
     @property
     def q(self) -> NDArray[np.float64]:
         """``[psi, theta, alpha]``, (N, K, 3) or (K, 3)."""
-        return self._out(self.state[..., 0:3])
+        return self._out(self.states[..., 0:3])
 
     @property
     def q_dot(self) -> NDArray[np.float64]:
         """``[psi', theta', alpha']``."""
-        return self._out(self.state[..., 3:6])
+        return self._out(self.states[..., 3:6])
 
     qdot = q_dot
 
     @property
     def theta(self) -> NDArray[np.float64]:
-        return self._out(self.state[..., 1])
+        return self._out(self.states[..., 1])
 
     @property
     def alpha(self) -> NDArray[np.float64]:
-        return self._out(self.state[..., 2])
+        return self._out(self.states[..., 2])
 
     @property
     def v(self) -> NDArray[np.float64]:
         """Forward speed ``v = r psi'`` (m/s)."""
-        return self._out(self.r[:, None] * self.state[..., 3])
+        return self._out(self.r[:, None] * self.states[..., 3])
 
     @property
     def x(self) -> NDArray[np.float64]:
-        return self._out(self.state[..., 6])
+        return self._out(self.states[..., 6])
 
     @property
     def y(self) -> NDArray[np.float64]:
-        return self._out(self.state[..., 7])
+        return self._out(self.states[..., 7])
 
     @property
     def ok(self) -> bool:
@@ -122,8 +135,8 @@ class SimResult:
         keep = self.valid()[i]
         return SimResult(
             t=self.t[keep],
-            state=self.state[i : i + 1, keep],
-            u=self.u[i : i + 1, keep],
+            states=self.states[i : i + 1, keep],
+            inputs=self.inputs[i : i + 1, keep],
             status=self.status[i : i + 1],
             t_end=self.t_end[i : i + 1],
             final_state=self.final_state[i : i + 1],
@@ -136,16 +149,16 @@ class SimResult:
     # ---- export ---------------------------------------------------------------------------
     def columns(self) -> dict[str, NDArray[np.float64]]:
         """Flat columns in long format (one row per plant and record)."""
-        n, k = self.state.shape[:2]
+        n, k = self.states.shape[:2]
         cols: dict[str, NDArray[np.float64]] = {}
         if self.batched:
             cols["plant"] = np.repeat(np.arange(n), k).astype(float)
         cols["t"] = np.tile(self.t, n)
         for i, name in enumerate(STATE_COLUMNS):
-            cols[name] = self.state[..., i].reshape(-1)
-        cols["v"] = (self.r[:, None] * self.state[..., 3]).reshape(-1)
-        cols["u_r"] = self.u[..., 0].reshape(-1)
-        cols["u_l"] = self.u[..., 1].reshape(-1)
+            cols[name] = self.states[..., i].reshape(-1)
+        cols["v"] = (self.r[:, None] * self.states[..., 3]).reshape(-1)
+        cols["u_r"] = self.inputs[..., 0].reshape(-1)
+        cols["u_l"] = self.inputs[..., 1].reshape(-1)
         for name, arr in self.logs.items():
             flat = arr.reshape(n * k, -1)
             if flat.shape[1] == 1:
@@ -177,7 +190,7 @@ class SimResult:
     def to_npz(self, path: str | Path) -> Path:
         """Write all arrays to a compressed ``.npz`` (atomically); see :meth:`from_npz`."""
         arrays: dict[str, Any] = {
-            "t": self.t, "state": self.state, "u": self.u, "status": self.status.astype(str),
+            "t": self.t, "states": self.states, "inputs": self.inputs, "status": self.status.astype(str),
             "t_end": self.t_end, "final_state": self.final_state, "r": self.r,
             "batched": np.array(self.batched),
         }  # fmt: skip
@@ -191,7 +204,7 @@ class SimResult:
         with np.load(path) as z:
             logs = {k[5:]: z[k] for k in z.files if k.startswith("log__")}
             return cls(
-                t=z["t"], state=z["state"], u=z["u"], status=z["status"], t_end=z["t_end"],
+                t=z["t"], states=z["states"], inputs=z["inputs"], status=z["status"], t_end=z["t_end"],
                 final_state=z["final_state"], r=z["r"], batched=bool(z["batched"]), logs=logs,
             )  # fmt: skip
 
@@ -199,9 +212,9 @@ class SimResult:
         """Status, settling time of theta, max |u| (per plant for a batch)."""
         from mwip.metrics import settling_time
 
-        th = self.state[..., 1]
+        th = self.states[..., 1]
         st = np.array([settling_time(self.t, th[i]) for i in range(self.n_plants)])
-        umax = np.nanmax(np.abs(self.u), axis=(1, 2))
+        umax = np.nanmax(np.abs(self.inputs), axis=(1, 2))
         out = {"status": self.status, "t_end": self.t_end, "settling_time": st, "max_abs_u": umax}
         if not self.batched:
             return {k: (str(v[0]) if k == "status" else float(v[0])) for k, v in out.items()}

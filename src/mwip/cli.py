@@ -1,0 +1,298 @@
+"""Command-line interface: ``mwip simulate | design | params | run | reproduce``.
+
+Errors in the input are reported as one line ``mwip: error: ...`` on stderr with exit code 2
+and no traceback; nothing is written before all input has been validated, and every file is
+written atomically.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from mwip.params import NOMINAL, REAL, Params, load_params
+
+__all__ = ["main", "cli", "entry"]
+
+
+def _params(value: str, what: str) -> Params:
+    key = value.lower()
+    if key == "real":
+        return REAL
+    if key == "nominal":
+        return NOMINAL
+    path = Path(value)
+    if not path.exists():
+        raise click.BadParameter(
+            f"must be 'real', 'nominal' or an existing TOML file, got {value!r}", param_hint=what
+        )
+    return load_params(path, base=REAL if what == "--plant" else NOMINAL)
+
+
+def _in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = True) -> float:
+    ok = math.isfinite(value) and (value > lo if lo_open else value >= lo) and value <= hi
+    if not ok:
+        raise click.BadParameter(
+            f"must be in {'(' if lo_open else '['}{lo:g}, {hi:g}], got {value!r}", param_hint=name
+        )
+    return value
+
+
+@contextmanager
+def _progress(n: int, label: str) -> Iterator[Callable[[int], None] | None]:
+    """A click progress bar on stderr when it is a terminal; nothing otherwise."""
+    if not sys.stderr.isatty():
+        yield None
+        return
+    with click.progressbar(length=n, label=label, file=sys.stderr) as bar:
+        yield bar.update
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="mwip")
+def cli() -> None:
+    """mwip: models, observers, controllers and simulation of mobile wheeled inverted pendulums."""
+
+
+# ---------------------------------------------------------------------------------------------
+@cli.command()
+@click.option("--controller", type=click.Choice(["lqr"]), default="lqr", show_default=True,
+              help="Control law.")
+@click.option("--theta0", type=float, default=0.1745, show_default=True,
+              help="Initial pitch (rad), in (-pi/2, pi/2).")
+@click.option("--alpha0", type=float, default=0.0, show_default=True, help="Initial yaw (rad).")
+@click.option("--v0", type=float, default=0.0, show_default=True, help="Initial speed (m/s).")
+@click.option("--duration", type=float, default=10.0, show_default=True,
+              help="Simulated time (s), in (0, 3600].")
+@click.option("--Ts", "Ts", type=float, default=0.005, show_default=True,
+              help="Sample period (s), in (0, 1].")
+@click.option("--dt", type=float, default=None, help="Integration step (s); divides Ts.")
+@click.option("--mode", type=click.Choice(["sampled", "continuous"]), default="sampled",
+              show_default=True, help="Zero-order hold at Ts, or the law inside the ODE.")
+@click.option("--plant", default="real", show_default=True,
+              help="Plant parameters: real, nominal or a TOML file.")
+@click.option("--design-params", default="nominal", show_default=True,
+              help="Parameters the controller is designed with.")
+@click.option("--disturbance", type=click.Choice(["none", "book"]), default="none",
+              show_default=True, help="External disturbance (book: Section 3.6 sinusoids).")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Folder for timeseries.csv, timeseries.npz and summary.json.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+def simulate(
+    controller: str, theta0: float, alpha0: float, v0: float, duration: float, Ts: float,
+    dt: float | None, mode: str, plant: str, design_params: str, disturbance: str,
+    out: Path | None, as_json: bool,
+) -> None:  # fmt: skip
+    """Simulate a closed loop and print status, settling time and max |u|."""
+    from mwip.control.lqr import LQR, design_lqr
+    from mwip.sim import BOOK_SINUSOIDS
+    from mwip.sim import simulate as run_sim
+
+    if not (math.isfinite(theta0) and abs(theta0) < math.pi / 2):
+        raise click.BadParameter(f"must be in (-1.5708, 1.5708) rad, got {theta0!r}",
+                                 param_hint="--theta0")
+    _in_range("--duration", duration, 0.0, 3600.0)
+    _in_range("--Ts", Ts, 0.0, 1.0)
+    if dt is not None:
+        _in_range("--dt", dt, 0.0, Ts)
+    for name, val in (("--alpha0", alpha0), ("--v0", v0)):
+        if not (math.isfinite(val) and abs(val) <= 1e3):
+            raise click.BadParameter(f"must be in [-1000, 1000], got {val!r}", param_hint=name)
+    p_plant = _params(plant, "--plant")
+    p_design = _params(design_params, "--design-params")
+    if out is not None and out.exists() and not out.is_dir():
+        raise click.BadParameter(f"{str(out)!r} exists and is not a folder", param_hint="--out")
+    design = design_lqr(p_design, Ts=None if mode == "continuous" else Ts)
+    ctrl = LQR(design)
+    n = max(int(round(duration / Ts)), 1)
+    with _progress(n, "simulating") as prog:
+        res = run_sim(
+            ctrl, p_plant, q0=(0.0, theta0, alpha0), qdot0=(v0 / p_plant.r, 0.0, 0.0),
+            duration=duration, Ts=Ts, dt=dt, mode=mode,  # type: ignore[arg-type]
+            disturbance=BOOK_SINUSOIDS if disturbance == "book" else None, progress=prog,
+        )  # fmt: skip
+    summary: dict[str, Any] = dict(res.summary())
+    summary.update(controller=controller, mode=mode, Ts=Ts, dt=res.settings["dt"],
+                   design="continuous" if mode == "continuous" else f"sampled Ts={Ts:g}")
+    summary = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+               for k, v in summary.items()}  # fmt: skip
+    if out is not None:
+        from mwip.io import write_json_atomic
+
+        res.to_csv(out / "timeseries.csv")
+        res.to_npz(out / "timeseries.npz")
+        write_json_atomic(out / "summary.json", summary)
+    if as_json:
+        click.echo(json.dumps(summary, indent=2))
+    else:
+        st = summary["settling_time"]
+        click.echo(
+            f"status: {summary['status']}  t_end: {summary['t_end']:.3f} s  "
+            f"settling time: {'n/a' if st is None else f'{st:.3f} s'}  "
+            f"max |u|: {summary['max_abs_u']:.4g} N m"
+        )
+        if out is not None:
+            click.echo(f"wrote {out / 'timeseries.csv'}, {out / 'timeseries.npz'}, "
+                       f"{out / 'summary.json'}")  # fmt: skip
+    if summary["status"] != "ok":
+        sys.exit(1)
+
+
+# ---------------------------------------------------------------------------------------------
+@cli.group()
+def design() -> None:
+    """Gain design (LQR; observers and others as they arrive)."""
+
+
+def _matrix_text(M: np.ndarray) -> str:
+    return "\n".join("  [" + ", ".join(f"{v:10.4f}" for v in row) + "]" for row in M)
+
+
+@design.command("lqr")
+@click.option("--Ts", "Ts", type=float, default=None,
+              help="Design for this sample period (discrete Riccati on the ZOH model); "
+                   "default: the continuous (book's) gain, with the 5 ms gain alongside.")
+@click.option("--params", "params_name", default="nominal", show_default=True,
+              help="real, nominal or a TOML file.")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def design_lqr_cmd(Ts: float | None, params_name: str, as_json: bool) -> None:
+    """LQR gain K (u = -K x, x = [theta, alpha, theta', v, alpha']) for the book's Q, R."""
+    from mwip.control.lqr import BOOK_Q, BOOK_R, design_lqr
+
+    if Ts is not None:
+        _in_range("--Ts", Ts, 0.0, 1.0)
+    p = _params(params_name, "--params")
+    main_d = design_lqr(p, Ts=Ts)
+    other = design_lqr(p, Ts=0.005) if Ts is None else design_lqr(p, Ts=None)
+
+    def block(d: Any) -> dict[str, Any]:
+        return {
+            "Ts": d.Ts,
+            "K": d.K.tolist(),
+            ("poles" if d.Ts is None else "eigenvalues"): [
+                [float(z.real), float(z.imag)] for z in d.poles
+            ],
+        }
+
+    doc = {**block(main_d), "Q": BOOK_Q.tolist(), "R": BOOK_R.tolist(), "params": params_name,
+           "state": ["theta", "alpha", "theta_dot", "v", "alpha_dot"], "input": ["u_r", "u_l"],
+           "sampled" if Ts is None else "continuous": block(other)}  # fmt: skip
+    if as_json:
+        click.echo(json.dumps(doc, indent=2))
+        return
+    for d in (main_d, other):
+        kind = "continuous (book)" if d.Ts is None else f"sampled, Ts = {d.Ts:g} s"
+        click.echo(f"K, {kind}, designed on {params_name} parameters:")
+        click.echo(_matrix_text(d.K))
+        if d.Ts is None:
+            click.echo("  closed-loop poles: " + ", ".join(f"{z.real:.4g}" for z in d.poles))
+        else:
+            click.echo("  |eig(Ad - Bd K)|: " + ", ".join(f"{abs(z):.3g}" for z in d.poles))
+
+
+# ---------------------------------------------------------------------------------------------
+@cli.group()
+def params() -> None:
+    """Show or write robot parameters."""
+
+
+@params.command("show")
+@click.argument("which", default="real")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def params_show(which: str, as_json: bool) -> None:
+    """Show parameters (real, nominal or a TOML file) and the derived coefficients of (2.32)."""
+    p = _params(which, "WHICH")
+    derived = {k: float(getattr(p, k)) for k in ("m11", "m12", "m22", "m33", "Ibl", "Gb")}
+    if as_json:
+        click.echo(json.dumps({"params": p.to_dict(), "derived": derived}, indent=2))
+        return
+    for k, v in {**p.to_dict(), **derived}.items():
+        click.echo(f"{k:>4} = {v:.6g}")
+
+
+@params.command("save")
+@click.argument("which")
+@click.argument("path", type=click.Path(dir_okay=False, path_type=Path))
+def params_save(which: str, path: Path) -> None:
+    """Write parameters (real or nominal) to a TOML file to edit for your own robot."""
+    from mwip.params import save_params
+
+    save_params(_params(which, "WHICH"), path)
+    click.echo(f"wrote {path}")
+
+
+# ---------------------------------------------------------------------------------------------
+@cli.command("run")
+@click.argument("study")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("out"),
+              show_default=True, help="Output folder; the study writes OUT/<study>/.")
+@click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
+def run_cmd(study: str, out: Path, quick: bool) -> None:
+    """Run one study (see `mwip reproduce --list`)."""
+    from mwip.studies import STUDIES, run_study
+
+    if study not in STUDIES:
+        raise click.BadParameter(f"unknown study {study!r}; choose from: {', '.join(STUDIES)}",
+                                 param_hint="STUDY")  # fmt: skip
+    _report(study, run_study(study, out, quick=quick), out)
+
+
+def _report(name: str, doc: dict[str, Any], out: Path) -> None:
+    held = sum(bool(c["holds"]) for c in doc["claims"])
+    status = ", ".join(f"{k}: {v['status']}" for k, v in doc["runs"].items())
+    click.echo(f"{name} ({doc['source']}): claims {held}/{len(doc['claims'])} hold; {status}")
+    click.echo(f"  -> {out / name / 'metrics.json'}")
+
+
+@cli.command()
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("out"),
+              show_default=True, help="Output folder.")
+@click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
+@click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
+def reproduce(out: Path, quick: bool, list_only: bool) -> None:
+    """Run every study on built-in defaults and write OUT/<study>/metrics.json for each."""
+    from mwip.studies import STUDIES, run_study
+
+    if list_only:
+        for name, (_, source) in STUDIES.items():
+            click.echo(f"{name:24s} {source}")
+        return
+    for name in STUDIES:
+        _report(name, run_study(name, out, quick=quick), out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: run the CLI, turning input errors into one-line messages (exit code 2)."""
+    try:
+        cli.main(args=argv, prog_name="mwip", standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        return int(exc.exit_code)
+    except click.ClickException as exc:
+        click.echo(f"mwip: error: {exc.format_message()}", err=True)
+        return 2
+    except click.Abort:
+        click.echo("mwip: aborted", err=True)
+        return 1
+    except (ValueError, FileNotFoundError) as exc:
+        click.echo(f"mwip: error: {exc}", err=True)
+        return 2
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
+
+
+def entry() -> None:
+    """Console-script entry point (exits with :func:`main`'s code)."""
+    sys.exit(main())

@@ -1,0 +1,35 @@
+"""Reproducible studies: each writes ``OUT/<study>/metrics.json`` (SPEC.md section 6),
+its time series and a figure.
+
+A study is a function ``run(out: Path, *, quick: bool = False) -> dict`` registered in
+:data:`STUDIES`; ``mwip run NAME`` runs one, ``mwip reproduce`` runs them all.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from mwip.studies import lqr_gain
+
+__all__ = ["STUDIES", "Study"]
+
+Study = Callable[..., dict[str, Any]]
+
+#: name -> (run function, book source)
+STUDIES: dict[str, tuple[Study, str]] = {
+    "lqr-gain": (lqr_gain.run, lqr_gain.SOURCE),
+}
+
+
+def study_names() -> list[str]:
+    """Registered study names, in reproduce order."""
+    return list(STUDIES)
+
+
+def run_study(name: str, out: Path, **kwargs: Any) -> dict[str, Any]:
+    """Run one registered study into ``out``; returns its metrics document."""
+    if name not in STUDIES:
+        raise ValueError(f"unknown study {name!r}; choose from: {', '.join(STUDIES)}")
+    return STUDIES[name][0](out, **kwargs)

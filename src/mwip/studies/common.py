@@ -1,0 +1,61 @@
+"""Helpers shared by the studies: the metrics document and figure saving."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from mwip.io import write_atomic, write_json_atomic
+
+__all__ = ["metrics_document", "save_figure", "to_jsonable"]
+
+
+def to_jsonable(x: Any) -> Any:
+    """Convert NumPy scalars/arrays (and containers of them) to JSON-friendly values."""
+    if isinstance(x, dict):
+        return {str(k): to_jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [to_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return to_jsonable(x.tolist())
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    return x
+
+
+def metrics_document(
+    study: str,
+    source: str,
+    metrics: dict[str, float],
+    published: dict[str, float],
+    claims: list[dict[str, Any]],
+    runs: dict[str, dict[str, Any]],
+    settings: dict[str, Any],
+) -> dict[str, Any]:
+    """The metrics.json document of SPEC.md section 6."""
+    return to_jsonable(
+        {
+            "study": study,
+            "source": source,
+            "metrics": metrics,
+            "published": published,
+            "claims": claims,
+            "runs": runs,
+            "settings": settings,
+        }
+    )
+
+
+def write_metrics(folder: Path, doc: dict[str, Any]) -> Path:
+    """Write ``folder/metrics.json`` atomically."""
+    return write_json_atomic(folder / "metrics.json", doc)
+
+
+def save_figure(fig: Figure, path: Path) -> Path:
+    """Save a matplotlib figure as PNG atomically (no pyplot, no global backend)."""
+    return write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=120))

@@ -1,0 +1,97 @@
+"""Study ``lqr-gain`` (Section 4.4.2): the LQR gain and both ways of running it.
+
+Designs the LQR on the nominal parameters with the book's ``Q, R`` (continuous, as printed,
+and for the 5 ms sample period), compares the gain with the printed rows, and balances the
+real-parameter plant from ``theta0 = 0.1745`` rad (10 deg) with
+
+- the continuous gain inside the right-hand side (``mode="continuous"``), and
+- the sampled gain with 5 ms zero-order hold (``mode="sampled"``),
+
+plus, to show why the sampled design is needed, the continuous gain applied with 5 ms hold.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from mwip.control.lqr import LQR, design_lqr
+from mwip.params import NOMINAL, REAL
+from mwip.sim import simulate
+from mwip.studies.common import metrics_document, save_figure, write_metrics
+
+SOURCE = "Sec. 4.4.2"
+#: The printed K row (both rows printed equal; yaw entries flip sign between wheels).
+PRINTED_K_ROW = (-207.87, 70.71, -75.62, 15.33, 219.80)
+THETA0 = 0.1745
+
+
+def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
+    """Run the study into ``out/lqr-gain``; returns the metrics document."""
+    folder = Path(out) / "lqr-gain"
+    duration = 3.0 if quick else 10.0
+    cont = design_lqr(NOMINAL, Ts=None)
+    samp = design_lqr(NOMINAL, Ts=0.005)
+    runs = {
+        "continuous": simulate(LQR(cont), REAL, q0=(0, THETA0, 0), duration=duration,
+                               Ts=0.005, dt=0.001, mode="continuous"),
+        "sampled": simulate(LQR(samp), REAL, q0=(0, THETA0, 0), duration=duration),
+        "continuous_gain_held": simulate(
+            LQR(cont), REAL, q0=(0, THETA0, 0), duration=duration, Ts=0.005, mode="sampled"
+        ),
+    }  # fmt: skip
+    names = ("theta", "alpha", "theta_dot", "v", "alpha_dot")
+    metrics: dict[str, float] = {}
+    published: dict[str, float] = {}
+    for j, name in enumerate(names):
+        metrics[f"continuous.K_r.{name}"] = float(cont.K[0, j])
+        metrics[f"continuous.K_l.{name}"] = float(cont.K[1, j])
+        metrics[f"sampled.K_r.{name}"] = float(samp.K[0, j])
+        metrics[f"sampled.K_l.{name}"] = float(samp.K[1, j])
+        published[f"continuous.K_r.{name}"] = PRINTED_K_ROW[j]
+        published[f"continuous.K_l.{name}"] = PRINTED_K_ROW[j]
+    for key, res in runs.items():
+        s = res.summary()
+        metrics[f"{key}.settling_time"] = s["settling_time"]
+        metrics[f"{key}.max_abs_u"] = s["max_abs_u"]
+    poles = np.sort(cont.poles.real)
+    metrics["continuous.fastest_pole"] = float(poles[0])
+    metrics["sampled.max_abs_eig"] = float(np.max(np.abs(samp.poles)))
+    yaw_match = bool(
+        np.allclose(np.abs(cont.K[:, [1, 4]]), [[70.71, 219.80]] * 2, rtol=0.005)
+    )
+    claims = [
+        {"text": "yaw gains match the printed 70.71 and 219.80 (within 0.5 %)", "holds": yaw_match},
+        {"text": "continuous LQR balances the real plant (continuous mode)",
+         "holds": runs["continuous"].status[0] == "ok"},
+        {"text": "the 5 ms design balances the real plant with zero-order hold",
+         "holds": runs["sampled"].status[0] == "ok"},
+        {"text": "the continuous gain with 5 ms hold is unstable (SPEC section 2)",
+         "holds": runs["continuous_gain_held"].status[0] != "ok"},
+    ]  # fmt: skip
+    doc = metrics_document(
+        "lqr-gain", SOURCE, metrics, published, claims,
+        {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
+        {"dt": {"continuous": 0.001, "sampled": runs["sampled"].settings["dt"]}, "Ts": 0.005,
+         "duration": duration, "theta0": THETA0, "plant": "real", "design": "nominal"},
+    )  # fmt: skip
+    fig = Figure(figsize=(9, 6))
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    for key in ("continuous", "sampled"):
+        res = runs[key]
+        ax1.plot(res.t, res.theta, label=key)
+        ax2.plot(res.t, res.u[:, 0], label=f"{key} u_r")
+    ax1.set_ylabel("theta (rad)")
+    ax1.legend()
+    ax2.set_ylabel("u_r (N m)")
+    ax2.set_xlabel("t (s)")
+    ax1.set_title("LQR balance of the real plant from 10 deg (nominal design)")
+    folder.mkdir(parents=True, exist_ok=True)
+    save_figure(fig, folder / "lqr-gain.png")
+    for key, res in runs.items():
+        res.to_npz(folder / f"{key}.npz")
+    write_metrics(folder, doc)
+    return doc

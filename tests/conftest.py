@@ -1,0 +1,20 @@
+"""Shared fixtures: seeded random states."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(12345)
+
+
+def random_states(rng: np.random.Generator, n: int = 64) -> tuple[np.ndarray, ...]:
+    """Random q (n,3), qdot (n,3), u (n,2), tau_ext (n,3) in physically sensible ranges."""
+    q = rng.uniform(-1.2, 1.2, (n, 3))
+    qd = rng.uniform(-3.0, 3.0, (n, 3))
+    u = rng.uniform(-2.0, 2.0, (n, 2))
+    e = rng.uniform(-0.5, 0.5, (n, 3))
+    return q, qd, u, e

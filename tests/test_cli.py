@@ -1,0 +1,100 @@
+"""The command line: outputs, one-line errors with exit code 2, no partial files."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from mwip.cli import main
+
+
+def test_simulate_writes_outputs(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(["simulate", "--controller", "lqr", "--theta0", "0.1745", "--duration", "3",
+                 "--out", str(out)])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "status: ok" in text and "settling time" in text and "max |u|" in text
+    assert sorted(p.name for p in out.iterdir()) == ["summary.json", "timeseries.csv", "timeseries.npz"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "ok" and summary["settling_time"] < 3
+    data = np.genfromtxt(out / "timeseries.csv", delimiter=",", names=True)
+    assert abs(data["theta"][0] - 0.1745) < 1e-12 and abs(data["theta"][-1]) < 0.01
+
+
+def test_design_lqr_json(capsys):
+    assert main(["design", "lqr", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    K = np.array(doc["K"])
+    assert doc["Ts"] is None and K.shape == (2, 5)
+    np.testing.assert_allclose(K[0], [-223.99, 70.71, -70.32, -23.12, 218.99], atol=0.006)
+    assert doc["sampled"]["Ts"] == 0.005 and np.array(doc["sampled"]["K"]).shape == (2, 5)
+    assert main(["design", "lqr", "--Ts", "0.01", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["Ts"] == 0.01
+
+
+def test_params_show_and_save(tmp_path, capsys):
+    assert main(["params", "show", "nominal", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["params"]["mb"] == 2.5 and doc["derived"]["Gb"] == pytest.approx(2.5 * 9.81 * 0.0582)
+    path = tmp_path / "robot.toml"
+    assert main(["params", "save", "real", str(path)]) == 0
+    assert main(["simulate", "--plant", str(path), "--duration", "1"]) == 0
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["simulate", "--theta0", "abc"], "--theta0"),
+        (["simulate", "--theta0", "2.0"], "--theta0"),
+        (["simulate", "--duration", "-1"], "--duration"),
+        (["simulate", "--duration", "nan"], "--duration"),
+        (["simulate", "--Ts", "0"], "--Ts"),
+        (["simulate", "--dt", "0.0003"], "dt"),
+        (["simulate", "--plant", "missing.toml"], "--plant"),
+        (["simulate", "--controller", "pid"], "--controller"),
+        (["design", "lqr", "--Ts", "-0.1"], "--Ts"),
+        (["run", "no-such-study"], "STUDY"),
+    ],
+)
+def test_bad_input_one_line_exit_2_no_files(tmp_path, capsys, args, needle):
+    out = tmp_path / "o"
+    full = args + (["--out", str(out)] if args[0] in ("simulate", "run") else [])
+    assert main(full) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("mwip: error:") and needle in err
+    assert "Traceback" not in err
+    assert not out.exists()
+
+
+def test_bad_params_file_is_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[params]\nmb = -2\n")
+    assert main(["simulate", "--plant", str(bad), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "'mb'" in err and "(0, inf)" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_console_script_exit_code_and_no_traceback():
+    proc = subprocess.run([sys.executable, "-m", "mwip", "simulate", "--theta0", "9"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().count("\n") == 0 and "Traceback" not in proc.stderr
+
+
+def test_existing_output_untouched_on_error(tmp_path):
+    out = tmp_path / "o"
+    assert main(["simulate", "--duration", "1", "--out", str(out)]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert main(["simulate", "--duration", "-5", "--out", str(out)]) == 2
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+def test_reproduce_list(capsys):
+    assert main(["reproduce", "--list"]) == 0
+    assert "lqr-gain" in capsys.readouterr().out

@@ -1,0 +1,72 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mwip import linearize
+from mwip.control.lqr import BOOK_Q, BOOK_R, design_lqr, dlqr, lqr, zoh
+from mwip.params import NOMINAL, REAL
+
+
+def test_scalar_lqr_closed_form():
+    # x' = u, cost q x^2 + r u^2: K = sqrt(q / r)
+    K, P, E = lqr([[0.0]], [[1.0]], [[4.0]], [[0.25]])
+    assert K[0, 0] == pytest.approx(4.0) and E[0] == pytest.approx(-4.0)
+
+
+def test_book_gain_independent_check():
+    """SPEC section 3: rows [-223.99, +-70.71, -70.32, -23.12, +-218.99] on nominal parameters."""
+    d = design_lqr(NOMINAL, Ts=None)
+    np.testing.assert_allclose(d.K[0], [-223.99, 70.71, -70.32, -23.12, 218.99], atol=0.006)
+    np.testing.assert_allclose(d.K[1], [-223.99, -70.71, -70.32, -23.12, -218.99], atol=0.006)
+    # the yaw entries match the book's printed 70.71 and 219.80 (to 0.4 %)
+    assert abs(d.K[0, 1]) == pytest.approx(70.71, rel=1e-3)
+    assert abs(d.K[0, 4]) == pytest.approx(219.80, rel=5e-3)
+
+
+def test_book_gain_on_real_plant_poles():
+    K = design_lqr(NOMINAL, Ts=None).K
+    A, B = linearize(REAL)
+    poles = np.sort(np.linalg.eigvals(A - B @ K).real)
+    np.testing.assert_allclose(poles, [-1.4088e5, -1.0075e5, -141.8, -3.158, -0.3159], rtol=2e-3)
+
+
+def test_book_gain_with_5ms_hold_is_violently_unstable():
+    K = design_lqr(NOMINAL, Ts=None).K
+    Ad, Bd = zoh(*linearize(REAL), 0.005)
+    rho = np.abs(np.linalg.eigvals(Ad - Bd @ K)).max()
+    assert 40 < rho < 60  # SPEC: about 48
+
+
+def test_sampled_design_is_stable_on_both_parameter_sets():
+    d = design_lqr(NOMINAL, Ts=0.005)
+    assert np.abs(d.poles).max() < 1
+    Ad, Bd = zoh(*linearize(REAL), 0.005)
+    assert np.abs(np.linalg.eigvals(Ad - Bd @ d.K)).max() < 1
+
+
+def test_zoh_matches_integral():
+    A, B = linearize(NOMINAL)
+    Ad, Bd = zoh(A, B, 0.005)
+    from scipy.integrate import quad_vec
+    from scipy.linalg import expm
+
+    Bq = quad_vec(lambda s: expm(A * s) @ B, 0, 0.005)[0]
+    np.testing.assert_allclose(Ad, expm(A * 0.005), rtol=1e-10)
+    np.testing.assert_allclose(Bd, Bq, rtol=1e-6, atol=1e-12)
+
+
+def test_dlqr_riccati_residual():
+    A, B = linearize(NOMINAL)
+    K, P, _ = dlqr(A, B, BOOK_Q, BOOK_R, 0.005)
+    Ad, Bd = zoh(A, B, 0.005)
+    res = Ad.T @ P @ Ad - P - Ad.T @ P @ Bd @ K + BOOK_Q
+    assert np.abs(res).max() < 1e-6 * np.abs(P).max()
+
+
+def test_bad_weights():
+    A, B = linearize(NOMINAL)
+    with pytest.raises(ValueError, match="R must be"):
+        lqr(A, B, BOOK_Q, -BOOK_R)
+    with pytest.raises(ValueError, match="Ts must be"):
+        dlqr(A, B, BOOK_Q, BOOK_R, 0.0)

@@ -1,0 +1,30 @@
+"""Studies write metrics.json in the schema of SPEC.md section 6."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from mwip.cli import main
+from mwip.studies import STUDIES
+
+
+@pytest.mark.parametrize("name", list(STUDIES))
+def test_study_quick_writes_schema(tmp_path, name, capsys):
+    assert main(["run", name, "--out", str(tmp_path), "--quick"]) == 0
+    doc = json.loads((tmp_path / name / "metrics.json").read_text())
+    assert doc["study"] == name and doc["source"] == STUDIES[name][1]
+    assert set(doc) == {"study", "source", "metrics", "published", "claims", "runs", "settings"}
+    assert set(doc["published"]) <= set(doc["metrics"])  # published keys are also measured
+    for run in doc["runs"].values():
+        assert run["status"] in ("ok", "fell", "diverged")
+    for claim in doc["claims"]:
+        assert isinstance(claim["text"], str) and isinstance(claim["holds"], bool)
+    assert list((tmp_path / name).glob("*.png"))
+    assert not list((tmp_path / name).glob(".*"))  # no temporary files left behind
+
+
+def test_lqr_gain_study_claims(tmp_path):
+    doc = STUDIES["lqr-gain"][0](tmp_path, quick=True)
+    assert all(c["holds"] for c in doc["claims"]), doc["claims"]
