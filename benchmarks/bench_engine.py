@@ -85,9 +85,7 @@ def main() -> None:
     best = min(times, key=times.get)
     t_ref, ref_states = timed(reference_run, best, duration, design.K, NOMINAL.r)
 
-    t_single, res = timed(
-        simulate, ctrl, REAL, q0=(0, THETA0, 0), duration=duration, repeat=5
-    )
+    t_single, res = timed(simulate, ctrl, REAL, q0=(0, THETA0, 0), duration=duration, repeat=5)
     dev = np.abs(res.state[:, :6] - ref_states[:, :6]).max()
 
     rng = np.random.default_rng(0)

@@ -14,12 +14,27 @@ from mwip.cli import main
 
 def test_simulate_writes_outputs(tmp_path, capsys):
     out = tmp_path / "run"
-    code = main(["simulate", "--controller", "lqr", "--theta0", "0.1745", "--duration", "3",
-                 "--out", str(out)])
+    code = main(
+        [
+            "simulate",
+            "--controller",
+            "lqr",
+            "--theta0",
+            "0.1745",
+            "--duration",
+            "3",
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
     text = capsys.readouterr().out
     assert "status: ok" in text and "settling time" in text and "max |u|" in text
-    assert sorted(p.name for p in out.iterdir()) == ["summary.json", "timeseries.csv", "timeseries.npz"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "summary.json",
+        "timeseries.csv",
+        "timeseries.npz",
+    ]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "ok" and summary["settling_time"] < 3
     data = np.genfromtxt(out / "timeseries.csv", delimiter=",", names=True)
@@ -81,8 +96,9 @@ def test_bad_params_file_is_one_line(tmp_path, capsys):
 
 
 def test_console_script_exit_code_and_no_traceback():
-    proc = subprocess.run([sys.executable, "-m", "mwip", "simulate", "--theta0", "9"],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "mwip", "simulate", "--theta0", "9"], capture_output=True, text=True
+    )
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and "Traceback" not in proc.stderr
 

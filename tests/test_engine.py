@@ -12,7 +12,7 @@ from mwip.control.lqr import LQR, design_lqr
 from mwip.models import reduced
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, REAL, stack_params
-from mwip.sim import Sinusoid, SimResult, simulate
+from mwip.sim import SimResult, Sinusoid, simulate
 from mwip.sim.kernel import advance
 
 
@@ -36,7 +36,17 @@ def _kernel_run(p, y0, u, h, T):
     y = np.array(y0, dtype=float)[None].copy()
     n = int(round(T / h))
     st, te = np.zeros(1, np.int64), np.zeros(1)
-    advance(y, np.asarray([u], dtype=float), np.zeros((n + 1, 1, 3)), coefficients(p)[None], h, n, st, 0.0, te)
+    advance(
+        y,
+        np.asarray([u], dtype=float),
+        np.zeros((n + 1, 1, 3)),
+        coefficients(p)[None],
+        h,
+        n,
+        st,
+        0.0,
+        te,
+    )
     return y[0]
 
 
@@ -167,9 +177,14 @@ def test_zero_order_hold_and_sample_period():
 
 @pytest.mark.parametrize(
     ("kwargs", "match"),
-    [({"dt": 0.0003}, "must divide"), ({"duration": -1.0}, "duration"),
-     ({"Ts": 0.0}, "Ts must be"), ({"q0": (0, 0)}, "q0"), ({"mode": "fast"}, "mode"),
-     ({"record_every": 0}, "record_every")],
+    [
+        ({"dt": 0.0003}, "must divide"),
+        ({"duration": -1.0}, "duration"),
+        ({"Ts": 0.0}, "Ts must be"),
+        ({"q0": (0, 0)}, "q0"),
+        ({"mode": "fast"}, "mode"),
+        ({"record_every": 0}, "record_every"),
+    ],
 )
 def test_bad_arguments(kwargs, match):
     with pytest.raises(ValueError, match=match):

@@ -23,8 +23,12 @@ def test_linearisation_equals_finite_differences(p):
     A, B = linearize(p)
     h = 1e-6
     x0, u0 = np.zeros(5), np.zeros(2)
-    Afd = np.column_stack([(_f(p, x0 + h * e, u0) - _f(p, x0 - h * e, u0)) / (2 * h) for e in np.eye(5)])
-    Bfd = np.column_stack([(_f(p, x0, u0 + h * e) - _f(p, x0, u0 - h * e)) / (2 * h) for e in np.eye(2)])
+    Afd = np.column_stack(
+        [(_f(p, x0 + h * e, u0) - _f(p, x0 - h * e, u0)) / (2 * h) for e in np.eye(5)]
+    )
+    Bfd = np.column_stack(
+        [(_f(p, x0, u0 + h * e) - _f(p, x0, u0 - h * e)) / (2 * h) for e in np.eye(2)]
+    )
     np.testing.assert_allclose(A, Afd, rtol=1e-6, atol=1e-6 * np.abs(A).max())
     np.testing.assert_allclose(B, Bfd, rtol=1e-6, atol=1e-8)
 

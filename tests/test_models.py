@@ -16,9 +16,16 @@ from mwip.params import NOMINAL, REAL
 @pytest.mark.parametrize("p", [REAL, NOMINAL], ids=["real", "nominal"])
 def test_accelerations_equal_mass_matrix_solve(p, rng):
     q, qd, u, e = random_states(rng)
-    rhs = reduced.input_forces(p, u) + e - reduced.bias_forces(p, q, qd) - reduced.damping_forces(p, qd)
+    rhs = (
+        reduced.input_forces(p, u)
+        + e
+        - reduced.bias_forces(p, q, qd)
+        - reduced.damping_forces(p, qd)
+    )
     expected = np.linalg.solve(reduced.mass_matrix(p, q), rhs[..., None])[..., 0]
-    np.testing.assert_allclose(reduced.accelerations(p, q, qd, u, e), expected, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(
+        reduced.accelerations(p, q, qd, u, e), expected, rtol=1e-12, atol=1e-9
+    )
 
 
 @pytest.mark.parametrize("p", [REAL, NOMINAL], ids=["real", "nominal"])
@@ -39,14 +46,19 @@ def test_lumped_disturbance_is_zero_without_mismatch_and_carries_tau_ext(rng):
     np.testing.assert_allclose(reduced.lumped_disturbance(REAL, q, qd, acc, u), 0.0, atol=1e-9)
     acc_e = reduced.accelerations(REAL, q, qd, u, e)
     td = reduced.lumped_disturbance(REAL, q, qd, acc_e, u)
-    np.testing.assert_allclose(td, np.linalg.solve(reduced.mass_matrix(REAL, q), e[..., None])[..., 0],
-                               rtol=1e-10, atol=1e-12)  # tau_d = M^{-1} tau_ext
+    np.testing.assert_allclose(
+        td,
+        np.linalg.solve(reduced.mass_matrix(REAL, q), e[..., None])[..., 0],
+        rtol=1e-10,
+        atol=1e-12,
+    )  # tau_d = M^{-1} tau_ext
     assert np.abs(reduced.lumped_disturbance(NOMINAL, q, qd, acc, u)).max() > 1.0  # mismatch
 
 
 def _rhs(p, u=(0.0, 0.0)):
     def f(t, s):
         return np.r_[s[3:], reduced.accelerations(p, s[:3], s[3:], np.asarray(u))]
+
     return f
 
 
@@ -54,7 +66,9 @@ def test_energy_conserved_without_damping_and_input():
     """T + Gb cos(theta) conserved (SPEC.md section 3): relative drift < 1e-8 over 10 s."""
     p = replace(REAL, Db=0.0, Dw=0.0)
     s0 = np.array([0.0, 0.4, 0.0, 2.0, -1.0, 1.5])
-    sol = solve_ivp(_rhs(p), (0, 10), s0, method="DOP853", rtol=1e-13, atol=1e-13, dense_output=True)
+    sol = solve_ivp(
+        _rhs(p), (0, 10), s0, method="DOP853", rtol=1e-13, atol=1e-13, dense_output=True
+    )
     t = np.linspace(0, 10, 2001)
     s = sol.sol(t)
     E = reduced.energy(p, s[:3].T, s[3:].T)
@@ -67,10 +81,15 @@ def test_power_balance_with_damping(rng):
     q, qd, u, e = random_states(rng, 32)
     qdd = reduced.accelerations(REAL, q, qd, u, e)
     eps = 1e-6
-    dE = (reduced.energy(REAL, q + eps * qd, qd + eps * qdd)
-          - reduced.energy(REAL, q - eps * qd, qd - eps * qdd)) / (2 * eps)
-    expected = (reduced.input_power(REAL, qd, u) + np.einsum("ni,ni->n", qd, e)
-                - reduced.dissipated_power(REAL, qd))
+    dE = (
+        reduced.energy(REAL, q + eps * qd, qd + eps * qdd)
+        - reduced.energy(REAL, q - eps * qd, qd - eps * qdd)
+    ) / (2 * eps)
+    expected = (
+        reduced.input_power(REAL, qd, u)
+        + np.einsum("ni,ni->n", qd, e)
+        - reduced.dissipated_power(REAL, qd)
+    )
     np.testing.assert_allclose(dE, expected, rtol=1e-6, atol=1e-8)
     assert np.all(reduced.dissipated_power(REAL, qd) >= 0)
 
@@ -121,8 +140,9 @@ def test_spatial_matches_reduced_where_the_book_agrees():
     q = np.column_stack([np.zeros(len(qf)), qf[:, 3], qf[:, 2]])
     qd = np.column_stack([z[:, 1] / p.r, z[:, 0], z[:, 2]])
     a = reduced.accelerations(p, q, qd, tau)
-    np.testing.assert_allclose(zd, np.column_stack([a[:, 1], p.r * a[:, 0], a[:, 2]]),
-                               rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(
+        zd, np.column_stack([a[:, 1], p.r * a[:, 0], a[:, 2]]), rtol=1e-10, atol=1e-10
+    )
 
 
 def test_spatial_and_reduced_differ_as_documented():

@@ -211,11 +211,13 @@ def sin_int(t0: float, t1: float) -> Arr:
 
 
 def test_exact_and_euler_agree_at_5ms_with_the_book_gains() -> None:
-    # Tolerance: Euler's global error is O(h |lambda|) relative; with 100 substeps
-    # (h = 50 us, |lambda| <= 99 rad/s) that is < 5e-3 of the transient and far less at the
-    # disturbance frequencies (1-2 rad/s): 2e-4 of the amplitude bounds it with margin.
-    # Plain Euler (one step per 5 ms sample) stays within 3.5 % of the amplitude where it
-    # is stable (not for do2, whose poles -3.76 +- 98.7j need 7 substeps).
+    # Compared after the start-up transient (t >= 3 s), on the disturbance response.
+    # Tolerance 2e-4 of the amplitude for Euler with 100 substeps: its global error is
+    # O(h |lambda|) relative, h = 50 us and |lambda| <= 99 rad/s, and much smaller at the
+    # disturbance frequencies (1-2 rad/s); measured about 5e-5 for every set.
+    # Plain Euler (one step per 5 ms sample) is within 1 % for do4 and do4_optimal, but it
+    # moves do3's lightly damped poles -1.76 +- 20.3j to an effective -0.73 +- 20.4j, so its
+    # transient lingers (10 % of the amplitude at t = 3 s); and it is unstable for do2.
     Ts, T = 0.005, 6.0
     q, qd, u = zoh_plant(Ts, int(round(T / Ts)), sin_int, seed=4)
     k0 = int(round(3.0 / Ts))
@@ -224,9 +226,12 @@ def test_exact_and_euler_agree_at_5ms_with_the_book_gains() -> None:
         ex = run(HODO(NOMINAL, s.v, Ts, "exact", **kw), q, qd, u)[k0:, 0, 0]
         eu = run(HODO(NOMINAL, s.v, Ts, "euler", substeps=100, **kw), q, qd, u)[k0:, 0, 0]
         assert np.max(np.abs(ex - eu) / AMP) < 2e-4, name
-        if name != "do2":
+        if name in ("do4", "do4_optimal"):
             e1 = run(HODO(NOMINAL, s.v, Ts, "euler", **kw), q, qd, u)[k0:, 0, 0]
-            assert np.max(np.abs(ex - e1) / AMP) < 0.035, name
+            assert np.max(np.abs(ex - e1) / AMP) < 0.01, name
+        elif name == "do3":
+            e1 = run(HODO(NOMINAL, s.v, Ts, "euler", **kw), q, qd, u)[k0:, 0, 0]
+            assert np.max(np.abs(ex - e1) / AMP) > 0.05, name
 
 
 def test_forward_euler_stability_of_the_book_sets() -> None:

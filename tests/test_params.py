@@ -12,11 +12,30 @@ from mwip.params import NOMINAL, REAL, Params, load_params, save_params, stack_p
 def test_tables():
     # Table 3.1 / 6.1 and Table 3.2 / 6.2
     assert (REAL.mb, REAL.mw, REAL.l, REAL.b, REAL.r, REAL.Db, REAL.Dw) == (
-        2.58, 0.14, 0.0622, 0.15, 0.04, 0.5, 0.8)
+        2.58,
+        0.14,
+        0.0622,
+        0.15,
+        0.04,
+        0.5,
+        0.8,
+    )
     assert (REAL.Iby, REAL.Ibz, REAL.Iwa, REAL.Iwd) == (1.77e-3, 1.77e-3, 1.4e-4, 8.4e-4)
     assert (NOMINAL.mb, NOMINAL.mw, NOMINAL.l, NOMINAL.b, NOMINAL.r, NOMINAL.Db, NOMINAL.Dw) == (
-        2.50, 0.12, 0.0582, 0.14, 0.03, 0.4, 0.6)
-    assert (NOMINAL.Iby, NOMINAL.Ibz, NOMINAL.Iwa, NOMINAL.Iwd) == (1.57e-3, 1.57e-3, 1.2e-4, 8.1e-4)
+        2.50,
+        0.12,
+        0.0582,
+        0.14,
+        0.03,
+        0.4,
+        0.6,
+    )
+    assert (NOMINAL.Iby, NOMINAL.Ibz, NOMINAL.Iwa, NOMINAL.Iwd) == (
+        1.57e-3,
+        1.57e-3,
+        1.2e-4,
+        8.1e-4,
+    )
     assert REAL.g == NOMINAL.g == 9.81
 
 
@@ -32,8 +51,14 @@ def test_derived_coefficients_by_hand():
 
 @pytest.mark.parametrize(
     ("field", "value", "allowed"),
-    [("mb", -1.0, "(0, inf)"), ("r", 0.0, "(0, inf)"), ("Db", -0.1, "[0, inf)"),
-     ("l", math.nan, "(0, inf)"), ("Iby", math.inf, "(0, inf)"), ("mw", "heavy", "(0, inf)")],
+    [
+        ("mb", -1.0, "(0, inf)"),
+        ("r", 0.0, "(0, inf)"),
+        ("Db", -0.1, "[0, inf)"),
+        ("l", math.nan, "(0, inf)"),
+        ("Iby", math.inf, "(0, inf)"),
+        ("mw", "heavy", "(0, inf)"),
+    ],
 )
 def test_invalid_values_name_field_and_range(field, value, allowed):
     with pytest.raises(ValueError) as exc:

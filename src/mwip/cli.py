@@ -64,27 +64,65 @@ def cli() -> None:
 
 # ---------------------------------------------------------------------------------------------
 @cli.command()
-@click.option("--controller", type=click.Choice(["lqr"]), default="lqr", show_default=True,
-              help="Control law.")
-@click.option("--theta0", type=float, default=0.1745, show_default=True,
-              help="Initial pitch (rad), in (-pi/2, pi/2).")
+@click.option(
+    "--controller",
+    type=click.Choice(["lqr"]),
+    default="lqr",
+    show_default=True,
+    help="Control law.",
+)
+@click.option(
+    "--theta0",
+    type=float,
+    default=0.1745,
+    show_default=True,
+    help="Initial pitch (rad), in (-pi/2, pi/2).",
+)
 @click.option("--alpha0", type=float, default=0.0, show_default=True, help="Initial yaw (rad).")
 @click.option("--v0", type=float, default=0.0, show_default=True, help="Initial speed (m/s).")
-@click.option("--duration", type=float, default=10.0, show_default=True,
-              help="Simulated time (s), in (0, 3600].")
-@click.option("--Ts", "Ts", type=float, default=0.005, show_default=True,
-              help="Sample period (s), in (0, 1].")
+@click.option(
+    "--duration",
+    type=float,
+    default=10.0,
+    show_default=True,
+    help="Simulated time (s), in (0, 3600].",
+)
+@click.option(
+    "--Ts", "Ts", type=float, default=0.005, show_default=True, help="Sample period (s), in (0, 1]."
+)
 @click.option("--dt", type=float, default=None, help="Integration step (s); divides Ts.")
-@click.option("--mode", type=click.Choice(["sampled", "continuous"]), default="sampled",
-              show_default=True, help="Zero-order hold at Ts, or the law inside the ODE.")
-@click.option("--plant", default="real", show_default=True,
-              help="Plant parameters: real, nominal or a TOML file.")
-@click.option("--design-params", default="nominal", show_default=True,
-              help="Parameters the controller is designed with.")
-@click.option("--disturbance", type=click.Choice(["none", "book"]), default="none",
-              show_default=True, help="External disturbance (book: Section 3.6 sinusoids).")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Folder for timeseries.csv, timeseries.npz and summary.json.")
+@click.option(
+    "--mode",
+    type=click.Choice(["sampled", "continuous"]),
+    default="sampled",
+    show_default=True,
+    help="Zero-order hold at Ts, or the law inside the ODE.",
+)
+@click.option(
+    "--plant",
+    default="real",
+    show_default=True,
+    help="Plant parameters: real, nominal or a TOML file.",
+)
+@click.option(
+    "--design-params",
+    default="nominal",
+    show_default=True,
+    help="Parameters the controller is designed with.",
+)
+@click.option(
+    "--disturbance",
+    type=click.Choice(["none", "book"]),
+    default="none",
+    show_default=True,
+    help="External disturbance (book: Section 3.6 sinusoids).",
+)
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Folder for timeseries.csv, timeseries.npz and summary.json.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def simulate(
     controller: str, theta0: float, alpha0: float, v0: float, duration: float, Ts: float,
@@ -97,8 +135,9 @@ def simulate(
     from mwip.sim import simulate as run_sim
 
     if not (math.isfinite(theta0) and abs(theta0) < math.pi / 2):
-        raise click.BadParameter(f"must be in (-1.5708, 1.5708) rad, got {theta0!r}",
-                                 param_hint="--theta0")
+        raise click.BadParameter(
+            f"must be in (-1.5708, 1.5708) rad, got {theta0!r}", param_hint="--theta0"
+        )
     _in_range("--duration", duration, 0.0, 3600.0)
     _in_range("--Ts", Ts, 0.0, 1.0)
     if dt is not None:
@@ -120,8 +159,13 @@ def simulate(
             disturbance=BOOK_SINUSOIDS if disturbance == "book" else None, progress=prog,
         )  # fmt: skip
     summary: dict[str, Any] = dict(res.summary())
-    summary.update(controller=controller, mode=mode, Ts=Ts, dt=res.settings["dt"],
-                   design="continuous" if mode == "continuous" else f"sampled Ts={Ts:g}")
+    summary.update(
+        controller=controller,
+        mode=mode,
+        Ts=Ts,
+        dt=res.settings["dt"],
+        design="continuous" if mode == "continuous" else f"sampled Ts={Ts:g}",
+    )
     summary = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                for k, v in summary.items()}  # fmt: skip
     if out is not None:
@@ -157,11 +201,21 @@ def _matrix_text(M: np.ndarray) -> str:
 
 
 @design.command("lqr")
-@click.option("--Ts", "Ts", type=float, default=None,
-              help="Design for this sample period (discrete Riccati on the ZOH model); "
-                   "default: the continuous (book's) gain, with the 5 ms gain alongside.")
-@click.option("--params", "params_name", default="nominal", show_default=True,
-              help="real, nominal or a TOML file.")
+@click.option(
+    "--Ts",
+    "Ts",
+    type=float,
+    default=None,
+    help="Design for this sample period (discrete Riccati on the ZOH model); "
+    "default: the continuous (book's) gain, with the 5 ms gain alongside.",
+)
+@click.option(
+    "--params",
+    "params_name",
+    default="nominal",
+    show_default=True,
+    help="real, nominal or a TOML file.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def design_lqr_cmd(Ts: float | None, params_name: str, as_json: bool) -> None:
     """LQR gain K (u = -K x, x = [theta, alpha, theta', v, alpha']) for the book's Q, R."""
@@ -232,8 +286,13 @@ def params_save(which: str, path: Path) -> None:
 # ---------------------------------------------------------------------------------------------
 @cli.command("run")
 @click.argument("study")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("out"),
-              show_default=True, help="Output folder; the study writes OUT/<study>/.")
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("out"),
+    show_default=True,
+    help="Output folder; the study writes OUT/<study>/.",
+)
 @click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
 def run_cmd(study: str, out: Path, quick: bool) -> None:
     """Run one study (see `mwip reproduce --list`)."""
@@ -253,8 +312,13 @@ def _report(name: str, doc: dict[str, Any], out: Path) -> None:
 
 
 @cli.command()
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("out"),
-              show_default=True, help="Output folder.")
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("out"),
+    show_default=True,
+    help="Output folder.",
+)
 @click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
 @click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
 def reproduce(out: Path, quick: bool, list_only: bool) -> None:

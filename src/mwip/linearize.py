@@ -24,7 +24,7 @@ INPUT_NAMES: tuple[str, ...] = ("u_r", "u_l")
 
 
 def linearize(p: Params) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Analytic Jacobians ``(A, B)`` of the reduced model at upright, shapes (..., 5, 5), (..., 5, 2).
+    """Analytic Jacobians ``(A, B)`` at upright, shapes (..., 5, 5) and (..., 5, 2).
 
     Batched parameters give a leading batch axis. Checked against finite differences of
     :func:`mwip.models.reduced.accelerations` in the tests.
@@ -55,8 +55,8 @@ def linearize(p: Params) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     return A, B
 
 
-def state_from_q(q: NDArray[np.float64], qdot: NDArray[np.float64], r: float) -> NDArray[np.float64]:
+def state_from_q(
+    q: NDArray[np.float64], qdot: NDArray[np.float64], r: float
+) -> NDArray[np.float64]:
     """LQR state ``[theta, alpha, theta', v, alpha']`` from ``q, q'`` (..., 3) and wheel radius."""
-    return np.stack(
-        [q[..., 1], q[..., 2], qdot[..., 1], r * qdot[..., 0], qdot[..., 2]], axis=-1
-    )
+    return np.stack([q[..., 1], q[..., 2], qdot[..., 1], r * qdot[..., 0], qdot[..., 2]], axis=-1)

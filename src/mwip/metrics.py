@@ -18,7 +18,9 @@ def _window(t: NDArray[np.float64], window: tuple[float, float] | None) -> NDArr
     return (t >= window[0] - 1e-12) & (t <= window[1] + 1e-12)
 
 
-def rms(t: ArrayLike, x: ArrayLike, window: tuple[float, float] | None = None) -> NDArray[np.float64]:
+def rms(
+    t: ArrayLike, x: ArrayLike, window: tuple[float, float] | None = None
+) -> NDArray[np.float64]:
     """Root mean square of the samples of ``x`` inside ``window``, (6.3): sqrt(mean(x^2))."""
     tt = np.asarray(t, dtype=float)
     xx = np.asarray(x, dtype=float)[..., _window(tt, window)]

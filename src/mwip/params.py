@@ -118,8 +118,7 @@ class Params:
             ok_lo = value >= lo if closed else value > lo
             if not (np.all(np.isfinite(value)) and np.all(ok_lo) and np.all(value < hi)):
                 raise ValueError(
-                    f"parameter {f.name!r} must be finite and in {_range_text(f.name)}, "
-                    f"got {raw!r}"
+                    f"parameter {f.name!r} must be finite and in {_range_text(f.name)}, got {raw!r}"
                 )
             object.__setattr__(self, f.name, float(value) if value.ndim == 0 else value)
 
@@ -162,7 +161,9 @@ class Params:
     # ---- conversions ----------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """Field values as a plain dict (arrays become lists)."""
-        return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(self).items()}
+        return {
+            k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(self).items()
+        }
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, base: Params | None = None) -> Params:
@@ -211,7 +212,9 @@ class Params:
             if not (np.isfinite(value) and value >= lo):
                 raise ValueError(f"payload {name!r} must be finite and in [0, inf), got {value!r}")
         if not (np.isfinite(pan_radius) and pan_radius >= 0):
-            raise ValueError(f"payload 'pan_radius' must be finite and in [0, inf), got {pan_radius!r}")
+            raise ValueError(
+                f"payload 'pan_radius' must be finite and in [0, inf), got {pan_radius!r}"
+            )
         top = 2.0 * self.l if body_height is None else body_height
         if not (np.all(np.isfinite(top)) and np.all(np.asarray(top) > 0)):
             raise ValueError(f"payload 'body_height' must be finite and in (0, inf), got {top!r}")
@@ -231,10 +234,7 @@ class Params:
         """Select robots of a batch (fields indexed after broadcasting to the batch shape)."""
         shape = self.batch_shape
         return Params(
-            **{
-                f.name: np.broadcast_to(getattr(self, f.name), shape)[index]
-                for f in fields(self)
-            }
+            **{f.name: np.broadcast_to(getattr(self, f.name), shape)[index] for f in fields(self)}
         )
 
 
@@ -307,4 +307,3 @@ def save_params(params: Params, path: str | os.PathLike[str]) -> None:
     """Write parameters to a TOML file (atomically: a temporary file, then rename)."""
     text = tomli_w.dumps({"params": params.to_dict()})
     write_text_atomic(Path(path), text)
-

@@ -1,6 +1,7 @@
 """Linear-quadratic regulator about the upright equilibrium (Section 4.4.2).
 
-State ``x = [theta, alpha, theta', v, alpha']``, input ``u = [u_r, u_l]``, law ``u = -K (x - x_ref)``.
+State ``x = [theta, alpha, theta', v, alpha']``, input ``u = [u_r, u_l]``,
+law ``u = -K (x - x_ref)``.
 
 Two designs from the same weights (SPEC.md section 2):
 
@@ -55,7 +56,7 @@ def lqr(A: ArrayLike, B: ArrayLike, Q: ArrayLike, R: ArrayLike) -> tuple[NDArray
 
 
 def zoh(A: ArrayLike, B: ArrayLike, Ts: float) -> tuple[NDArray, NDArray]:
-    """Zero-order-hold discretisation via the block matrix exponential ``expm([[A, B], [0, 0]] Ts)``."""
+    """Zero-order-hold discretisation: the block exponential ``expm([[A, B], [0, 0]] Ts)``."""
     A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
     n, m = B.shape
     blk = np.zeros((n + m, n + m))
@@ -64,7 +65,9 @@ def zoh(A: ArrayLike, B: ArrayLike, Ts: float) -> tuple[NDArray, NDArray]:
     return E[:n, :n], E[:n, n:]
 
 
-def dlqr(A: ArrayLike, B: ArrayLike, Q: ArrayLike, R: ArrayLike, Ts: float) -> tuple[NDArray, NDArray, NDArray]:
+def dlqr(
+    A: ArrayLike, B: ArrayLike, Q: ArrayLike, R: ArrayLike, Ts: float
+) -> tuple[NDArray, NDArray, NDArray]:
     """LQR for sample period ``Ts``: discrete Riccati on the ZOH model. Returns ``(K, P, z)``.
 
     ``z`` are the closed-loop eigenvalues of ``Ad - Bd K`` (inside the unit circle).

@@ -89,7 +89,9 @@ def accelerations(
     return np.linalg.solve(mass_matrix(pp, q2, slope), rhs[..., None])[..., 0]
 
 
-def energy(pp: PlanarParams, q2: ArrayLike, q2d: ArrayLike, slope: float = 0.0) -> NDArray[np.float64]:
+def energy(
+    pp: PlanarParams, q2: ArrayLike, q2d: ArrayLike, slope: float = 0.0
+) -> NDArray[np.float64]:
     """Total energy ``Vb + Vw + Ub + Uw`` of (2.5)-(2.8)."""
     q = np.asarray(q2, dtype=float)
     qd = np.asarray(q2d, dtype=float)

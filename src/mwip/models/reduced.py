@@ -220,7 +220,9 @@ def accelerations(
     return np.stack(np.broadcast_arrays(a1, a2, a3), axis=-1)
 
 
-def f_g(p: Params, q: ArrayLike, qdot: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def f_g(
+    p: Params, q: ArrayLike, qdot: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Drift ``F`` (..., 3) and input matrix ``G`` (..., 3, 2) of (2.36).
 
     ``q'' = F + G [u_A, u_B] + tau_d`` with ``u_A = u_r + u_l``, ``u_B = u_r - u_l``. The

@@ -95,7 +95,7 @@ def constraint_matrix(sp: SpatialParams, qf: ArrayLike) -> NDArray[np.float64]:
 
 
 def null_space(sp: SpatialParams, qf: ArrayLike) -> NDArray[np.float64]:
-    """Null-space basis ``S(qf)`` (2.27), shape (..., 6, 3); ``qf' = S z``, ``z = [th', v, al']``."""
+    """Null-space basis ``S(qf)`` (2.27), (..., 6, 3): ``qf' = S z``, ``z = [th', v, al']``."""
     al = np.asarray(qf, dtype=float)[..., 2]
     S = np.zeros((*al.shape, 6, 3))
     S[..., 0, 1] = np.cos(al)

@@ -153,9 +153,9 @@ def error_dynamics(gains: GainsLike) -> tuple[NDArray[np.float64], NDArray[np.fl
 
     Examples
     --------
-    >>> D, E = error_dynamics([2.0, 1.0])     # s^2 + 2 s + 1: a double pole at -1
-    >>> sorted(np.round(np.linalg.eigvals(D).real, 6))
-    [-1.0, -1.0, -1.0, -1.0, -1.0, -1.0]
+    >>> D, E = error_dynamics([3.0, 2.0])     # s^2 + 3 s + 2 = (s + 1)(s + 2), per channel
+    >>> np.round(np.sort(np.linalg.eigvals(D).real), 6).tolist()
+    [-2.0, -2.0, -2.0, -1.0, -1.0, -1.0]
     """
     mats = as_gain_matrices(gains)
     n = len(mats)

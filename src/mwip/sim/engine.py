@@ -104,7 +104,9 @@ def _tau_block(
         return np.ascontiguousarray(d[:, None, :])
     if d.shape == (times.size, n, 3):
         return np.ascontiguousarray(d)
-    raise ValueError(f"disturbance must return ({times.size}, 3) or ({times.size}, {n}, 3), got {d.shape}")
+    raise ValueError(
+        f"disturbance must return ({times.size}, 3) or ({times.size}, {n}, 3), got {d.shape}"
+    )
 
 
 def simulate(
@@ -309,7 +311,11 @@ def _simulate_continuous(
 
     def tau_at(t: float, m: int) -> NDArray[np.float64]:
         blk = _tau_block(disturbance, np.array([t]), n)[0]
-        return np.broadcast_to(blk, (n, 3)) if m == n else np.tile(np.broadcast_to(blk, (n, 3)), (9, 1))
+        return (
+            np.broadcast_to(blk, (n, 3))
+            if m == n
+            else np.tile(np.broadcast_to(blk, (n, 3)), (9, 1))
+        )
 
     def closed(t: float, yy: NDArray[np.float64], cf: NDArray[np.float64]) -> NDArray[np.float64]:
         return _plant_rhs(cf, yy, law(t, yy), tau_at(t, yy.shape[0]))

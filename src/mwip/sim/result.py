@@ -190,9 +190,9 @@ class SimResult:
     def to_npz(self, path: str | Path) -> Path:
         """Write all arrays to a compressed ``.npz`` (atomically); see :meth:`from_npz`."""
         arrays: dict[str, Any] = {
-            "t": self.t, "states": self.states, "inputs": self.inputs, "status": self.status.astype(str),
-            "t_end": self.t_end, "final_state": self.final_state, "r": self.r,
-            "batched": np.array(self.batched),
+            "t": self.t, "states": self.states, "inputs": self.inputs,
+            "status": self.status.astype(str), "t_end": self.t_end,
+            "final_state": self.final_state, "r": self.r, "batched": np.array(self.batched),
         }  # fmt: skip
         for name, arr in self.logs.items():
             arrays[f"log__{name}"] = arr
@@ -204,8 +204,9 @@ class SimResult:
         with np.load(path) as z:
             logs = {k[5:]: z[k] for k in z.files if k.startswith("log__")}
             return cls(
-                t=z["t"], states=z["states"], inputs=z["inputs"], status=z["status"], t_end=z["t_end"],
-                final_state=z["final_state"], r=z["r"], batched=bool(z["batched"]), logs=logs,
+                t=z["t"], states=z["states"], inputs=z["inputs"], status=z["status"],
+                t_end=z["t_end"], final_state=z["final_state"], r=z["r"],
+                batched=bool(z["batched"]), logs=logs,
             )  # fmt: skip
 
     def summary(self) -> Mapping[str, Any]:

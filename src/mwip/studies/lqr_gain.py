@@ -60,9 +60,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     poles = np.sort(cont.poles.real)
     metrics["continuous.fastest_pole"] = float(poles[0])
     metrics["sampled.max_abs_eig"] = float(np.max(np.abs(samp.poles)))
-    yaw_match = bool(
-        np.allclose(np.abs(cont.K[:, [1, 4]]), [[70.71, 219.80]] * 2, rtol=0.005)
-    )
+    yaw_match = bool(np.allclose(np.abs(cont.K[:, [1, 4]]), [[70.71, 219.80]] * 2, rtol=0.005))
     claims = [
         {"text": "yaw gains match the printed 70.71 and 219.80 (within 0.5 %)", "holds": yaw_match},
         {"text": "continuous LQR balances the real plant (continuous mode)",
