@@ -51,8 +51,12 @@ and ``ie(gains)`` is recomputed and checked against the target.
 
 Symmetry: the problem is invariant under ``e -> (I_n (x) Q) e`` for orthogonal 3x3 Q, so by
 convexity an optimum of the form ``P = P_s (x) I3``, ``W = W_s (x) I3`` exists (average over
-Q). ``structure="scalar"`` solves that n x n problem (exact, and ~20x faster) and lifts it;
+Q). ``structure="scalar"`` solves that n x n problem (exact, and faster) and lifts it;
 ``structure="full"`` solves the book's 3n x 3n problem literally.
+
+Conditioning: with poles of size ``rho`` the entries of P span ``rho^-1 .. rho^-(2n-1)``; the
+LMIs are solved after an exact diagonal congruence (:func:`_scaling`), which only changes the
+meaning of ``eps`` (a margin in the scaled variables).
 
 Published gains (SPEC.md sections 3-4): the book's printed ie values (1.8820e-6 for the
 "optimal" 4th-order set, 0.3 for the three design sets) do not follow from the printed
@@ -402,6 +406,9 @@ def _check_args(n: int, eps: float, structure: str, radius: float | None) -> int
     return 3 if structure == "full" else 1
 
 
+ProblemParts = tuple[cp.Problem, cp.Variable, cp.Variable, cp.Variable, cp.Parameter | None]
+
+
 def _solve_scaled(
     n: int,
     m: int,
@@ -411,9 +418,15 @@ def _solve_scaled(
     solver: str,
     solver_options: Mapping[str, Any] | None,
     what: str,
+    parts: ProblemParts | None = None,
 ) -> tuple[str, NDArray[np.float64], NDArray[np.float64], float]:
-    """Build and solve the (scaled) LMI problem; raise ``ObserverDesignError`` on failure."""
-    prob, P, W, alpha, r = _build_problem(n, m, eps, radius is not None, rho)
+    """Build (or reuse ``parts``) and solve the scaled LMI problem.
+
+    Raises ``ObserverDesignError`` on a solver failure or a status other than optimal.
+    """
+    prob, P, W, alpha, r = (
+        parts if parts is not None else _build_problem(n, m, eps, radius is not None, rho)
+    )
     if r is not None:
         r.value = float(radius)  # type: ignore[arg-type]
     try:
@@ -523,9 +536,19 @@ def design_for_ie(
     m = _check_args(n, eps, structure, None)
     base = f"design_for_ie(n={n}, ie_target={ie_target:g})"
 
+    # One compiled problem per power-of-two scale rho (the radius is a cvxpy Parameter).
+    built: dict[float, ProblemParts] = {}
+
+    def solve_at(radius: float, what: str) -> tuple[float, str, NDArray, NDArray, float]:
+        rho = float(2.0 ** round(math.log2(radius)))
+        if rho not in built:
+            built[rho] = _build_problem(n, m, eps, True, rho)
+        out = _solve_scaled(n, m, eps, radius, rho, solver, solver_options, what, parts=built[rho])
+        return (rho, *out)
+
     def attempt(radius: float) -> bool:
         try:
-            _, _, _, alpha = _solve_scaled(n, m, eps, radius, radius, solver, solver_options, base)
+            alpha = solve_at(radius, base)[4]
         except ObserverDesignError:
             return False
         return math.sqrt(max(alpha, 0.0)) <= ie_target
@@ -554,9 +577,9 @@ def design_for_ie(
         else:
             lo = mid
     what = f"{base}, radius={hi:.6g}"
-    status, Ph, Wh, alpha = _solve_scaled(n, m, eps, hi, hi, solver, solver_options, what)
+    rho, status, Ph, Wh, alpha = solve_at(hi, what)
     out = _finish(
-        n, m, Ph, Wh, alpha, rho=hi, solver=solver, status=status, radius=hi, eps=eps,
+        n, m, Ph, Wh, alpha, rho=rho, solver=solver, status=status, radius=hi, eps=eps,
         structure=structure, what=what,
     )  # fmt: skip
     if not out.ie <= ie_target:

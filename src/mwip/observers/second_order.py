@@ -21,7 +21,8 @@ book calls ``A_1`` "negative definite" where Hurwitz is meant (as in Section 3.4
 
 from __future__ import annotations
 
-from numpy.typing import ArrayLike
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from mwip.observers.hodo import Discretization, FGFunction, HighOrderDO, ModelHold
 from mwip.params import Params
@@ -59,6 +60,6 @@ class SecondOrderDO(HighOrderDO):
         )
 
     @property
-    def tau_hat_dot(self) -> ArrayLike:
+    def tau_hat_dot(self) -> NDArray[np.float64]:
         """Current estimate of ``tau_d'``, shape (N, 3)."""
         return self.estimates[:, 1, :]
