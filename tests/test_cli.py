@@ -114,3 +114,32 @@ def test_existing_output_untouched_on_error(tmp_path):
 def test_reproduce_list(capsys):
     assert main(["reproduce", "--list"]) == 0
     assert "lqr-gain" in capsys.readouterr().out
+
+
+def test_design_hodo_prescribed_ie(capsys):
+    assert main(["design", "hodo", "--order", "3", "--ie", "0.3", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["status"] in ("optimal", "optimal_inaccurate")
+    assert doc["ie"] <= 0.3 * 1.01 and len(doc["v"]) == 3 and len(doc["L"]) == 3
+    assert all(re < 0 for re, _ in doc["eigenvalues"]) and len(doc["eigenvalues"]) == 9
+
+
+def test_design_hodo_min_ie_with_radius_text(capsys):
+    assert main(["design", "hodo", "-n", "2", "--radius", "30"]) == 0
+    out = capsys.readouterr().out
+    assert "optimal" in out and "ie = " in out and "eig(D_n)" in out
+
+
+@pytest.mark.parametrize(
+    ("args", "code", "needle"),
+    [
+        (["-n", "0"], 2, "--order"),
+        (["-n", "2", "--ie", "-1"], 2, "--ie"),
+        (["-n", "2", "--ie", "0.3", "--radius", "5"], 2, "--radius"),
+        (["-n", "2", "--ie", "1e-9"], 1, "observer design failed"),
+    ],
+)
+def test_design_hodo_errors(capsys, args, code, needle):
+    assert main(["design", "hodo", *args]) == code
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err and "Traceback" not in err

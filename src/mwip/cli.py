@@ -252,6 +252,75 @@ def design_lqr_cmd(Ts: float | None, params_name: str, as_json: bool) -> None:
             click.echo("  |eig(Ad - Bd K)|: " + ", ".join(f"{abs(z):.3g}" for z in d.poles))
 
 
+@design.command("hodo")
+@click.option("--order", "-n", type=int, required=True, help="Observer order n, in [1, 8].")
+@click.option("--ie", "ie_target", type=float, default=None,
+              help="Prescribed impulse-to-energy gain: the slowest gains with ie <= IE "
+                   "(the book picks 0.3). Default: minimise ie, the LMI (3.36).")
+@click.option("--radius", type=float, default=None,
+              help="Bound on |eig(D_n)| (rad/s) for the minimisation; without it (3.36) has "
+                   "no minimiser and the gains grow to the solver's tolerance.")
+@click.option("--solver", type=click.Choice(["CLARABEL", "SCS"]), default="CLARABEL",
+              show_default=True, help="cvxpy solver.")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def design_hodo_cmd(
+    order: int, ie_target: float | None, radius: float | None, solver: str, as_json: bool
+) -> None:
+    """Observer gains L_1..L_n by the LMI of Theorem 3.2 (3.36), or for a prescribed ie."""
+    from mwip.observers.design import ObserverDesignError, design_for_ie, solve_ie_lmi
+
+    if not 1 <= order <= 8:
+        raise click.BadParameter(f"must be in [1, 8], got {order}", param_hint="--order")
+    if ie_target is not None:
+        _in_range("--ie", ie_target, 0.0, 1e6)
+        if radius is not None:
+            raise click.BadParameter("use either --ie or --radius", param_hint="--radius")
+    if radius is not None:
+        _in_range("--radius", radius, 0.0, 1e9)
+    try:
+        if ie_target is not None:
+            d = design_for_ie(order, ie_target, solver=solver)
+        else:
+            d = solve_ie_lmi(order, radius=radius, solver=solver)
+    except ObserverDesignError as exc:
+        raise click.ClickException(f"observer design failed: {exc}") from None
+    eig = np.sort_complex(d.eigenvalues)
+    doc = {
+        "order": order,
+        "problem": "prescribed ie" if ie_target is not None else "min ie (3.36)",
+        "ie_target": ie_target,
+        "radius": d.radius,
+        "v": list(d.scalar_gains) if d.scalar_gains is not None else None,
+        "L": [g.tolist() for g in d.gains],
+        "ie": d.ie,
+        "ie_lmi": d.ie_lmi,
+        "eigenvalues": [[float(z.real), float(z.imag)] for z in eig],
+        "solver": d.solver,
+        "status": d.status,
+    }
+    note = None
+    if ie_target is None and radius is None:
+        note = ("(3.36) without a pole bound has no minimiser (ie -> 0 as the gains grow): "
+                "these gains are set by the solver's tolerance; use --radius or --ie")
+        doc["note"] = note
+    if as_json:
+        click.echo(json.dumps(doc, indent=2))
+        return
+    click.echo(f"order {order}, {doc['problem']}, solver {d.solver}: {d.status}")
+    if d.scalar_gains is not None:
+        click.echo("  L_i = v_i I3, v = (" + ", ".join(f"{v:.6g}" for v in d.scalar_gains) + ")")
+    else:
+        for i, g in enumerate(d.gains, 1):
+            click.echo(f"  L_{i} =\n" + _matrix_text(g))
+    click.echo(f"  ie = {d.ie:.6g} (recomputed from the gains, (3.39)-(3.41)); "
+               f"LMI bound {d.ie_lmi:.6g}")  # fmt: skip
+    uniq = sorted({(round(z.real, 6), round(abs(z.imag), 6)) for z in eig})
+    click.echo("  eig(D_n): " + ", ".join(
+        f"{re:.5g}" + (f" +- {im:.5g}j" if im else "") for re, im in uniq))  # fmt: skip
+    if note:
+        click.echo(f"  note: {note}")
+
+
 # ---------------------------------------------------------------------------------------------
 @cli.group()
 def params() -> None:
@@ -339,9 +408,12 @@ def main(argv: list[str] | None = None) -> int:
         cli.main(args=argv, prog_name="mwip", standalone_mode=False)
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
-    except click.ClickException as exc:
+    except click.UsageError as exc:
         click.echo(f"mwip: error: {exc.format_message()}", err=True)
         return 2
+    except click.ClickException as exc:  # a failure that is not bad input (e.g. a solver)
+        click.echo(f"mwip: error: {exc.format_message()}", err=True)
+        return exc.exit_code
     except click.Abort:
         click.echo("mwip: aborted", err=True)
         return 1
