@@ -254,14 +254,28 @@ def design_lqr_cmd(Ts: float | None, params_name: str, as_json: bool) -> None:
 
 @design.command("hodo")
 @click.option("--order", "-n", type=int, required=True, help="Observer order n, in [1, 8].")
-@click.option("--ie", "ie_target", type=float, default=None,
-              help="Prescribed impulse-to-energy gain: the slowest gains with ie <= IE "
-                   "(the book picks 0.3). Default: minimise ie, the LMI (3.36).")
-@click.option("--radius", type=float, default=None,
-              help="Bound on |eig(D_n)| (rad/s) for the minimisation; without it (3.36) has "
-                   "no minimiser and the gains grow to the solver's tolerance.")
-@click.option("--solver", type=click.Choice(["CLARABEL", "SCS"]), default="CLARABEL",
-              show_default=True, help="cvxpy solver.")
+@click.option(
+    "--ie",
+    "ie_target",
+    type=float,
+    default=None,
+    help="Prescribed impulse-to-energy gain: the slowest gains with ie <= IE "
+    "(the book picks 0.3). Default: minimise ie, the LMI (3.36).",
+)
+@click.option(
+    "--radius",
+    type=float,
+    default=None,
+    help="Bound on |eig(D_n)| (rad/s) for the minimisation; without it (3.36) has "
+    "no minimiser and the gains grow to the solver's tolerance.",
+)
+@click.option(
+    "--solver",
+    type=click.Choice(["CLARABEL", "SCS"]),
+    default="CLARABEL",
+    show_default=True,
+    help="cvxpy solver.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def design_hodo_cmd(
     order: int, ie_target: float | None, radius: float | None, solver: str, as_json: bool
@@ -300,8 +314,10 @@ def design_hodo_cmd(
     }
     note = None
     if ie_target is None and radius is None:
-        note = ("(3.36) without a pole bound has no minimiser (ie -> 0 as the gains grow): "
-                "these gains are set by the solver's tolerance; use --radius or --ie")
+        note = (
+            "(3.36) without a pole bound has no minimiser (ie -> 0 as the gains grow): "
+            "these gains are set by the solver's tolerance; use --radius or --ie"
+        )
         doc["note"] = note
     if as_json:
         click.echo(json.dumps(doc, indent=2))

@@ -27,7 +27,10 @@ class SampledObserver(Protocol):
     Ts: float
 
     def reset(
-        self, qdot0: NDArray[np.float64], estimates0: None = None, q0: NDArray[np.float64] | None = None
+        self,
+        qdot0: NDArray[np.float64],
+        estimates0: None = None,
+        q0: NDArray[np.float64] | None = None,
     ) -> None: ...
 
     def update(
