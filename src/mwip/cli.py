@@ -124,15 +124,25 @@ def cli() -> None:
     help="Folder for timeseries.csv, timeseries.npz and summary.json.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option(
+    "--scenario",
+    "scenario_file",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="A scenario TOML (see examples/); options given on the command line override it.",
+)
+@click.pass_context
 def simulate(
-    controller: str, theta0: float, alpha0: float, v0: float, duration: float, Ts: float,
-    dt: float | None, mode: str, plant: str, design_params: str, disturbance: str,
-    out: Path | None, as_json: bool,
+    ctx: click.Context, controller: str, theta0: float, alpha0: float, v0: float,
+    duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
+    disturbance: str, out: Path | None, as_json: bool, scenario_file: Path | None,
 ) -> None:  # fmt: skip
     """Simulate a closed loop and print status, settling time and max |u|."""
-    from mwip.control.lqr import LQR, design_lqr
+    from mwip.scenario import Scenario, load_scenario
     from mwip.sim import BOOK_SINUSOIDS
-    from mwip.sim import simulate as run_sim
+
+    def given(name: str) -> bool:
+        return ctx.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT
 
     if not (math.isfinite(theta0) and abs(theta0) < math.pi / 2):
         raise click.BadParameter(
@@ -145,22 +155,44 @@ def simulate(
     for name, val in (("--alpha0", alpha0), ("--v0", v0)):
         if not (math.isfinite(val) and abs(val) <= 1e3):
             raise click.BadParameter(f"must be in [-1000, 1000], got {val!r}", param_hint=name)
-    p_plant = _params(plant, "--plant")
-    p_design = _params(design_params, "--design-params")
     if out is not None and out.exists() and not out.is_dir():
         raise click.BadParameter(f"{str(out)!r} exists and is not a folder", param_hint="--out")
-    design = design_lqr(p_design, Ts=None if mode == "continuous" else Ts)
-    ctrl = LQR(design)
-    n = max(int(round(duration / Ts)), 1)
+    if scenario_file is not None:
+        if not scenario_file.exists():
+            raise click.BadParameter(f"{str(scenario_file)!r} does not exist",
+                                     param_hint="--scenario")  # fmt: skip
+        sc = load_scenario(scenario_file)
+    else:
+        sc = Scenario(initial={"theta": theta0})
+    changes: dict[str, Any] = {}
+    for opt, key, val in (
+        ("controller", "controller", controller),
+        ("duration", "duration", duration),
+        ("Ts", "Ts", Ts),
+        ("dt", "dt", dt),
+        ("mode", "mode", mode),
+    ):
+        if given(opt):
+            changes[key] = val
+    if given("plant"):
+        changes["plant"] = _params(plant, "--plant")
+    if given("design_params"):
+        changes["design"] = _params(design_params, "--design-params")
+    if given("disturbance"):
+        changes["disturbance"] = BOOK_SINUSOIDS if disturbance == "book" else None
+    initial = dict(sc.initial)
+    for opt, key, val in (("theta0", "theta", theta0), ("alpha0", "alpha", alpha0),
+                          ("v0", "v", v0)):  # fmt: skip
+        if given(opt):
+            initial[key] = val
+    sc = sc.with_overrides(initial=initial, **changes)
+    n = max(int(round(sc.duration / sc.Ts)), 1)
     with _progress(n, "simulating") as prog:
-        res = run_sim(
-            ctrl, p_plant, q0=(0.0, theta0, alpha0), qdot0=(v0 / p_plant.r, 0.0, 0.0),
-            duration=duration, Ts=Ts, dt=dt, mode=mode,  # type: ignore[arg-type]
-            disturbance=BOOK_SINUSOIDS if disturbance == "book" else None, progress=prog,
-        )  # fmt: skip
+        res = sc.run(progress=prog)
+    mode, Ts = sc.mode, sc.Ts
     summary: dict[str, Any] = dict(res.summary())
     summary.update(
-        controller=controller,
+        controller=sc.controller,
         mode=mode,
         Ts=Ts,
         dt=res.settings["dt"],
