@@ -1,6 +1,6 @@
-"""Atomic file output: a reader never sees a half-written file.
+"""File I/O: TOML input with one-line errors, and atomic output.
 
-Every writer goes through a temporary file in the destination folder followed by
+A reader never sees a half-written file: every writer goes through a temporary file in the destination folder followed by
 ``os.replace``, so an interrupted or failed write leaves any previous file untouched.
 """
 
@@ -9,11 +9,12 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import tomllib
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["write_atomic", "write_text_atomic", "write_json_atomic"]
+__all__ = ["write_atomic", "write_text_atomic", "write_json_atomic", "read_toml"]
 
 
 def write_atomic(path: str | os.PathLike[str], writer: Callable[[IO[bytes]], None]) -> Path:
@@ -39,3 +40,18 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
 def write_json_atomic(path: str | os.PathLike[str], data: Any) -> Path:
     """Write JSON (indented, keys in insertion order) atomically."""
     return write_text_atomic(path, json.dumps(data, indent=2, allow_nan=True) + "\n")
+
+
+def read_toml(path: str | os.PathLike[str], what: str) -> dict[str, Any]:
+    """Parse a TOML file; a missing or malformed file is a one-line ``ValueError``.
+
+    ``what`` names the file's role in the message (e.g. ``"scenario file"``).
+    """
+    p = Path(path)
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise ValueError(f"{what} {str(p)!r} does not exist") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{what} {str(p)!r} is not valid TOML: {exc}") from None

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
@@ -41,7 +40,7 @@ from typing import Any
 import numpy as np
 import tomli_w
 
-from mwip.io import write_text_atomic
+from mwip.io import read_toml, write_text_atomic
 
 __all__ = [
     "Params",
@@ -280,13 +279,7 @@ def load_params(path: str | os.PathLike[str], *, base: Params | None = None) -> 
     key ``base``.
     """
     p = Path(path)
-    try:
-        with p.open("rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ValueError(f"parameter file {str(p)!r} does not exist") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"parameter file {str(p)!r} is not valid TOML: {exc}") from None
+    data = read_toml(p, "parameter file")
     if "params" in data and isinstance(data["params"], dict):
         extra = {k: v for k, v in data.items() if k not in ("params", "base")}
         if extra:

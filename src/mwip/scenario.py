@@ -36,12 +36,12 @@ one-line ``ValueError`` naming the field.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from mwip.io import read_toml
 from mwip.params import NOMINAL, REAL, Params, load_params
 from mwip.sim.disturbance import Disturbance, disturbance_from_dict
 
@@ -151,13 +151,7 @@ class Scenario:
 def load_scenario(path: str | Path) -> Scenario:
     """Read a scenario TOML file; errors name the table and key."""
     p = Path(path)
-    try:
-        with p.open("rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ValueError(f"scenario file {str(p)!r} does not exist") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"scenario file {str(p)!r} is not valid TOML: {exc}") from None
+    data = read_toml(p, "scenario file")
     allowed = {"scenario", "plant", "design", "initial", "disturbance"}
     unknown = sorted(set(data) - allowed)
     if unknown:
