@@ -219,3 +219,23 @@ def test_deterministic():
     a = simulate(ctrl, REAL, q0=(0, 0.1, 0), duration=1, seed=3)
     b = simulate(ctrl, REAL, q0=(0, 0.1, 0), duration=1, seed=3)
     np.testing.assert_array_equal(a.states, b.states)
+
+
+def test_threaded_kernel_equals_serial():
+    from mwip.sim.kernel import advance_parallel
+
+    rng = np.random.default_rng(7)
+    n = 300
+    y0 = np.zeros((n, 8))
+    y0[:, 1] = rng.uniform(-0.3, 0.3, n)
+    y0[:, 3:6] = rng.uniform(-1, 1, (n, 3))
+    u = rng.uniform(-0.2, 0.2, (n, 2))
+    coef = coefficients(stack_params([REAL, NOMINAL] * (n // 2)))
+    tau = rng.uniform(-0.05, 0.05, (11, n, 3))
+    outs = []
+    for fn in (advance, advance_parallel):
+        y, st, te = y0.copy(), np.zeros(n, np.int64), np.zeros(n)
+        running = fn(y, u, tau, coef, 5e-4, 10, st, 0.0, te)
+        outs.append((y, st, running))
+    np.testing.assert_array_equal(outs[0][0], outs[1][0])
+    assert outs[0][2] == outs[1][2] == n

@@ -446,7 +446,8 @@ def reproduce(out: Path, quick: bool, list_only: bool) -> None:
         for name, (_, source) in STUDIES.items():
             click.echo(f"{name:24s} {source}")
         return
-    for name in STUDIES:
+    for i, name in enumerate(STUDIES, 1):
+        click.echo(f"[{i}/{len(STUDIES)}] running {name} ...", err=True)
         _report(name, run_study(name, out, quick=quick), out)
 
 
