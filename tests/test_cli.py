@@ -143,3 +143,15 @@ def test_design_hodo_errors(capsys, args, code, needle):
     assert main(["design", "hodo", *args]) == code
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and needle in err and "Traceback" not in err
+
+
+def test_check_smc(capsys):
+    assert main(["check", "smc", "--lambdas", "3,0.2,0.3,3"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("ok  ") == 9 and "FAIL" not in out
+    assert main(["check", "smc", "--lambdas", "3,1.0,0.3", "--json"]) == 1
+    doc = json.loads(capsys.readouterr().out)
+    failed = [c["name"] for c in doc["conditions"] if not c["holds"]]
+    assert "(3.52a)" in failed and doc["ok"] is False
+    assert main(["check", "smc", "--lambdas", "3,-1,0.3"]) == 2
+    assert "--lambdas" in capsys.readouterr().err

@@ -11,7 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from mwip.studies import do_comparison, lqr_gain
+from mwip.studies import do_comparison, hodosmc_vs_smc, lqr_gain
 
 __all__ = ["STUDIES", "Study"]
 
@@ -21,6 +21,7 @@ Study = Callable[..., dict[str, Any]]
 STUDIES: dict[str, tuple[Study, str]] = {
     "lqr-gain": (lqr_gain.run, lqr_gain.SOURCE),
     "do-comparison": (do_comparison.run, do_comparison.SOURCE),
+    "hodosmc-vs-smc": (hodosmc_vs_smc.run, hodosmc_vs_smc.SOURCE),
 }
 
 
