@@ -384,14 +384,29 @@ def _floats(text: str, hint: str) -> tuple[float, ...]:
 
 
 @check.command("smc")
-@click.option("--lambdas", required=True,
-              help="l1,l2,l3[,l4] of the surface (3.49), e.g. 3,0.2,0.3,3.")
-@click.option("--theta-max", type=float, default=0.35, show_default=True,
-              help="Operating range |theta| <= THETA_MAX (rad) over which to check.")
-@click.option("--damping/--no-damping", default=False, show_default=True,
-              help="Include the wheel damping Dw that the book's (3.58) omits.")
-@click.option("--params", "params_name", default="nominal", show_default=True,
-              help="real, nominal or a TOML file.")
+@click.option(
+    "--lambdas", required=True, help="l1,l2,l3[,l4] of the surface (3.49), e.g. 3,0.2,0.3,3."
+)
+@click.option(
+    "--theta-max",
+    type=float,
+    default=0.35,
+    show_default=True,
+    help="Operating range |theta| <= THETA_MAX (rad) over which to check.",
+)
+@click.option(
+    "--damping/--no-damping",
+    default=False,
+    show_default=True,
+    help="Include the wheel damping Dw that the book's (3.58) omits.",
+)
+@click.option(
+    "--params",
+    "params_name",
+    default="nominal",
+    show_default=True,
+    help="real, nominal or a TOML file.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def check_smc_cmd(
     lambdas: str, theta_max: float, damping: bool, params_name: str, as_json: bool
@@ -454,8 +469,17 @@ def params_save(which: str, path: Path) -> None:
 
 
 # ---------------------------------------------------------------------------------------------
+@cli.command("list")
+def list_cmd() -> None:
+    """List the studies with their book sources."""
+    from mwip.studies import STUDIES
+
+    for name, (_, source) in STUDIES.items():
+        click.echo(f"{name:24s} {source}")
+
+
 @cli.command("run")
-@click.argument("study")
+@click.argument("studies", nargs=-1, required=True)
 @click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
@@ -464,14 +488,17 @@ def params_save(which: str, path: Path) -> None:
     help="Output folder; the study writes OUT/<study>/.",
 )
 @click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
-def run_cmd(study: str, out: Path, quick: bool) -> None:
-    """Run one study (see `mwip reproduce --list`)."""
+def run_cmd(studies: tuple[str, ...], out: Path, quick: bool) -> None:
+    """Run one or more studies (see `mwip list`)."""
     from mwip.studies import STUDIES, run_study
 
-    if study not in STUDIES:
-        raise click.BadParameter(f"unknown study {study!r}; choose from: {', '.join(STUDIES)}",
-                                 param_hint="STUDY")  # fmt: skip
-    _report(study, run_study(study, out, quick=quick), out)
+    for study in studies:
+        if study not in STUDIES:
+            raise click.BadParameter(
+                f"unknown study {study!r}; choose from: {', '.join(STUDIES)}", param_hint="STUDY"
+            )
+    for study in studies:
+        _report(study, run_study(study, out, quick=quick), out)
 
 
 def _report(name: str, doc: dict[str, Any], out: Path) -> None:
