@@ -36,7 +36,7 @@ from matplotlib.figure import Figure
 from mwip.control.lqr import LQR, design_lqr
 from mwip.io import write_atomic
 from mwip.metrics import rms
-from mwip.models.reduced import accelerations, f_g, mass_matrix
+from mwip.models.reduced import accelerations, lumped_disturbance, mass_matrix
 from mwip.observers import HighOrderDO
 from mwip.observers.bank import ObservedController
 from mwip.observers.design import published_gain_sets
@@ -61,9 +61,7 @@ def actual_lumped_disturbance(res: SimResult) -> np.ndarray:
     q, qd, u = res.q, res.q_dot, res.u
     u_prev = np.vstack([u[:1], u[:-1]])
     acc = accelerations(REAL, q, qd, u_prev, BOOK_SINUSOIDS(res.t))
-    F, G = f_g(NOMINAL, q, qd)
-    uab = np.column_stack([u_prev[:, 0] + u_prev[:, 1], u_prev[:, 0] - u_prev[:, 1]])
-    return acc - F - np.einsum("kij,kj->ki", G, uab)
+    return lumped_disturbance(NOMINAL, q, qd, acc, u_prev)
 
 
 def predicted_rms(v: tuple[float, ...]) -> np.ndarray:
