@@ -120,6 +120,11 @@ class Params:
                     f"parameter {f.name!r} must be finite and in {_range_text(f.name)}, got {raw!r}"
                 )
             object.__setattr__(self, f.name, float(value) if value.ndim == 0 else value)
+        try:
+            shape = np.broadcast_shapes(*(np.shape(getattr(self, f.name)) for f in fields(self)))
+        except ValueError:
+            raise ValueError("parameter arrays must have broadcastable shapes") from None
+        object.__setattr__(self, "_batch_shape", shape)  # derived once: fields are frozen
 
     # ---- derived coefficients of (2.32) --------------------------------------------------
     @property
@@ -155,7 +160,7 @@ class Params:
     @property
     def batch_shape(self) -> tuple[int, ...]:
         """Common broadcast shape of the fields: ``()`` for a single robot."""
-        return np.broadcast_shapes(*(np.shape(getattr(self, f.name)) for f in fields(self)))
+        return self._batch_shape  # type: ignore[attr-defined, no-any-return]
 
     # ---- conversions ----------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:

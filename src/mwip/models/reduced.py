@@ -34,6 +34,7 @@ row and the ``psi' al'`` term of the third exchange no power (see :func:`energy`
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -51,6 +52,7 @@ __all__ = [
     "input_forces",
     "accelerations",
     "f_g",
+    "f_g_terms",
     "lumped_disturbance",
     "energy",
     "input_power",
@@ -70,6 +72,14 @@ def coefficients(p: Params) -> NDArray[np.float64]:
         [np.broadcast_to(np.asarray(getattr(p, n), dtype=float), shape) for n in COEFF_NAMES],
         axis=-1,
     )
+
+
+@functools.lru_cache(maxsize=64)
+def _scalar_coefficients(p: Params) -> NDArray[np.float64]:
+    """:func:`coefficients` of one robot (hashable frozen ``Params``), cached: read-only."""
+    c = coefficients(p)
+    c.flags.writeable = False
+    return c
 
 
 # ---------------------------------------------------------------------------------------------
@@ -241,36 +251,20 @@ def f_g(
     They agree with solving the mass matrix of (2.33) (tested). Controllers and observers
     call this with the *nominal* parameters.
     """
-    th = _split(q, 3, "q")[..., 1]
+    qq = _split(q, 3, "q")
     qd = _split(qdot, 3, "qdot")
-    psid, thd, ald = qd[..., 0], qd[..., 1], qd[..., 2]
-    s, c = np.sin(th), np.cos(th)
-    m11, m12, m22, Ibl, Gb = p.m11, p.m12, p.m22, p.Ibl, p.Gb
-    d1 = m11 * m22 - m12**2 * c**2  # Delta_1 > 0
-    d2 = p.m33 + Ibl * s**2  # Delta_2
-    rel = thd - psid
-    f1 = (
-        m12 * m22 * s * (thd**2 + ald**2)
-        - m12 * Ibl * s * c**2 * ald**2
-        - m12 * Gb * s * c
-        + 2.0 * (m22 + m12 * c) * p.Db * rel
-        - 2.0 * m22 * p.Dw * psid
-    ) / d1
-    f2 = (
-        m11 * Ibl * s * c * ald**2
-        + m11 * Gb * s
-        - m12**2 * s * c * (thd**2 + ald**2)
-        - 2.0 * (m11 + m12 * c) * p.Db * rel
-        + 2.0 * m12 * c * p.Dw * psid
-    ) / d1
-    f3 = (
-        -2.0 * Ibl * s * c * thd * ald
-        - m12 * s * psid * ald
-        - 2.0 * p.b**2 / p.r**2 * (p.Db + p.Dw) * ald
-    ) / d2
-    g1 = (m22 + m12 * c) / d1
-    g2 = -(m11 + m12 * c) / d1
-    g3 = p.b / p.r / d2
+    if qq.ndim == 2 and qd.shape == qq.shape and not p.batch_shape:
+        # the hot path of every model-based controller: one compiled loop over the batch
+        from mwip.models._compiled import f_g_batch
+
+        F = np.empty(qq.shape)
+        G = np.zeros((qq.shape[0], 3, 2))
+        f_g_batch(_scalar_coefficients(p), np.ascontiguousarray(qq), np.ascontiguousarray(qd), F, G)
+        return F, G
+    f1, f2, f3, g1, g2, g3 = f_g_terms(
+        p.m11, p.m12, p.m22, p.m33, p.Ibl, p.Gb, p.Db, p.Dw, p.b, p.r,
+        qq[..., 1], qd[..., 0], qd[..., 1], qd[..., 2],
+    )  # fmt: skip
     F = np.stack(np.broadcast_arrays(f1, f2, f3), axis=-1)
     g1, g2, g3 = np.broadcast_arrays(g1, g2, g3)
     G = np.zeros((*g1.shape, 3, 2))
@@ -278,6 +272,43 @@ def f_g(
     G[..., 1, 0] = g2
     G[..., 2, 1] = g3
     return F, G
+
+
+def f_g_terms(
+    m11: Any, m12: Any, m22: Any, m33: Any, Ibl: Any, Gb: Any, Db: Any, Dw: Any, b: Any, r: Any,
+    th: Any, psid: Any, thd: Any, ald: Any,
+) -> tuple[Any, Any, Any, Any, Any, Any]:  # fmt: skip
+    """The closed forms ``f1, f2, f3, g1, g2, g3`` of (2.36) (see :func:`f_g`).
+
+    Scalar kernel: NumPy-vectorised on arrays and compiled by Numba for the batch loop of
+    :func:`f_g`, so the equations exist once.
+    """
+    s = np.sin(th)
+    c = np.cos(th)
+    d1 = m11 * m22 - m12 * m12 * c * c  # Delta_1 > 0
+    d2 = m33 + Ibl * s * s  # Delta_2
+    rel = thd - psid
+    v2 = thd * thd + ald * ald
+    f1 = (
+        m12 * m22 * s * v2
+        - m12 * Ibl * s * c * c * ald * ald
+        - m12 * Gb * s * c
+        + 2.0 * (m22 + m12 * c) * Db * rel
+        - 2.0 * m22 * Dw * psid
+    ) / d1
+    f2 = (
+        m11 * Ibl * s * c * ald * ald
+        + m11 * Gb * s
+        - m12 * m12 * s * c * v2
+        - 2.0 * (m11 + m12 * c) * Db * rel
+        + 2.0 * m12 * c * Dw * psid
+    ) / d1
+    f3 = (-2.0 * Ibl * s * c * thd * ald - m12 * s * psid * ald
+          - 2.0 * b * b / (r * r) * (Db + Dw) * ald) / d2  # fmt: skip
+    g1 = (m22 + m12 * c) / d1
+    g2 = -(m11 + m12 * c) / d1
+    g3 = b / r / d2
+    return f1, f2, f3, g1, g2, g3
 
 
 def lumped_disturbance(
