@@ -184,3 +184,12 @@ def test_planar_energy_on_slope_conserved():
     E = planar.energy(pp, s[:2].T, s[2:].T, slope)
     assert np.abs(E - E[0]).max() / np.abs(E).max() < 1e-9
     assert s[0, -1] < -1.0  # it rolls down the slope (gravity along the slope is felt)
+
+
+def test_compiled_and_numpy_f_g_agree(rng):
+    """f_g has a compiled batch loop (2-D inputs, one robot) and a NumPy path (any shape)."""
+    q, qd, _, _ = random_states(rng)
+    F, G = reduced.f_g(NOMINAL, q, qd)  # compiled
+    F3, G3 = reduced.f_g(NOMINAL, q[:, None, :], qd[:, None, :])  # NumPy broadcasting path
+    np.testing.assert_allclose(F, F3[:, 0], rtol=1e-13, atol=1e-12)
+    np.testing.assert_allclose(G, G3[:, 0], rtol=1e-13, atol=1e-12)
