@@ -1,7 +1,8 @@
 """File I/O: TOML input with one-line errors, and atomic output.
 
-A reader never sees a half-written file: every writer goes through a temporary file in the destination folder followed by
-``os.replace``, so an interrupted or failed write leaves any previous file untouched.
+A reader never sees a half-written file: every writer goes through a temporary file in the
+destination folder followed by ``os.replace``, so an interrupted or failed write leaves any
+previous file untouched.
 """
 
 from __future__ import annotations
