@@ -11,7 +11,16 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from mwip.studies import do_comparison, hodosmc_vs_smc, lqr_gain
+from mwip.studies import (
+    asta_balance,
+    asta_velocity,
+    do_comparison,
+    hodosmc_vs_smc,
+    lqr_gain,
+    tsmc_circle,
+    tsmc_equilibrium,
+    tsmc_velocity,
+)
 
 __all__ = ["STUDIES", "Study"]
 
@@ -22,6 +31,11 @@ STUDIES: dict[str, tuple[Study, str]] = {
     "lqr-gain": (lqr_gain.run, lqr_gain.SOURCE),
     "do-comparison": (do_comparison.run, do_comparison.SOURCE),
     "hodosmc-vs-smc": (hodosmc_vs_smc.run, hodosmc_vs_smc.SOURCE),
+    "asta-balance": (asta_balance.run, asta_balance.SOURCE),
+    "asta-velocity": (asta_velocity.run, asta_velocity.SOURCE),
+    "tsmc-equilibrium": (tsmc_equilibrium.run, tsmc_equilibrium.SOURCE),
+    "tsmc-velocity": (tsmc_velocity.run, tsmc_velocity.SOURCE),
+    "tsmc-circle": (tsmc_circle.run, tsmc_circle.SOURCE),
 }
 
 

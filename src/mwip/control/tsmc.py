@@ -1,0 +1,320 @@
+"""Terminal sliding-mode control (TSMC) with augmented sliding surfaces, Section 4.3.
+
+The model (2.31)/(4.24) in ``x = [theta', v, alpha']`` is obtained from the reduced model
+(2.36) by the change of variables ``v = r psi'`` (nominal parameters, :func:`model_2_31`)::
+
+    theta'' = f2 + g2 u_A,   v' = r (f1 + g1 u_A),   alpha'' = f3 + g3 u_B,
+
+with ``u_A = u_r + u_l``, ``u_B = u_r - u_l``. In the wheel torques ``tau = [u_r, u_l]`` the
+rows of ``G`` are ``[g2, g2]``, ``[r g1, r g1]`` and ``[g3, -g3]``. The TSMC acts on the
+subsystem (4.26)-(4.27) ``x1 = [theta', alpha']``, ``F1 = [f2, f3]``,
+``G1 = [[g2, g2], [g3, -g3]]`` (invertible whenever ``g2, g3 != 0``).
+
+Sliding surface (4.30) (Park and Tsuji), per channel ``i`` (``e = [theta - theta*, alpha -
+alpha*(t)]``, ``a_i(t)`` the augmenting function the book writes ``v_i(t)``)::
+
+    s_i = e_i' + c_i e_i - a_i' - c_i a_i.
+
+The printed (4.31) drops ``- a_1'`` in ``s_1`` and flips the sign of ``c_2 (alpha - alpha*)``
+in ``s_2``; both are extraction/typesetting slips: we use (4.30) for both channels (which is
+also what (4.36) writes), so that ``s = 0`` means ``(e - a)' + C (e - a) = 0``.
+
+Augmenting functions (4.43): cubics with ``a(0) = e(0)``, ``a'(0) = e'(0)`` and
+``a(T_f) = a'(T_f) = 0``, zero after ``T_f``. Hence ``s(0) = 0`` by construction and, while
+``s = 0``, ``e(t) = a(t)``: the errors reach zero at ``T_f`` (finite time) and stay there.
+
+Control law (4.32), with ``x_d'' `` the target accelerations (zero unless the yaw target
+accelerates)::
+
+    tau = G1^-1 [ -F1 - C e' + a'' + C a' - k sw(s) ],
+    k   = (I - D)^-1 ( F~ + D |F1 + C e' - a'' - C a'| + Gamma ),
+
+everything nominal. ``F~`` bounds ``|F - F^|`` (4.28); the book sets ``F~ = 0.8 F^`` (or
+``0.9 F^``), read element-wise as ``F~_i = rho |f^_i|`` (a bound must be non-negative).
+``D`` bounds the input-gain uncertainty ``G = (I + Delta) G^``, ``|Delta_ij| <= D_ij`` (4.29).
+``sw`` is the saturation ``sat(s / phi)`` (the book's simulations, Section 4.4.2) or ``sgn``.
+
+Speed. The TSMC does not act on ``v``: ``v`` obeys the internal dynamics (4.35)/(4.37). On
+this plant (``Dw`` used as rotational damping, SPEC.md section 2) summing the wheel and pitch
+rows of (2.33) gives at any steady motion ``2 Dw psi' = sin(theta) (Gb + (m12 + Ibl cos
+theta) alpha'^2)``: a non-zero speed needs a lean. :func:`lean_for_speed` gives that lean (the
+equilibrium of (4.40)); ``TSMC(..., v_ref=...)`` uses it as the pitch target (``speed="lean"``).
+See docs/chapter4.md for why the book's ``v -> v*`` with ``theta -> 0`` cannot hold here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mwip.control.switching import Switching
+from mwip.models.reduced import f_g
+from mwip.params import NOMINAL, Params
+from mwip.sim.sensors import Measurement
+
+__all__ = [
+    "model_2_31",
+    "subsystem",
+    "cubic_coefficients",
+    "augmenting",
+    "tsmc_surface",
+    "tsmc_gain",
+    "tsmc_law",
+    "lean_for_speed",
+    "TSMC",
+]
+
+
+def model_2_31(
+    p: Params, q: ArrayLike, qdot: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``F`` (..., 3) and ``G`` (..., 3, 2) of (2.31)/(4.24) in ``x = [theta', v, alpha']``.
+
+    ``x' = F + G tau`` with ``tau = [u_r, u_l]``; derived from (2.36) with ``v = r psi'``.
+    """
+    F36, G36 = f_g(p, q, qdot)
+    f1, f2, f3 = F36[..., 0], F36[..., 1], F36[..., 2]
+    g1, g2, g3 = G36[..., 0, 0], G36[..., 1, 0], G36[..., 2, 1]
+    r = p.r
+    F = np.stack([f2, r * f1, f3], axis=-1)
+    G = np.zeros((*F.shape[:-1], 3, 2))
+    G[..., 0, 0] = G[..., 0, 1] = g2
+    G[..., 1, 0] = G[..., 1, 1] = r * g1
+    G[..., 2, 0] = g3
+    G[..., 2, 1] = -g3
+    return F, G
+
+
+def subsystem(
+    p: Params, q: ArrayLike, qdot: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``F1`` (..., 2), ``G1`` (..., 2, 2) of subsystem (4.26)/(4.27), ``[theta', alpha']``."""
+    F, G = model_2_31(p, q, qdot)
+    return F[..., [0, 2]], G[..., [0, 2], :]
+
+
+def cubic_coefficients(e0: ArrayLike, ed0: ArrayLike, Tf: float) -> NDArray[np.float64]:
+    """Coefficients ``[a0, a1, a2, a3]`` (..., 4) of the augmenting cubic (4.43).
+
+    ``a0 = e(0)``, ``a1 = e'(0)``, ``a2 = -3 e(0)/T_f^2 - 2 e'(0)/T_f``,
+    ``a3 = 2 e(0)/T_f^3 + e'(0)/T_f^2``, so that ``a(T_f) = a'(T_f) = 0``.
+    """
+    if not (np.isfinite(Tf) and Tf > 0):
+        raise ValueError(f"T_f must be finite and in (0, inf), got {Tf!r}")
+    e0 = np.asarray(e0, dtype=float)
+    ed0 = np.asarray(ed0, dtype=float)
+    return np.stack(
+        np.broadcast_arrays(
+            e0, ed0, -3.0 * e0 / Tf**2 - 2.0 * ed0 / Tf, 2.0 * e0 / Tf**3 + ed0 / Tf**2
+        ),
+        axis=-1,
+    )
+
+
+def augmenting(
+    t: float, coeffs: ArrayLike, Tf: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Augmenting function (4.43) and its first two derivatives at time ``t``: ``(a, a', a'')``.
+
+    Zero for ``t > T_f`` (the cubic and its slope reach zero at ``T_f``; ``a''`` jumps there).
+    """
+    c = np.asarray(coeffs, dtype=float)
+    if t > Tf:
+        z = np.zeros(c.shape[:-1])
+        return z, z.copy(), z.copy()
+    a0, a1, a2, a3 = c[..., 0], c[..., 1], c[..., 2], c[..., 3]
+    return (
+        a0 + a1 * t + a2 * t**2 + a3 * t**3,
+        a1 + 2.0 * a2 * t + 3.0 * a3 * t**2,
+        2.0 * a2 + 6.0 * a3 * t,
+    )
+
+
+def tsmc_surface(
+    e: ArrayLike, e_dot: ArrayLike, a: ArrayLike, a_dot: ArrayLike, C: ArrayLike
+) -> NDArray[np.float64]:
+    """Augmented sliding surface (4.30)/(4.31): ``s = e' + C e - a' - C a``, shape (..., 2).
+
+    ``C`` is the diagonal ``[c1, c2]``.
+    """
+    C = np.asarray(C, dtype=float)
+    e, e_dot = np.asarray(e, dtype=float), np.asarray(e_dot, dtype=float)
+    return e_dot + C * e - np.asarray(a_dot, dtype=float) - C * np.asarray(a, dtype=float)
+
+
+def tsmc_gain(
+    F1: ArrayLike, nominal_term: ArrayLike, Ftilde_ratio: float, D: ArrayLike, Gamma: ArrayLike
+) -> NDArray[np.float64]:
+    """Switching gain of (4.32): ``k = (I - D)^-1 (F~ + D |F1 + C e' - a'' - C a'| + Gamma)``.
+
+    ``nominal_term`` is ``F1 + C e' - a'' - C a'`` (..., 2); ``F~ = Ftilde_ratio |F1|``;
+    ``D`` is (2, 2) with ``||D|| < 1`` (4.29); ``Gamma`` is (2,). Returns (..., 2).
+    """
+    D = np.asarray(D, dtype=float)
+    F1 = np.asarray(F1, dtype=float)
+    rhs = (
+        Ftilde_ratio * np.abs(F1)
+        + np.abs(np.asarray(nominal_term, dtype=float)) @ D.T
+        + np.asarray(Gamma, dtype=float)
+    )
+    return rhs @ _inv2(np.eye(2) - D).T
+
+
+def _inv2(A: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Closed-form inverse of (..., 2, 2) matrices."""
+    a, b, c, d = A[..., 0, 0], A[..., 0, 1], A[..., 1, 0], A[..., 1, 1]
+    det = a * d - b * c
+    out = np.empty_like(A)
+    out[..., 0, 0], out[..., 0, 1] = d / det, -b / det
+    out[..., 1, 0], out[..., 1, 1] = -c / det, a / det
+    return out
+
+
+def tsmc_law(
+    F1: ArrayLike,
+    G1: ArrayLike,
+    e_dot: ArrayLike,
+    a_dot: ArrayLike,
+    a_ddot: ArrayLike,
+    xd_ddot: ArrayLike,
+    C: ArrayLike,
+    k: ArrayLike,
+    switch: ArrayLike,
+) -> NDArray[np.float64]:
+    """Control law (4.32): ``tau = G1^-1 [-F1 - C e' + a'' + C a' + x_d'' - k sw(s)]``.
+
+    ``switch`` is ``sw(s)`` (..., 2); ``x_d''`` the target accelerations (zero for constant
+    targets). Returns the wheel torques ``[u_r, u_l]`` (..., 2).
+    """
+    C = np.asarray(C, dtype=float)
+    w = (
+        -np.asarray(F1, dtype=float)
+        - C * np.asarray(e_dot, dtype=float)
+        + np.asarray(a_ddot, dtype=float)
+        + C * np.asarray(a_dot, dtype=float)
+        + np.asarray(xd_ddot, dtype=float)
+        - np.asarray(k, dtype=float) * np.asarray(switch, dtype=float)
+    )
+    return np.einsum("...ij,...j->...i", _inv2(np.asarray(G1, dtype=float)), w)
+
+
+def lean_for_speed(p: Params, v: float, alpha_dot: float = 0.0) -> float:
+    """Pitch at which the internal dynamics (4.35)/(4.40) hold a constant speed ``v``.
+
+    Steady motion (``theta, v, alpha'`` constant) of (2.33): adding the wheel and pitch rows,
+    ``2 Dw v / r = sin(theta) (Gb + (m12 + Ibl cos theta) alpha'^2)``; solved with
+    ``cos theta ~ 1`` in the small centrifugal term. Returns ``nan`` when no lean can hold the
+    speed (``|sin theta| > 1``): the wheel-ground damping exceeds what gravity can supply.
+    """
+    s = 2.0 * p.Dw * v / p.r / (p.Gb + (p.m12 + p.Ibl) * alpha_dot**2)
+    return float(np.arcsin(s)) if abs(s) <= 1.0 else float("nan")
+
+
+class TSMC:
+    """Terminal SMC (4.30)-(4.32), (4.43) for a batch of robots (nominal model).
+
+    Parameters
+    ----------
+    C : (c1, c2), the surface slopes (book: 2.5 I, or diag(2.5, 0.5)).
+    Gamma : (gamma1, gamma2), the reaching margins (book: 10 I, [5, 20], 5 I).
+    D : scalar or (2, 2), the input-gain uncertainty bound (book: 0.4 I).
+    Ftilde_ratio : ``F~ = Ftilde_ratio |F^|`` (book: 0.8 or 0.9).
+    Tf : time by which the augmenting functions (and so the errors) reach zero (book: 1 s).
+    switching : ``Switching("sat", phi)`` (book, Section 4.4.2) or ``Switching("sign")``.
+    theta_ref, alpha_ref, alpha_dot_ref : targets ``theta*``, ``alpha*(0)``, ``alpha'*``; the
+        yaw target is the ramp ``alpha*(t) = alpha_ref + alpha_dot_ref t`` (circle motion).
+    v_ref, speed : with ``speed="lean"`` the pitch target is :func:`lean_for_speed` of
+        ``v_ref`` on the nominal parameters (clipped to ``theta_max``); ``speed="none"``
+        (default, the book) leaves ``v`` to the internal dynamics.
+    Ts : sample period (``None``: whatever the simulation uses; run it quasi-continuously).
+
+    Logs ``s`` (N, 2), ``k`` (N, 2), ``aug`` (N, 2) (the augmenting functions).
+    """
+
+    static = True  # a fixed function of (t, measurement) once reset() fitted the cubics
+
+    def __init__(
+        self,
+        params: Params = NOMINAL,
+        *,
+        C: ArrayLike = (2.5, 2.5),
+        Gamma: ArrayLike = (10.0, 10.0),
+        D: ArrayLike = 0.4,
+        Ftilde_ratio: float = 0.8,
+        Tf: float = 1.0,
+        switching: Switching | None = None,
+        theta_ref: float = 0.0,
+        alpha_ref: float = 0.0,
+        alpha_dot_ref: float = 0.0,
+        v_ref: float = 0.0,
+        speed: Literal["none", "lean"] = "none",
+        theta_max: float = 0.5,
+        Ts: float | None = None,
+    ) -> None:
+        self.params = params
+        self.C = np.broadcast_to(np.asarray(C, dtype=float), (2,)).copy()
+        self.Gamma = np.broadcast_to(np.asarray(Gamma, dtype=float), (2,)).copy()
+        D = np.asarray(D, dtype=float)
+        self.D = D * np.eye(2) if D.ndim == 0 else D.reshape(2, 2)
+        if np.any(self.C <= 0) or np.any(self.Gamma <= 0):
+            raise ValueError("C and Gamma must be positive")
+        if np.any(self.D < 0) or np.linalg.norm(self.D, 2) >= 1.0:
+            raise ValueError("D must be non-negative with norm < 1 (4.29)")
+        if not Ftilde_ratio >= 0:
+            raise ValueError(f"Ftilde_ratio must be >= 0, got {Ftilde_ratio!r}")
+        if speed not in ("none", "lean"):
+            raise ValueError(f"speed must be 'none' or 'lean', got {speed!r}")
+        self.Ftilde_ratio = float(Ftilde_ratio)
+        self.Tf = float(Tf)
+        cubic_coefficients(0.0, 0.0, self.Tf)  # validates Tf
+        self.switching = Switching("sat", 0.05) if switching is None else switching
+        self.speed = speed
+        self.v_ref = float(v_ref)
+        self.lean = float("nan")
+        if speed == "lean":
+            self.lean = lean_for_speed(params, self.v_ref, alpha_dot_ref)
+            th = self.lean if np.isfinite(self.lean) else np.sign(self.v_ref) * theta_max
+            theta_ref = float(np.clip(th, -theta_max, theta_max))
+        self.theta_ref = float(theta_ref)
+        self.alpha_ref = float(alpha_ref)
+        self.alpha_dot_ref = float(alpha_dot_ref)
+        self.Ts = Ts
+        self._coeffs: NDArray[np.float64] | None = None
+        self._log: dict[str, NDArray[np.float64]] = {}
+
+    def errors(
+        self, t: float, meas: Measurement
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``e = [theta - theta*, alpha - alpha*(t)]`` and ``e'`` (N, 2)."""
+        q, qd = meas.q, meas.qdot
+        e = np.column_stack(
+            [q[:, 1] - self.theta_ref, q[:, 2] - self.alpha_ref - self.alpha_dot_ref * t]
+        )
+        ed = np.column_stack([qd[:, 1], qd[:, 2] - self.alpha_dot_ref])
+        return e, ed
+
+    def reset(self, meas: Measurement) -> None:
+        """Fit the augmenting cubics (4.43) to the initial errors so that ``s(0) = 0``."""
+        e, ed = self.errors(meas.t, meas)
+        self._coeffs = cubic_coefficients(e, ed, self.Tf)
+        self._t0 = float(meas.t)
+
+    def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
+        if self._coeffs is None:
+            self.reset(meas)
+        assert self._coeffs is not None
+        e, ed = self.errors(t, meas)
+        a, ad, add = augmenting(t - self._t0, self._coeffs, self.Tf)
+        s = tsmc_surface(e, ed, a, ad, self.C)
+        F1, G1 = subsystem(self.params, meas.q, meas.qdot)
+        nominal_term = F1 + self.C * ed - add - self.C * ad
+        k = tsmc_gain(F1, nominal_term, self.Ftilde_ratio, self.D, self.Gamma)
+        u = tsmc_law(F1, G1, ed, ad, add, 0.0, self.C, k, self.switching(s))
+        self._log = {"s": s, "k": k, "aug": a}
+        return u
+
+    def log(self) -> Mapping[str, NDArray[np.float64]]:
+        return self._log

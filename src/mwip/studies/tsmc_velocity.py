@@ -1,0 +1,134 @@
+"""Study ``tsmc-velocity`` (Figs. 4.12-4.15): TSMC vs LQR, velocity control without yaw.
+
+Set-up (SPEC.md section 4): real plant, nominal design, ``alpha0 = 0.5``, ``theta0 = 0.1``,
+``v0 = 0``, desired ``theta = alpha = theta' = alpha' = 0``, ``v_d = 1`` m/s, 20 s. TSMC with
+``F~ = 0.9 |F^|``, ``C = diag(2.5, 0.5)``, ``Gamma = (5, 20)``, ``D = 0.4 I``, ``T_f = 1``,
+``sat(s / 0.05)``; LQR with the book's ``Q, R`` (continuous design) and the reference
+``x_ref = [0, 0, 0, v_d, 0]``. Both run in the engine's continuous mode (as
+:mod:`mwip.studies.tsmc_equilibrium`).
+
+The book's TSMC for this case has no speed input (its surfaces act on ``theta, alpha``); it
+claims ``v -> v_d`` from the internal dynamics (4.35)-(4.40). On this plant the steady state
+of (2.33) requires ``2 Dw psi' = Gb sin theta`` (no yaw), so ``theta -> 0`` forces
+``v -> 0`` for *any* controller, and ``v = 1`` m/s would need ``sin theta = 2 Dw v / (r Gb)
+= 25`` (real parameters): impossible. The claim is therefore reported with ``holds = false``.
+To show what the velocity result (4.40) does give, an extra run ``tsmc_lean`` asks for a
+feasible speed with the pitch target set to the lean of (4.40)'s equilibrium
+(:func:`mwip.control.tsmc.lean_for_speed`, nominal parameters, clipped to 0.5 rad).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mwip.control.lqr import LQR, design_lqr
+from mwip.control.switching import Switching
+from mwip.control.tsmc import TSMC, lean_for_speed
+from mwip.params import NOMINAL, REAL
+from mwip.studies.common import metrics_document, write_metrics
+from mwip.studies.tsmc_equilibrium import (
+    DT,
+    PHI,
+    TS_RECORD,
+    replay,
+    run_continuous,
+    save_npz,
+    state_figure,
+)  # fmt: skip
+
+SOURCE = "Figs. 4.12-4.15"
+THETA0, ALPHA0 = 0.1, 0.5
+V_D = 1.0
+#: A speed the real plant can hold (lean ~0.53 rad on the real parameters).
+V_FEASIBLE = 0.02
+
+
+def max_steady_speed(p: Any) -> float:
+    """Largest constant speed the plant can hold without yaw: ``r Gb / (2 Dw)`` (theta = 90 deg)."""
+    return float(p.r * p.Gb / (2.0 * p.Dw))
+
+
+def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
+    """Run the study into ``out/tsmc-velocity``; returns the metrics document."""
+    folder = Path(out) / "tsmc-velocity"
+    duration = 1.5 if quick else 20.0
+    init = {"q0": (0.0, THETA0, ALPHA0), "qdot0": (0.0, 0.0, 0.0)}
+    gains = {"C": (2.5, 0.5), "Gamma": (5.0, 20.0), "D": 0.4, "Ftilde_ratio": 0.9, "Tf": 1.0,
+             "switching": Switching("sat", PHI)}  # fmt: skip
+    tsmc = TSMC(NOMINAL, v_ref=V_D, **gains)  # type: ignore[arg-type]
+    lean = TSMC(NOMINAL, v_ref=V_FEASIBLE, speed="lean", **gains)  # type: ignore[arg-type]
+    lqr = LQR(design_lqr(NOMINAL, Ts=None), reference=(0.0, 0.0, 0.0, V_D, 0.0))
+    runs = {
+        "tsmc": run_continuous(tsmc, duration, **init),
+        "lqr": run_continuous(lqr, duration, **init),
+        "tsmc_lean": run_continuous(lean, duration, **init),
+    }
+    targets_v = {"tsmc": V_D, "lqr": V_D, "tsmc_lean": V_FEASIBLE}
+    metrics: dict[str, float] = {}
+    for name, res in runs.items():
+        metrics[f"{name}.final_v_err"] = float(abs(res.v[-1] - targets_v[name]))
+        metrics[f"{name}.final_theta"] = float(res.theta[-1])
+        metrics[f"{name}.final_v"] = float(res.v[-1])
+        metrics[f"{name}.final_alpha"] = float(res.alpha[-1])
+        metrics[f"{name}.max_abs_u"] = float(np.nanmax(np.abs(res.u)))
+        # steady-state balance of (2.33): 2 Dw psi' - Gb sin(theta) (real parameters)
+        psid = res.q_dot[-1, 0]
+        metrics[f"{name}.steady_balance_residual"] = float(
+            2.0 * REAL.Dw * psid - REAL.Gb * np.sin(res.theta[-1])
+        )
+    metrics["tsmc_lean.theta_target"] = lean.theta_ref
+    metrics["tsmc_lean.v_target"] = V_FEASIBLE
+    metrics["real.max_steady_speed"] = max_steady_speed(REAL)
+    metrics["real.sin_theta_needed_for_v_d"] = float(2 * REAL.Dw * V_D / (REAL.r * REAL.Gb))
+    published = {"tsmc.final_v_err": 0.0, "tsmc.final_theta": 0.0}
+    small = 0.02
+    t_ok = metrics["tsmc.final_v_err"] < small * V_D and abs(metrics["tsmc.final_theta"]) < small
+    l_ok = metrics["lqr.final_v_err"] < small * V_D and abs(metrics["lqr.final_theta"]) < small
+    claims = [
+        {"text": "TSMC reaches v_d = 1 m/s with theta -> 0 (book, Fig. 4.12): v within 2 % "
+                 "of v_d and |theta| < 0.02 rad at the end", "holds": bool(t_ok)},
+        {"text": "LQR cannot bring both v to v_d and theta to 0 (book, Fig. 4.14)",
+         "holds": bool(not l_ok)},
+        {"text": "TSMC brings theta and alpha to 0 (its surfaces' targets)",
+         "holds": bool(abs(metrics["tsmc.final_theta"]) < small
+                       and abs(metrics["tsmc.final_alpha"]) < small)},
+        {"text": "no controller can hold v_d = 1 m/s on this plant: a steady speed needs "
+                 "2 Dw psi' = Gb sin(theta), i.e. sin(theta) = "
+                 f"{metrics['real.sin_theta_needed_for_v_d']:.1f} > 1 (SPEC section 2 damping)",
+         "holds": bool(np.isnan(lean_for_speed(REAL, V_D)))},
+        {"text": f"with the pitch target from (4.40)'s equilibrium, TSMC holds the feasible "
+                 f"speed {V_FEASIBLE} m/s within 20 % (nominal-model lean, no speed feedback)",
+         "holds": bool(metrics["tsmc_lean.final_v_err"] < 0.2 * V_FEASIBLE)},
+    ]  # fmt: skip
+    doc = metrics_document(
+        "tsmc-velocity", SOURCE, metrics, published, claims,
+        {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
+        {"dt": DT, "Ts": TS_RECORD, "mode": "continuous (law inside the right-hand side)",
+         "duration": duration, "plant": "real", "design": "nominal", "seed": 0, "v_d": V_D,
+         "initial": {"theta0": THETA0, "alpha0": ALPHA0, "v0": 0.0},
+         "tsmc": {"C": [2.5, 0.5], "Gamma": [5.0, 20.0], "D": 0.4, "Ftilde_ratio": 0.9,
+                  "Tf": 1.0, "switching": f"sat(s/{PHI})", "speed": "none (book)"},
+         "tsmc_lean": {"v_ref": V_FEASIBLE, "theta_target": lean.theta_ref},
+         "lqr": "book Q, R, continuous design, reference [0, 0, 0, v_d, 0]",
+         "published_note": "published values read from Fig. 4.12 (v -> v_d, theta -> 0); "
+                           "the book prints no numbers"},
+    )  # fmt: skip
+    folder.mkdir(parents=True, exist_ok=True)
+    base = {"theta": 0.0, "theta_dot": 0.0, "alpha": 0.0, "alpha_dot": 0.0}
+    state_figure(runs["tsmc"], {**base, "v": V_D},
+                 "TSMC, velocity control without yaw (Figs. 4.12-4.13)",
+                 folder / "tsmc-velocity_tsmc.png")  # fmt: skip
+    state_figure(runs["lqr"], {**base, "v": V_D},
+                 "LQR, velocity control without yaw (Figs. 4.14-4.15)",
+                 folder / "tsmc-velocity_lqr.png")  # fmt: skip
+    state_figure(runs["tsmc_lean"], {**base, "theta": lean.theta_ref, "v": V_FEASIBLE},
+                 f"TSMC with the lean of (4.40) for v = {V_FEASIBLE} m/s (extra)",
+                 folder / "tsmc-velocity_tsmc_lean.png")  # fmt: skip
+    for name, res in runs.items():
+        res.to_npz(folder / f"{name}.npz")
+    save_npz(folder / "tsmc_sliding.npz", t=runs["tsmc"].t, **replay(tsmc, runs["tsmc"]))
+    write_metrics(folder, doc)
+    return doc
