@@ -239,3 +239,29 @@ def test_threaded_kernel_equals_serial():
         outs.append((y, st, running))
     np.testing.assert_array_equal(outs[0][0], outs[1][0])
     assert outs[0][2] == outs[1][2] == n
+
+
+class _Clip:
+    """A torque-limited drive: the simplest actuator."""
+
+    def __init__(self, limit):
+        self.limit = limit
+
+    def reset(self, n, seed=None):
+        self.n = n
+
+    def __call__(self, t, u_cmd, state):
+        return np.clip(u_cmd, -self.limit, self.limit)
+
+
+def test_actuator_hook_limits_applied_torque():
+    ctrl = LQR(design_lqr(NOMINAL, Ts=0.005))
+    free = simulate(ctrl, REAL, q0=(0, 0.3, 0), duration=2)
+    lim = simulate(ctrl, REAL, q0=(0, 0.3, 0), duration=2, actuator=_Clip(0.3))
+    applied = lim.series()["u_applied"]
+    assert np.abs(free.u).max() > 0.5 and np.abs(applied).max() <= 0.3 + 1e-12
+    assert np.abs(lim.u).max() > 0.3  # the command is recorded unclipped
+    k = min(len(free.t), len(lim.t))
+    assert np.abs(free.theta[:k] - lim.theta[:k]).max() > 1e-3
+    with pytest.raises(ValueError, match="actuator"):
+        simulate(LQR(design_lqr(NOMINAL, Ts=None)), REAL, mode="continuous", actuator=_Clip(1))

@@ -33,7 +33,7 @@ from mwip.params import REAL, Params
 from mwip.sim.disturbance import Disturbance
 from mwip.sim.kernel import DIVERGED, FELL, GAMMA, OK, STATUS_NAMES, advance_batch
 from mwip.sim.result import SimResult
-from mwip.sim.sensors import IdealSensor, Sensor
+from mwip.sim.sensors import Actuator, IdealSensor, Sensor
 
 if TYPE_CHECKING:
     from mwip.control.base import Controller
@@ -122,6 +122,7 @@ def simulate(
     mode: Literal["sampled", "continuous"] = "sampled",
     disturbance: Disturbance | None = None,
     sensor: Sensor | None = None,
+    actuator: Actuator | None = None,
     record_every: int = 1,
     seed: int | None = 0,
     progress: Callable[[int], None] | None = None,
@@ -148,6 +149,11 @@ def simulate(
         ``tau_ext(t)`` added to the plant's generalised forces (:mod:`mwip.sim.disturbance`).
     sensor : Sensor, optional
         Measurement model between plant and controller (default ideal).
+    actuator : Actuator, optional
+        Drive model between controller and plant (default ideal: the commanded torques are
+        applied). It maps the commanded ``u`` to the torque held over the sample and may use
+        the true state (it is part of the plant); the applied torque is logged as
+        ``u_applied``. Sampled mode only.
     record_every : int
         Record every ``record_every``-th sample (the last sample is always kept).
     seed : int, optional
@@ -182,6 +188,8 @@ def simulate(
     r = np.broadcast_to(np.asarray(plant.r, dtype=float), (n,)).copy()
     sensor = IdealSensor() if sensor is None else sensor
     sensor.reset(n, seed)
+    if actuator is not None:
+        actuator.reset(n, seed)
 
     settings: dict[str, Any] = {
         "mode": mode, "Ts": Ts, "dt": dt, "duration": duration, "integrator": "ROS2-W",
@@ -190,8 +198,8 @@ def simulate(
     if mode == "continuous":
         if not getattr(controller, "static", False):
             raise ValueError("mode='continuous' needs a static controller (controller.static)")
-        if not isinstance(sensor, IdealSensor):
-            raise ValueError("mode='continuous' supports only the ideal sensor")
+        if not isinstance(sensor, IdealSensor) or actuator is not None:
+            raise ValueError("mode='continuous' supports only the ideal sensor and actuator")
         return _simulate_continuous(
             controller, coef, r, y, n_samples, n_sub, Ts, dt, disturbance, sensor,
             record_every, batched, settings, progress,
@@ -221,10 +229,15 @@ def simulate(
         u = np.asarray(controller(t, meas), dtype=float)
         if u.shape != (n, 2):
             raise ValueError(f"controller returned u of shape {u.shape}, expected ({n}, 2)")
+        if actuator is not None:
+            u_applied = np.asarray(actuator(t, u, y), dtype=float)
         if row < n_rec and rec_idx[row] == k:
             states[:, row] = y
             us[:, row] = u
-            for name, val in (get_log() if get_log is not None else {}).items():
+            log = dict(get_log()) if get_log is not None else {}
+            if actuator is not None:
+                log["u_applied"] = u_applied
+            for name, val in log.items():
                 arr = np.asarray(val, dtype=float).reshape(n, -1)
                 if name not in logs:
                     logs[name] = np.full((n, n_rec, arr.shape[1]), np.nan)
@@ -233,7 +246,10 @@ def simulate(
         if k == n_samples:
             break
         tau = no_tau if disturbance is None else _tau_block(disturbance, t + sub_times, n)
-        running = advance_batch(y, np.ascontiguousarray(u), tau, coef, dt, n_sub, status, t, t_end)
+        u_hold = u if actuator is None else u_applied
+        running = advance_batch(
+            y, np.ascontiguousarray(u_hold), tau, coef, dt, n_sub, status, t, t_end
+        )
         if progress is not None:
             progress(1)
         if running == 0:

@@ -1,4 +1,4 @@
-"""What a controller sees: measurements taken at its sample instants.
+"""The plant's interfaces: what a controller sees (sensors) and what it drives (actuators).
 
 The engine calls a sensor ``sensor(t, state) -> Measurement`` at every sample instant; the
 controller gets only that :class:`Measurement`, never the plant or its parameters. The default
@@ -14,7 +14,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Measurement", "Sensor", "IdealSensor"]
+__all__ = ["Measurement", "Sensor", "IdealSensor", "Actuator"]
 
 
 @dataclass(frozen=True)
@@ -60,3 +60,18 @@ class IdealSensor:
 
     def __call__(self, t: float, state: NDArray[np.float64]) -> Measurement:
         return Measurement(t=t, y=state.copy())
+
+
+class Actuator(Protocol):
+    """A drive model: ``reset(n, seed)`` before a run, then at each sample
+    ``__call__(t, u_cmd, state) -> u_applied`` (N, 2), the wheel torques held over the sample.
+
+    It belongs to the plant, so it may use the true ``state`` (N, 8), e.g. the wheel speeds
+    for a motor's back-EMF; controllers never see it.
+    """
+
+    def reset(self, n: int, seed: int | None = None) -> None: ...
+
+    def __call__(
+        self, t: float, u_cmd: NDArray[np.float64], state: NDArray[np.float64]
+    ) -> NDArray[np.float64]: ...
