@@ -155,3 +155,20 @@ def test_check_smc(capsys):
     assert "(3.52a)" in failed and doc["ok"] is False
     assert main(["check", "smc", "--lambdas", "3,-1,0.3"]) == 2
     assert "--lambdas" in capsys.readouterr().err
+
+
+def test_reproduce_reports_a_failing_study_and_runs_the_others(tmp_path, capsys, monkeypatch):
+    import mwip.studies as studies
+
+    def good(out, quick=False):
+        return {"source": "test", "claims": [{"text": "x", "holds": True}],
+                "runs": {"a": {"status": "ok"}}}  # fmt: skip
+
+    def bad(out, quick=False):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(studies, "STUDIES", {"bad": (bad, "x"), "good": (good, "y")})
+    assert main(["reproduce", "--out", str(tmp_path), "--quick"]) == 1
+    cap = capsys.readouterr()
+    assert "bad: FAILED" in cap.err and "RuntimeError: boom" in cap.err
+    assert "good (test): claims 1/1 hold" in cap.out and "1/2 studies done" in cap.out

@@ -518,17 +518,78 @@ def _report(name: str, doc: dict[str, Any], out: Path) -> None:
 )
 @click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
 @click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
-def reproduce(out: Path, quick: bool, list_only: bool) -> None:
-    """Run every study on built-in defaults and write OUT/<study>/metrics.json for each."""
-    from mwip.studies import STUDIES, run_study
+@click.option(
+    "--jobs",
+    "-j",
+    type=int,
+    default=1,
+    show_default=True,
+    help="Studies run in parallel processes (0: one per CPU).",
+)
+def reproduce(out: Path, quick: bool, list_only: bool, jobs: int) -> None:
+    """Run every study on built-in defaults and write OUT/<study>/metrics.json for each.
+
+    A study that fails is reported with its error and does not stop the others; the exit
+    code is then 1.
+    """
+    import os
+    import time
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    from mwip.studies import STUDIES
 
     if list_only:
         for name, (_, source) in STUDIES.items():
             click.echo(f"{name:24s} {source}")
         return
-    for i, name in enumerate(STUDIES, 1):
-        click.echo(f"[{i}/{len(STUDIES)}] running {name} ...", err=True)
-        _report(name, run_study(name, out, quick=quick), out)
+    if jobs < 0 or jobs > 64:
+        raise click.BadParameter(f"must be in [0, 64], got {jobs}", param_hint="--jobs")
+    jobs = jobs or (os.cpu_count() or 1)
+    names = list(STUDIES)
+    t0 = time.perf_counter()
+    failed: list[str] = []
+
+    def done(name: str, result: tuple[dict[str, Any] | None, str | None, float]) -> None:
+        doc, error, wall = result
+        if doc is None:
+            failed.append(name)
+            click.echo(f"{name}: FAILED after {wall:.1f} s: {error}", err=True)
+        else:
+            _report(name, doc, out)
+            click.echo(f"  ({wall:.1f} s)")
+
+    if jobs == 1:
+        for i, name in enumerate(names, 1):
+            click.echo(f"[{i}/{len(names)}] running {name} ...", err=True)
+            done(name, _run_one(name, out, quick))
+    else:
+        with ProcessPoolExecutor(max_workers=min(jobs, len(names))) as pool:
+            futures = {pool.submit(_run_one, name, out, quick): name for name in names}
+            with click.progressbar(length=len(names), label="studies", file=sys.stderr) as bar:
+                for fut in as_completed(futures):
+                    done(futures[fut], fut.result())
+                    bar.update(1)
+    click.echo(f"{len(names) - len(failed)}/{len(names)} studies done in "
+               f"{time.perf_counter() - t0:.1f} s; results in {out}")  # fmt: skip
+    if failed:
+        sys.exit(1)
+
+
+def _run_one(name: str, out: Path, quick: bool) -> tuple[dict[str, Any] | None, str | None, float]:
+    """Run one study, catching its failure (so one broken study does not stop the others)."""
+    import time
+    import warnings
+
+    from mwip.studies import run_study
+
+    t0 = time.perf_counter()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            doc = run_study(name, out, quick=quick)
+    except Exception as exc:  # noqa: BLE001 - reported, and the exit code says so
+        return None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
+    return doc, None, time.perf_counter() - t0
 
 
 def main(argv: list[str] | None = None) -> int:
