@@ -168,7 +168,7 @@ def test_reproduce_reports_a_failing_study_and_runs_the_others(tmp_path, capsys,
         raise RuntimeError("boom")
 
     monkeypatch.setattr(studies, "STUDIES", {"bad": (bad, "x"), "good": (good, "y")})
-    assert main(["reproduce", "--out", str(tmp_path), "--quick"]) == 1
+    assert main(["reproduce", "--out", str(tmp_path), "--quick", "-j", "1"]) == 1
     cap = capsys.readouterr()
     assert "bad: FAILED" in cap.err and "RuntimeError: boom" in cap.err
     assert "good (test): claims 1/1 hold" in cap.out and "1/2 studies done" in cap.out

@@ -522,9 +522,9 @@ def _report(name: str, doc: dict[str, Any], out: Path) -> None:
     "--jobs",
     "-j",
     type=int,
-    default=1,
+    default=0,
     show_default=True,
-    help="Studies run in parallel processes (0: one per CPU).",
+    help="Studies run in parallel processes (0: one per CPU; 1: in this process).",
 )
 def reproduce(out: Path, quick: bool, list_only: bool, jobs: int) -> None:
     """Run every study on built-in defaults and write OUT/<study>/metrics.json for each.
