@@ -172,3 +172,13 @@ def test_reproduce_reports_a_failing_study_and_runs_the_others(tmp_path, capsys,
     cap = capsys.readouterr()
     assert "bad: FAILED" in cap.err and "RuntimeError: boom" in cap.err
     assert "good (test): claims 1/1 hold" in cap.out and "1/2 studies done" in cap.out
+
+
+def test_design_it2(capsys):
+    assert main(["design", "it2", "--epsilon", "0.2", "--rho", "20", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["status"] == "optimal" and len(doc["G1"]) == 4 and len(doc["G2"]) == 4
+    assert main(["design", "it2", "--epsilon", "0.2", "--rho", "0.3"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "infeasible" in err
+    assert main(["design", "it2", "--epsilon", "0", "--rho", "3"]) == 2

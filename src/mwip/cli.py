@@ -369,6 +369,37 @@ def design_hodo_cmd(
         click.echo(f"  note: {note}")
 
 
+@design.command("it2")
+@click.option(
+    "--epsilon",
+    type=float,
+    required=True,
+    help="Radius of the initial-state ball of Lemma 5.2 (5.20), > 0.",
+)
+@click.option("--rho", type=float, required=True, help="Input bound of Lemma 5.2 (N m), > 0.")
+@click.option(
+    "--robust",
+    type=float,
+    default=None,
+    help="Also stabilise +-ROBUST relative parameter variations (e.g. 0.35).",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def design_it2_cmd(epsilon: float, rho: float, robust: float | None, as_json: bool) -> None:
+    """IT2 PDC balance gains G1, G2 from the LMIs of Lemma 5.1/5.2 (5.12)-(5.20)."""
+    from mwip.fuzzy.design_cli import design_it2
+    from mwip.fuzzy.pdc import PDCInfeasibleError
+
+    _in_range("--epsilon", epsilon, 0.0, 10.0)
+    _in_range("--rho", rho, 0.0, 1e6)
+    if robust is not None:
+        _in_range("--robust", robust, 0.0, 0.9)
+    try:
+        _, text = design_it2(epsilon, rho, as_json=as_json, robust=robust)
+    except PDCInfeasibleError as exc:
+        raise click.ClickException(str(exc)) from None
+    click.echo(text)
+
+
 # ---------------------------------------------------------------------------------------------
 @cli.group()
 def check() -> None:

@@ -15,7 +15,10 @@ from mwip.studies import (
     asta_balance,
     asta_velocity,
     do_comparison,
+    exp_asta,
+    exp_hodosmc,
     hodosmc_vs_smc,
+    it2_balance,
     lqr_gain,
     tsmc_circle,
     tsmc_equilibrium,
@@ -36,6 +39,11 @@ STUDIES: dict[str, tuple[Study, str]] = {
     "tsmc-equilibrium": (tsmc_equilibrium.run, tsmc_equilibrium.SOURCE),
     "tsmc-velocity": (tsmc_velocity.run, tsmc_velocity.SOURCE),
     "tsmc-circle": (tsmc_circle.run, tsmc_circle.SOURCE),
+    "it2-balance": (it2_balance.run, it2_balance.SOURCE),
+    "exp-hodosmc-balance": (exp_hodosmc.run_balance, exp_hodosmc.SOURCE_BALANCE),
+    "exp-hodosmc-speed": (exp_hodosmc.run_speed, exp_hodosmc.SOURCE_SPEED),
+    "exp-hodosmc-obstacle": (exp_hodosmc.run_obstacle, exp_hodosmc.SOURCE_OBSTACLE),
+    "exp-asta": (exp_asta.run, exp_asta.SOURCE),
 }
 
 

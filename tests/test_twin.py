@@ -1,0 +1,113 @@
+"""The digital twin: plumbing, determinism, any controller unchanged, logs, Case 3 stick."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from mwip.control.asta import ASTA
+from mwip.control.lqr import LQR, design_lqr
+from mwip.control.smc import make_smc
+from mwip.hardware import StickObstacle, Twin, case_plant, run_on_twin
+from mwip.hardware.encoder import EncoderSpec
+from mwip.hardware.twin import stick_for
+from mwip.params import NOMINAL, REAL
+from mwip.sim import simulate
+
+Q0 = (0.0, np.pi / 18, 0.0)
+
+
+def _do4() -> object:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return make_smc("do4smc", (3, 0.01, 0.1, 3), K=(6.3, 4.0), Ts=0.005, q1d_dot=-7.0)
+
+
+@pytest.mark.parametrize("case", [1, 3])
+def test_ideal_twin_reproduces_plain_simulation_exactly(case: int) -> None:
+    twin = run_on_twin(_do4(), case, twin=Twin.ideal(), q0=Q0, duration=6.5, record_every=2)
+    plant = case_plant(case)
+    dist = stick_for(plant) if case == 3 else None
+    plain = simulate(_do4(), plant, q0=Q0, duration=6.5, Ts=0.005, dt=0.0005,
+                     disturbance=dist, record_every=2)  # fmt: skip
+    assert np.array_equal(twin.states, plain.states, equal_nan=True)
+    assert np.array_equal(twin.inputs, plain.inputs, equal_nan=True)
+    assert np.array_equal(twin.series()["u_applied"], twin.u, equal_nan=True)
+    assert twin.status[0] == plain.status[0]
+
+
+def test_twin_is_seeded_and_noisy() -> None:
+    a = run_on_twin(_do4(), 1, duration=1.0, seed=1)
+    b = run_on_twin(_do4(), 1, duration=1.0, seed=1)
+    c = run_on_twin(_do4(), 1, duration=1.0, seed=2)
+    assert np.array_equal(a.states, b.states)
+    assert not np.array_equal(a.states, c.states)
+    meas = a.series()["y_meas"]
+    err = meas[:, 1] - a.theta
+    assert 0 < np.nanmax(np.abs(err[5:])) < 0.05  # measured pitch: close, not exact
+
+
+def test_any_controller_runs_unchanged() -> None:
+    ctrls = [
+        ASTA(NOMINAL, lam=(10, 0.3, 3), K=(10, 10), rate=(5, 5), Ts=0.005),
+        LQR(design_lqr(NOMINAL, Ts=0.005)),
+        _do4(),
+    ]
+    for ctrl in ctrls:
+        res = run_on_twin(ctrl, 1, q0=(0.0, 0.05, 0.0), duration=1.0)
+        assert res.status[0] == "ok"
+        assert np.all(np.isfinite(res.series()["u_applied"]))
+
+
+class _Constant:
+    Ts = 0.005
+    static = True
+
+    def __init__(self, u: float) -> None:
+        self.u = u
+
+    def reset(self, meas: object) -> None:
+        pass
+
+    def __call__(self, t: float, meas: object) -> np.ndarray:
+        return np.full((1, 2), self.u)
+
+    def log(self) -> dict:
+        return {}
+
+
+def test_torque_saturation_is_logged() -> None:
+    tw = Twin()
+    res = run_on_twin(_Constant(20.0), 1, twin=tw, q0=(0.0, 0.0, 0.0), duration=0.05,
+                      record_every=1)  # fmt: skip
+    s = res.series()
+    lim = tw.drive.wheel_torque_limit(tw.motor)
+    assert np.all(s["drive_limited"] == 1.0)
+    assert np.all(s["u_applied"] <= lim + 1e-9)
+    assert np.all(s["u_applied"][1:] >= lim - 0.01)
+    assert np.all(res.u == 20.0)
+    assert np.nanmax(s["drive_current"]) == pytest.approx(tw.drive.current_limit, rel=1e-3)
+
+
+def test_stick_obstacle_does_the_lifting_work() -> None:
+    s = stick_for(REAL.with_payload())
+    t = np.arange(0.0, 10.0, 1e-4)
+    tau = s(t)
+    assert np.all(tau[:, 1:] == 0)
+    climb = tau[:, 0] > 0  # resisting a motion at -7 rad/s
+    assert climb.sum() * 1e-4 == pytest.approx(s.duration, abs=2e-4)
+    # work of the climb = m g h (torque x wheel rotation)
+    assert s.torque * s.climb_angle == pytest.approx(s.mass * 9.81 * s.height)
+    assert np.sum(tau[:, 0]) * 1e-4 == pytest.approx(0.0, abs=1e-3)  # net impulse ~ 0
+    assert t[climb][0] == pytest.approx(6.0, abs=1e-3)
+    with pytest.raises(ValueError, match="height"):
+        StickObstacle(height=0.05, r=0.04)
+
+
+def test_twin_validation() -> None:
+    with pytest.raises(ValueError, match="gear_ratio"):
+        Twin(encoder=EncoderSpec(gear_ratio=10.0))
+    with pytest.raises(ValueError, match="case"):
+        case_plant(4)
