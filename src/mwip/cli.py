@@ -225,7 +225,7 @@ def simulate(
 # ---------------------------------------------------------------------------------------------
 @cli.group()
 def design() -> None:
-    """Gain design (LQR; observers and others as they arrive)."""
+    """Gain design: LQR, disturbance-observer LMIs, IT2 PDC LMIs."""
 
 
 def _matrix_text(M: np.ndarray) -> str:
