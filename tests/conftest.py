@@ -18,3 +18,19 @@ def random_states(rng: np.random.Generator, n: int = 64) -> tuple[np.ndarray, ..
     u = rng.uniform(-2.0, 2.0, (n, 2))
     e = rng.uniform(-0.5, 0.5, (n, 3))
     return q, qd, u, e
+
+
+@pytest.fixture(scope="session")
+def quick_reproduction(tmp_path_factory: pytest.TempPathFactory):
+    """``mwip reproduce --quick`` once per test session (every study, shortened runs):
+    returns ``(out folder, exit code, captured stdout)``."""
+    import contextlib
+    import io
+
+    from mwip.cli import main
+
+    out = tmp_path_factory.mktemp("reproduce") / "out"
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main(["reproduce", "--quick", "--out", str(out), "--jobs", "2"])
+    return out, code, buf.getvalue()

@@ -159,19 +159,30 @@ def test_check_smc(capsys):
 
 def test_reproduce_reports_a_failing_study_and_runs_the_others(tmp_path, capsys, monkeypatch):
     import mwip.studies as studies
+    from mwip.studies.common import metrics_document, write_metrics
 
     def good(out, quick=False):
-        return {"source": "test", "claims": [{"text": "x", "holds": True}],
-                "runs": {"a": {"status": "ok"}}}  # fmt: skip
+        doc = metrics_document("good", "test", {"a.x": 1.0}, {}, [
+            {"text": "x", "holds": True, "keys": ["a.x"]}], {"a": {"status": "ok"}}, {})
+        write_metrics(out / "good", doc)
+        return doc
 
     def bad(out, quick=False):
         raise RuntimeError("boom")
 
+    old = tmp_path / "bad"
+    old.mkdir()
+    (old / "metrics.json").write_text("{}")  # an earlier result of the failing study is kept
     monkeypatch.setattr(studies, "STUDIES", {"bad": (bad, "x"), "good": (good, "y")})
     assert main(["reproduce", "--out", str(tmp_path), "--quick", "-j", "1"]) == 1
     cap = capsys.readouterr()
     assert "bad: FAILED" in cap.err and "RuntimeError: boom" in cap.err
-    assert "good (test): claims 1/1 hold" in cap.out and "1/2 studies done" in cap.out
+    assert "good (test): 1/1 claims hold" in cap.out and "1/2 studies done" in cap.out
+    assert "[ok] x  <a.x=1>" in cap.out
+    assert (old / "metrics.json").read_text() == "{}"
+    record = json.loads((tmp_path / "run.json").read_text())
+    assert record["studies"]["bad"]["error"] == "RuntimeError: boom"
+    assert record["studies"]["good"]["error"] is None
 
 
 def test_design_it2(capsys):

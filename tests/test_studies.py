@@ -11,9 +11,10 @@ from mwip.studies import STUDIES
 
 
 @pytest.mark.parametrize("name", list(STUDIES))
-def test_study_quick_writes_schema(tmp_path, name, capsys):
-    assert main(["run", name, "--out", str(tmp_path), "--quick"]) == 0
-    doc = json.loads((tmp_path / name / "metrics.json").read_text())
+def test_study_quick_writes_schema(quick_reproduction, name):
+    out, code, _ = quick_reproduction
+    assert code == 0
+    doc = json.loads((out / name / "metrics.json").read_text())
     assert doc["study"] == name and doc["source"] == STUDIES[name][1]
     assert set(doc) == {"study", "source", "metrics", "published", "claims", "runs", "settings"}
     assert set(doc["published"]) <= set(doc["metrics"])  # published keys are also measured
@@ -21,8 +22,17 @@ def test_study_quick_writes_schema(tmp_path, name, capsys):
         assert run["status"] in ("ok", "fell", "diverged")
     for claim in doc["claims"]:
         assert isinstance(claim["text"], str) and isinstance(claim["holds"], bool)
-    assert list((tmp_path / name).glob("*.png"))
-    assert not list((tmp_path / name).glob(".*"))  # no temporary files left behind
+        for key, value in claim.get("values", {}).items():  # deciding numbers = the metrics
+            assert doc["metrics"][key] == value
+    assert list((out / name).glob("*.png"))
+    assert not list((out / name).glob(".*"))  # no temporary files left behind
+
+
+def test_run_one_study_through_the_cli(tmp_path, capsys):
+    assert main(["run", "lqr-gain", "--out", str(tmp_path), "--quick"]) == 0
+    assert (tmp_path / "lqr-gain" / "metrics.json").is_file()
+    assert (tmp_path / "index.html").is_file() and (tmp_path / "run.json").is_file()
+    assert "lqr-gain (Sec. 4.4.2):" in capsys.readouterr().out
 
 
 def test_lqr_gain_study_claims(tmp_path):

@@ -16,6 +16,7 @@ from mwip.fuzzy.pdc import (
     pdc_gain,
 )
 from mwip.fuzzy.ts_model import (
+    first_weight,
     memberships,
     nie_tan_weights,
     nonlinear_rhs,
@@ -51,6 +52,14 @@ def test_memberships_of_fig_5_1():
     np.testing.assert_allclose(nie_tan_weights(th).sum(-1), 1.0)
     assert nie_tan_weights(0.0)[0] == 1.0 and nie_tan_weights(math.pi / 6)[1] == 1.0
     assert lo[np.argmin(np.abs(th - math.pi / 7)), 0] == pytest.approx(0.0, abs=1e-2)
+
+
+def test_closed_form_weight_matches_the_nie_tan_reduction():
+    """The controllers' fast path ``m_1`` equals (5.8) evaluated from the memberships."""
+    th = np.linspace(-1.0, 1.0, 401)
+    np.testing.assert_allclose(first_weight(th), nie_tan_weights(th)[:, 0], atol=1e-15)
+    G = np.array([[1.0, 2.0, 3.0, 4.0], [-1.0, 0.5, 2.0, 8.0]])
+    np.testing.assert_allclose(pdc_gain(G, th), nie_tan_weights(th) @ G, atol=1e-13)
 
 
 def test_ts_model_approximates_the_pitch_wheel_dynamics():

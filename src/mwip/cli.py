@@ -509,47 +509,27 @@ def list_cmd() -> None:
         click.echo(f"{name:24s} {source}")
 
 
-@cli.command("run")
-@click.argument("studies", nargs=-1, required=True)
-@click.option(
+_OUT = click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
     default=Path("out"),
     show_default=True,
-    help="Output folder; the study writes OUT/<study>/.",
+    help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json.",
 )
-@click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
-def run_cmd(studies: tuple[str, ...], out: Path, quick: bool) -> None:
-    """Run one or more studies (see `mwip list`)."""
-    from mwip.studies import STUDIES, run_study
-
-    for study in studies:
-        if study not in STUDIES:
-            raise click.BadParameter(
-                f"unknown study {study!r}; choose from: {', '.join(STUDIES)}", param_hint="STUDY"
-            )
-    for study in studies:
-        _report(study, run_study(study, out, quick=quick), out)
-
-
-def _report(name: str, doc: dict[str, Any], out: Path) -> None:
-    held = sum(bool(c["holds"]) for c in doc["claims"])
-    status = ", ".join(f"{k}: {v['status']}" for k, v in doc["runs"].items())
-    click.echo(f"{name} ({doc['source']}): claims {held}/{len(doc['claims'])} hold; {status}")
-    click.echo(f"  -> {out / name / 'metrics.json'}")
-
-
-@cli.command()
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=Path("out"),
-    show_default=True,
-    help="Output folder.",
+_QUICK = click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
+_PLANT = click.option(
+    "--params",
+    "params_file",
+    default=None,
+    help="The simulated robot: a parameter TOML file (default: the book's, Table 3.1).",
 )
-@click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
-@click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
-@click.option(
+_NOMINAL = click.option(
+    "--nominal",
+    "nominal_file",
+    default=None,
+    help="The design model: a parameter TOML file (default: the book's, Table 3.2).",
+)
+_JOBS = click.option(
     "--jobs",
     "-j",
     type=int,
@@ -557,70 +537,159 @@ def _report(name: str, doc: dict[str, Any], out: Path) -> None:
     show_default=True,
     help="Studies run in parallel processes (0: one per CPU; 1: in this process).",
 )
-def reproduce(out: Path, quick: bool, list_only: bool, jobs: int) -> None:
-    """Run every study on built-in defaults and write OUT/<study>/metrics.json for each.
 
-    A study that fails is reported with its error and does not stop the others; the exit
-    code is then 1.
-    """
+
+def _robot(params_file: str | None, nominal_file: str | None) -> tuple[Params, Params]:
+    plant = REAL if params_file is None else _params(params_file, "--plant")
+    design = NOMINAL if nominal_file is None else _params(nominal_file, "--nominal")
+    return plant, design
+
+
+def _jobs(jobs: int) -> int:
     import os
-    import time
-    from concurrent.futures import ProcessPoolExecutor, as_completed
 
+    if jobs < 0 or jobs > 64:
+        raise click.BadParameter(f"must be in [0, 64], got {jobs}", param_hint="--jobs")
+    return jobs or (os.cpu_count() or 1)
+
+
+def _execute(
+    names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params
+) -> None:
+    """Run ``names`` with a progress bar, then print the one-screen summary."""
+    from mwip.report import load_results, summary_lines
+    from mwip.studies.runner import run_studies
+
+    failed: list[str] = []
+    with click.progressbar(length=len(names), label="studies", file=sys.stderr,
+                           show_pos=True, item_show_func=lambda x: x) as bar:  # fmt: skip
+
+        def done(outcome: tuple[str, Any, str | None, float]) -> None:
+            name, _, error, wall = outcome
+            if error is not None:
+                failed.append(name)
+                click.echo(f"\n{name}: FAILED after {wall:.1f} s: {error}", err=True)
+            bar.update(1, f"{name} ({wall:.1f} s)")
+
+        record = run_studies(names, out, quick=quick, jobs=jobs, plant=plant, nominal=design,
+                             on_done=done)  # fmt: skip
+    import shutil
+
+    width = max(100, shutil.get_terminal_size((120, 40)).columns)
+    for line in summary_lines(load_results(out, names), width=width):
+        click.echo(line)
+    click.echo(f"{len(names) - len(failed)}/{len(names)} studies done in "
+               f"{record['wall_s']:.1f} s; report: {out / 'index.html'}")  # fmt: skip
+    if failed:
+        sys.exit(1)
+
+
+def _run_scenarios(
+    files: tuple[Path, ...], out: Path, quick: bool, params_file: str | None,
+    nominal_file: str | None,
+) -> None:  # fmt: skip
+    """Run each study file (its robot unless --params/--nominal override it)."""
+    from mwip.studies.study_file import load_study_file
+
+    parsed = [load_study_file(f) for f in files]  # validate all before running any
+    for sf in parsed:
+        plant = sf.plant if params_file is None else _params(params_file, "--plant")
+        design = sf.nominal if nominal_file is None else _params(nominal_file, "--nominal")
+        click.echo(f"{sf.path}: {sf.name}", err=True)
+        _execute([sf.name], out, quick or sf.quick, 1, plant, design)
+
+
+@cli.command("run")
+@click.argument("studies", nargs=-1)
+@click.option(
+    "--scenario",
+    "scenarios",
+    multiple=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="A study file (TOML: [study] name, [robot] params; see examples/); repeatable.",
+)
+@_OUT
+@_QUICK
+@_PLANT
+@_NOMINAL
+@_JOBS
+def run_cmd(
+    studies: tuple[str, ...],
+    scenarios: tuple[Path, ...],
+    out: Path,
+    quick: bool,
+    params_file: str | None,
+    nominal_file: str | None,
+    jobs: int,
+) -> None:
+    """Run one or more studies (see `mwip list`) and update OUT/index.html."""
+    from mwip.studies import STUDIES
+
+    for study in studies:
+        if study not in STUDIES:
+            raise click.BadParameter(
+                f"unknown study {study!r}; choose from: {', '.join(STUDIES)}", param_hint="STUDY"
+            )
+    if not studies and not scenarios:
+        raise click.UsageError("give at least one STUDY or --scenario FILE")
+    plant, design = _robot(params_file, nominal_file)
+    if scenarios:
+        _run_scenarios(scenarios, out, quick, params_file, nominal_file)
+    if studies:
+        _execute(list(dict.fromkeys(studies)), out, quick, _jobs(jobs), plant, design)
+
+
+@cli.command()
+@_OUT
+@_QUICK
+@_PLANT
+@_NOMINAL
+@_JOBS
+@click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
+def reproduce(
+    out: Path,
+    quick: bool,
+    params_file: str | None,
+    nominal_file: str | None,
+    jobs: int,
+    list_only: bool,
+) -> None:
+    """Run every study on built-in defaults; write OUT/<study>/, OUT/index.html, OUT/run.json.
+
+    Results are written to a staging folder and moved into OUT when complete (Ctrl-C leaves
+    OUT as it was). A study that fails is reported with its error and does not stop the
+    others; the exit code is then 1.
+    """
     from mwip.studies import STUDIES
 
     if list_only:
         for name, (_, source) in STUDIES.items():
             click.echo(f"{name:24s} {source}")
         return
-    if jobs < 0 or jobs > 64:
-        raise click.BadParameter(f"must be in [0, 64], got {jobs}", param_hint="--jobs")
-    jobs = jobs or (os.cpu_count() or 1)
-    names = list(STUDIES)
-    t0 = time.perf_counter()
-    failed: list[str] = []
-
-    def done(name: str, result: tuple[dict[str, Any] | None, str | None, float]) -> None:
-        doc, error, wall = result
-        if doc is None:
-            failed.append(name)
-            click.echo(f"{name}: FAILED after {wall:.1f} s: {error}", err=True)
-        else:
-            _report(name, doc, out)
-            click.echo(f"  ({wall:.1f} s)")
-
-    if jobs == 1:
-        for i, name in enumerate(names, 1):
-            click.echo(f"[{i}/{len(names)}] running {name} ...", err=True)
-            done(name, _run_one(name, out, quick))
-    else:
-        with ProcessPoolExecutor(max_workers=min(jobs, len(names))) as pool:
-            futures = {pool.submit(_run_one, name, out, quick): name for name in names}
-            with click.progressbar(length=len(names), label="studies", file=sys.stderr) as bar:
-                for fut in as_completed(futures):
-                    done(futures[fut], fut.result())
-                    bar.update(1)
-    click.echo(f"{len(names) - len(failed)}/{len(names)} studies done in "
-               f"{time.perf_counter() - t0:.1f} s; results in {out}")  # fmt: skip
-    if failed:
-        sys.exit(1)
+    plant, design = _robot(params_file, nominal_file)
+    _execute(list(STUDIES), out, quick, _jobs(jobs), plant, design)
 
 
-def _run_one(name: str, out: Path, quick: bool) -> tuple[dict[str, Any] | None, str | None, float]:
-    """Run one study, catching its failure (so one broken study does not stop the others)."""
-    import time
-    import warnings
+@cli.command()
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, exists=True, path_type=Path),
+    default=Path("out"),
+    show_default=True,
+    help="Results folder to report on.",
+)
+def report(out: Path) -> None:
+    """Rebuild OUT/index.html from the results in OUT and print the summary."""
+    from mwip.report import load_results, summary_lines, write_report
+    from mwip.studies import STUDIES
 
-    from mwip.studies import run_study
-
-    t0 = time.perf_counter()
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            doc = run_study(name, out, quick=quick)
-    except Exception as exc:  # noqa: BLE001 - reported, and the exit code says so
-        return None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
-    return doc, None, time.perf_counter() - t0
+    names = [n for n in STUDIES if (out / n / "metrics.json").exists()]
+    if not names:
+        raise click.UsageError(f"--out: no study results in {out}")
+    path = write_report(out, names)
+    for line in summary_lines(load_results(out, names)):
+        click.echo(line)
+    click.echo(f"report: {path}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -636,8 +705,8 @@ def main(argv: list[str] | None = None) -> int:
         click.echo(f"mwip: error: {exc.format_message()}", err=True)
         return exc.exit_code
     except click.Abort:
-        click.echo("mwip: aborted", err=True)
-        return 1
+        click.echo("mwip: interrupted; earlier results are left as they were", err=True)
+        return 130
     except (ValueError, FileNotFoundError) as exc:
         click.echo(f"mwip: error: {exc}", err=True)
         return 2

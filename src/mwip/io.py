@@ -18,14 +18,28 @@ from typing import IO, Any
 __all__ = ["write_atomic", "write_text_atomic", "write_json_atomic", "read_toml"]
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_MODE = 0o666 & ~_umask()  # what open() would give a new file
+
+
 def write_atomic(path: str | os.PathLike[str], writer: Callable[[IO[bytes]], None]) -> Path:
-    """Call ``writer(fh)`` on a temporary binary file, then rename it onto ``path``."""
+    """Call ``writer(fh)`` on a temporary binary file, then rename it onto ``path``.
+
+    The file gets the permissions a plainly created file would (``0666`` less the umask),
+    not the private mode of a temporary file.
+    """
     dest = Path(path)
     dest.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent)
     try:
         with os.fdopen(fd, "wb") as fh:
             writer(fh)
+        os.chmod(tmp, _MODE)
         os.replace(tmp, dest)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -41,7 +41,7 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.fuzzy.ts_model import Reading, TSModel, nie_tan_weights, type1_weights, vertex_matrices
+from mwip.fuzzy.ts_model import Reading, TSModel, first_weight, vertex_matrices
 from mwip.params import NOMINAL, Params
 from mwip.sim.sensors import Measurement
 
@@ -253,8 +253,9 @@ def check_design(d: PDCDesign) -> dict[str, float]:
 
 def pdc_gain(G: ArrayLike, theta: ArrayLike, *, type1: bool = False) -> NDArray[np.float64]:
     """Blended gain ``sum_i m_i(theta) G_i`` (5.10), (..., 4); ``type1``: the T1 counterpart."""
-    m = type1_weights(theta) if type1 else nie_tan_weights(theta)
-    return m @ np.asarray(G, dtype=float)
+    G = np.asarray(G, dtype=float)
+    m1 = first_weight(theta, type1=type1)[..., None]
+    return G[1] + m1 * (G[0] - G[1])
 
 
 class PDCBalance:
@@ -296,9 +297,13 @@ class PDCBalance:
     def state(self, meas: Measurement, theta_off: ArrayLike | None = None) -> NDArray[np.float64]:
         """``x = [theta - theta_off, theta', psi - psi_ref, psi']`` (N, 4)."""
         y = meas.y
-        off = self.theta_off if theta_off is None else np.asarray(theta_off, dtype=float)
-        psi = y[:, 0] - self.psi_ref if self.psi_ref is not None else np.zeros_like(y[:, 0])
-        return np.stack([y[:, 1] - off, y[:, 4], psi, y[:, 3]], -1)
+        x = y[:, [1, 4, 0, 3]]
+        x[:, 0] -= self.theta_off if theta_off is None else np.asarray(theta_off, dtype=float)
+        if self.psi_ref is None:
+            x[:, 2] = 0.0
+        else:
+            x[:, 2] -= self.psi_ref
+        return x
 
     def total_torque(
         self, meas: Measurement, theta_off: ArrayLike | None = None
@@ -306,12 +311,12 @@ class PDCBalance:
         """``u = sum_i m_i(theta) G_i x`` (N,), (5.10). Memberships use the measured theta."""
         x = self.state(meas, theta_off)
         K = pdc_gain(self.G, meas.y[:, 1], type1=self.kind == "t1")
-        return np.einsum("ni,ni->n", K, x)
+        return (K * x).sum(-1)
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         u = self.total_torque(meas)
         self._last_u = u
-        return np.stack([0.5 * u, 0.5 * u], -1)
+        return np.repeat(0.5 * u[:, None], 2, axis=1)
 
     def log(self) -> Mapping[str, NDArray[np.float64]]:
         return {"u_total": self._last_u}

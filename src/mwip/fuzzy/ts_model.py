@@ -51,6 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 from mwip.params import NOMINAL, Params
 
 __all__ = [
+    "first_weight",
     "THETA_VERTEX",
     "LOWER_HALF_WIDTH",
     "UPPER_HALF_WIDTH",
@@ -164,6 +165,21 @@ def memberships(
     return np.stack([lo1, 1.0 - up1], -1), np.stack([up1, 1.0 - lo1], -1)
 
 
+def first_weight(theta: ArrayLike, *, type1: bool = False) -> NDArray[np.float64]:
+    """Weight ``m_1(theta)`` of the first rule; ``m_2 = 1 - m_1`` (shape of ``theta``).
+
+    Nie-Tan (5.8) with the memberships of Fig. 5.1: since ``M2 = 1 - M1`` on both bounds,
+    ``sum_i (lower_i + upper_i) = 2`` and ``m_1 = (lower_1 + upper_1) / 2``. ``type1``: the
+    triangle at the middle of the footprint, half-width ``(pi/7 + pi/6) / 2``.
+    """
+    a = np.abs(np.clip(np.asarray(theta, dtype=float), -THETA_VERTEX, THETA_VERTEX))
+    if type1:
+        return np.maximum(0.0, 1.0 - a / (0.5 * (LOWER_HALF_WIDTH + UPPER_HALF_WIDTH)))
+    lo = np.maximum(0.0, 1.0 - a / LOWER_HALF_WIDTH)
+    up = np.maximum(0.0, 1.0 - a / UPPER_HALF_WIDTH)
+    return 0.5 * (lo + up)
+
+
 def nie_tan_weights(theta: ArrayLike) -> NDArray[np.float64]:
     """Normalised Nie-Tan weights ``m_i(theta)`` of (5.8)/(5.10), (..., 2), summing to 1."""
     lo, up = memberships(theta)
@@ -176,9 +192,7 @@ def type1_weights(theta: ArrayLike) -> NDArray[np.float64]:
 
     Half-width ``(pi/7 + pi/6) / 2``; M2 = 1 - M1.
     """
-    half = 0.5 * (LOWER_HALF_WIDTH + UPPER_HALF_WIDTH)
-    th = np.clip(np.asarray(theta, dtype=float), -THETA_VERTEX, THETA_VERTEX)
-    m1 = np.maximum(0.0, 1.0 - np.abs(th) / half)
+    m1 = first_weight(theta, type1=True)
     return np.stack([m1, 1.0 - m1], -1)
 
 

@@ -28,10 +28,18 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.models.reduced import coefficients, generalized_forces, solve_shifted
+from mwip.models.reduced import coefficients
 from mwip.params import REAL, Params
 from mwip.sim.disturbance import Disturbance
-from mwip.sim.kernel import DIVERGED, FELL, GAMMA, OK, STATUS_NAMES, advance_batch
+from mwip.sim.kernel import (
+    GAMMA,
+    OK,
+    STATUS_NAMES,
+    advance_batch,
+    rhs_batch,
+    ros2_stage,
+    ros2_update,
+)
 from mwip.sim.result import SimResult
 from mwip.sim.sensors import Actuator, IdealSensor, Sensor
 
@@ -291,15 +299,13 @@ def _finish(
 # ---------------------------------------------------------------------------------------------
 def _plant_rhs(coef: NDArray[np.float64], y: NDArray[np.float64], u: NDArray[np.float64],
                e: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
-    """``y'`` of the plant for states (M, 8), inputs (M, 2), disturbances (M, 3) (NumPy)."""
-    m11, m12, m22, m33, Ibl, Gb, Db, Dw, b, r = coef.T
-    th, al = y[:, 1], y[:, 2]
-    pd, td, ad = y[:, 3], y[:, 4], y[:, 5]
-    f = generalized_forces(
-        m12, Ibl, Gb, Db, Dw, b, r, th, pd, td, ad, u[:, 0], u[:, 1], e[:, 0], e[:, 1], e[:, 2]
-    )
-    a = solve_shifted(m11, m12, m22, m33, Ibl, Db, Dw, b, r, th, 0.0, *f)
-    return np.column_stack([pd, td, ad, a[0], a[1], a[2], r * pd * np.cos(al), r * pd * np.sin(al)])
+    """``y'`` of the plant for states (M, 8), inputs (M, 2), disturbances (M, 3) (compiled)."""
+    f64 = np.float64
+    return rhs_batch(
+        np.ascontiguousarray(coef, dtype=f64), np.ascontiguousarray(y, dtype=f64),
+        np.ascontiguousarray(u, dtype=f64), np.ascontiguousarray(e, dtype=f64),
+        np.empty((y.shape[0], 8)),
+    )  # fmt: skip
 
 
 def _simulate_continuous(
@@ -325,7 +331,11 @@ def _simulate_continuous(
     def law(t: float, yy: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.asarray(controller(t, sensor(t, yy)), dtype=float)
 
+    zeros = {n: np.zeros((n, 3)), 9 * n: np.zeros((9 * n, 3))}
+
     def tau_at(t: float, m: int) -> NDArray[np.float64]:
+        if disturbance is None:
+            return zeros[m]
         blk = _tau_block(disturbance, np.array([t]), n)[0]
         return (
             np.broadcast_to(blk, (n, 3))
@@ -337,6 +347,7 @@ def _simulate_continuous(
         return _plant_rhs(cf, yy, law(t, yy), tau_at(t, yy.shape[0]))
 
     eye = np.eye(8)
+    zero8 = np.zeros((n, 8))
     status = np.zeros(n, dtype=np.int64)
     t_end = np.full(n, n_samples * Ts)
     rec_idx = list(range(0, n_samples + 1, int(record_every)))
@@ -356,26 +367,21 @@ def _simulate_continuous(
         if k == n_samples:
             break
         # ROS2 is a W-method (second order for any W): the finite-difference Jacobian of the
-        # closed loop, all plants and columns at once, is refreshed once per record interval
+        # closed loop, all plants and columns at once, is refreshed once per sample period
         delta = 1e-7 * np.maximum(np.abs(y), 1.0)  # (n, 8)
         pert = np.concatenate([y] + [y + delta[:, [c]] * eye[c] for c in range(8)], axis=0)
         fx = closed(t, pert, coef_j).reshape(9, n, 8)
         J = np.stack([(fx[c + 1] - fx[0]) / delta[:, [c]] for c in range(8)], axis=-1)
-        Winv = np.linalg.inv(eye - GAMMA * dt * J)
+        Winv = np.ascontiguousarray(np.linalg.inv(eye - GAMMA * dt * J))
+        running = n
         for j in range(n_sub):
             tj = t + j * dt
-            run = status == OK
             f0 = fx[0] if j == 0 else closed(tj, y, coef_n)
-            k1 = np.einsum("nij,nj->ni", Winv, f0)
+            k1 = ros2_stage(Winv, np.ascontiguousarray(f0), zero8, np.empty((n, 8)))
             f1 = closed(tj + dt, y + dt * k1, coef_n)
-            k2 = np.einsum("nij,nj->ni", Winv, f1 - 2.0 * k1)
-            y_new = y + 1.5 * dt * k1 + 0.5 * dt * k2
-            y[run] = y_new[run]
-            bad = run & ~np.all(np.isfinite(y), axis=1)
-            fell = run & ~bad & (np.abs(y[:, 1]) >= 0.5 * np.pi)
-            status[bad], status[fell] = DIVERGED, FELL
-            t_end[bad | fell] = tj + dt
-            if np.all(status != OK):
+            k2 = ros2_stage(Winv, f1, k1, np.empty((n, 8)))
+            running = ros2_update(y, k1, k2, dt, status, tj + dt, t_end)
+            if running == 0:
                 break
         if progress is not None:
             progress(1)

@@ -35,7 +35,16 @@ import numpy as np
 
 from mwip.models.reduced import generalized_forces, solve_shifted
 
-__all__ = ["GAMMA", "OK", "FELL", "DIVERGED", "STATUS_NAMES", "advance", "advance_parallel"]
+__all__ = [
+    "GAMMA",
+    "OK",
+    "FELL",
+    "DIVERGED",
+    "STATUS_NAMES",
+    "advance",
+    "advance_parallel",
+    "rhs_batch",
+]
 
 GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
 OK, FELL, DIVERGED = 0, 1, 2
@@ -149,6 +158,74 @@ def advance_parallel(y, u, tau, coef, h, n_sub, status, t0, t_end):  # noqa: ANN
     for i in numba.prange(y.shape[0]):
         _advance_one(np.int64(i), y, u, tau, coef, h, n_sub, status, t0, t_end)
         running += status[i] == OK
+    return running
+
+
+@numba.njit(cache=True)
+def rhs_batch(coef, y, u, e, out):  # noqa: ANN001, ANN201 - compiled kernel
+    """Plant right-hand side ``y' = f(y, u, tau_ext)`` for M states at once, into ``out``.
+
+    ``coef`` (M, 10), ``y`` (M, 8) = ``[psi, theta, alpha, psi', theta', alpha', x, y]``,
+    ``u`` (M, 2) = ``[u_r, u_l]``, ``e`` (M, 3) external generalised forces. The accelerations
+    are (2.33) solved in closed form (:func:`~mwip.models.reduced.solve_shifted` at sigma 0),
+    the planar position follows (2.29): ``x' = r psi' cos(alpha)``, ``y' = r psi' sin(alpha)``.
+    Used by the continuous mode of :mod:`mwip.sim.engine`.
+    """
+    for i in range(y.shape[0]):
+        c = coef[i]
+        m11, m12, m22, m33, Ibl, Gb, Db, Dw, b, r = (
+            c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9]
+        )  # fmt: skip
+        th, al = y[i, 1], y[i, 2]
+        pd, td, ad = y[i, 3], y[i, 4], y[i, 5]
+        f1, f2, f3 = _gf(
+            m12, Ibl, Gb, Db, Dw, b, r, th, pd, td, ad, u[i, 0], u[i, 1], e[i, 0], e[i, 1], e[i, 2]
+        )
+        a0, a1, a2 = _solve(m11, m12, m22, m33, Ibl, Db, Dw, b, r, th, 0.0, f1, f2, f3)
+        out[i, 0] = pd
+        out[i, 1] = td
+        out[i, 2] = ad
+        out[i, 3] = a0
+        out[i, 4] = a1
+        out[i, 5] = a2
+        out[i, 6] = r * pd * math.cos(al)
+        out[i, 7] = r * pd * math.sin(al)
+    return out
+
+
+@numba.njit(cache=True)
+def ros2_stage(Winv, f, k_prev, out):  # noqa: ANN001, ANN201 - compiled kernel
+    """ROS2-W stage ``k = W^-1 (f - 2 k_prev)`` per plant (``k_prev = 0`` for stage 1)."""
+    for i in range(f.shape[0]):
+        for a in range(8):
+            acc = 0.0
+            for b in range(8):
+                acc += Winv[i, a, b] * (f[i, b] - 2.0 * k_prev[i, b])
+            out[i, a] = acc
+    return out
+
+
+@numba.njit(cache=True)
+def ros2_update(y, k1, k2, h, status, t_new, t_end):  # noqa: ANN001, ANN201 - compiled kernel
+    """``y += 3/2 h k1 + 1/2 h k2`` for the running plants, then the events: non-finite ->
+    diverged, ``|theta| >= pi/2`` -> fell (``t_end = t_new``). Returns the plants running."""
+    running = 0
+    for i in range(y.shape[0]):
+        if status[i] != OK:
+            continue
+        finite = True
+        for a in range(8):
+            y[i, a] += 1.5 * h * k1[i, a] + 0.5 * h * k2[i, a]
+            if not math.isfinite(y[i, a]):
+                finite = False
+        if not finite:
+            status[i] = DIVERGED
+            t_end[i] = t_new
+        elif abs(y[i, 1]) >= _FELL_ANGLE:
+            status[i] = FELL
+            t_end[i] = t_new
+        else:
+            running += 1
     return running
 
 

@@ -17,6 +17,7 @@ from mwip.studies import (
     do_comparison,
     exp_asta,
     exp_hodosmc,
+    exp_it2,
     hodosmc_vs_smc,
     it2_balance,
     lqr_gain,
@@ -44,6 +45,7 @@ STUDIES: dict[str, tuple[Study, str]] = {
     "exp-hodosmc-speed": (exp_hodosmc.run_speed, exp_hodosmc.SOURCE_SPEED),
     "exp-hodosmc-obstacle": (exp_hodosmc.run_obstacle, exp_hodosmc.SOURCE_OBSTACLE),
     "exp-asta": (exp_asta.run, exp_asta.SOURCE),
+    "exp-it2": (exp_it2.run, exp_it2.SOURCE),
 }
 
 

@@ -130,6 +130,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         metrics[f"{name}.overshoot"] = overshoot(res.theta)
         metrics[f"{name}.rms_theta"] = float(rms(res.t, res.theta))
         metrics[f"{name}.final_abs_theta"] = float(abs(res.theta[-1]))
+        metrics[f"{name}.t_end"] = float(res.t_end[0])
         metrics.update(common_metrics(name, res, s, sd))
 
     def better(p: str) -> tuple[bool, bool]:
@@ -145,12 +146,17 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         faster, less_os = better(p)
         claims += [
             {"text": f"both ASTA and ASMC balance the robot (book, Fig. 4.2), {where}",
-             "holds": bool(ok)},
-            {"text": f"ASTA settles no later than ASMC (book), {where}", "holds": faster},
-            {"text": f"ASTA overshoots no more than ASMC (book), {where}", "holds": less_os},
+             "holds": bool(ok),
+             "keys": [f"{p}{k}.{q}" for k in ("asta", "asmc")
+                      for q in ("t_end", "final_abs_theta")]},
+            {"text": f"ASTA settles no later than ASMC (book), {where}", "holds": faster,
+             "keys": [f"{p}asta.settling_time", f"{p}asmc.settling_time"]},
+            {"text": f"ASTA overshoots no more than ASMC (book), {where}", "holds": less_os,
+             "keys": [f"{p}asta.overshoot", f"{p}asmc.overshoot"]},
             {"text": f"ASTA's control has less total variation than ASMC's (no chattering, "
                      f"book Figs. 4.3-4.4), {where}",
-             "holds": bool(metrics[f"{p}asta.u_tv"] < metrics[f"{p}asmc.u_tv"])},
+             "holds": bool(metrics[f"{p}asta.u_tv"] < metrics[f"{p}asmc.u_tv"]),
+             "keys": [f"{p}asta.u_tv", f"{p}asmc.u_tv"]},
         ]  # fmt: skip
     doc = metrics_document(
         "asta-balance", SOURCE, metrics, {}, claims, runs_doc(runs),

@@ -63,14 +63,17 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
             {"text": f"both reach the desired speed 0.5 rad/s (book, Fig. 4.5): RMS speed "
                      f"error < 0.05 rad/s, {where}",
              "holds": bool(max(metrics[f"{p}asta.rms_speed_err"],
-                               metrics[f"{p}asmc.rms_speed_err"]) < 0.05)},
+                               metrics[f"{p}asmc.rms_speed_err"]) < 0.05),
+             "keys": [f"{p}asta.rms_speed_err", f"{p}asmc.rms_speed_err"]},
             {"text": f"ASMC chatters, ASTA is smooth: ASTA's control and sliding variable have "
                      f"less total variation (book, Figs. 4.5-4.7), {where}",
              "holds": bool(metrics[f"{p}asta.u_tv"] < metrics[f"{p}asmc.u_tv"]
-                           and metrics[f"{p}asta.s_tv"] < metrics[f"{p}asmc.s_tv"])},
+                           and metrics[f"{p}asta.s_tv"] < metrics[f"{p}asmc.s_tv"]),
+             "keys": [f"{p}asta.u_tv", f"{p}asmc.u_tv", f"{p}asta.s_tv", f"{p}asmc.s_tv"]},
             {"text": f"ASTA: sigma and sigma' both converge (second-order sliding), {where}",
              "holds": bool(metrics[f"{p}asta.tail_max_abs_sigma1"] < 1e-3
-                           and metrics[f"{p}asta.tail_max_abs_sigma1_dot"] < 0.1)},
+                           and metrics[f"{p}asta.tail_max_abs_sigma1_dot"] < 0.1),
+             "keys": [f"{p}asta.tail_max_abs_sigma1", f"{p}asta.tail_max_abs_sigma1_dot"]},
         ]  # fmt: skip
     doc = metrics_document(
         "asta-velocity", SOURCE, metrics, {}, claims, runs_doc(runs),

@@ -37,7 +37,25 @@ def metrics_document(
     runs: dict[str, dict[str, Any]],
     settings: dict[str, Any],
 ) -> dict[str, Any]:
-    """The metrics.json document of SPEC.md section 6."""
+    """The metrics.json document of SPEC.md section 6.
+
+    A claim is ``{"text": str, "holds": bool}`` and may name the metric keys it is decided
+    on, ``"keys": [...]``; their values are copied into the claim as ``"values"`` so the
+    summary and the report show the deciding numbers. A key that is not in ``metrics`` is a
+    programming error (``KeyError``).
+    """
+    resolved = []
+    for c in claims:
+        c = dict(c)
+        c["holds"] = bool(c["holds"])
+        keys = c.get("keys")
+        if keys:
+            missing = [k for k in keys if k not in metrics]
+            if missing:
+                raise KeyError(f"claim {c['text']!r} names unknown metrics {missing}")
+            c["values"] = {k: metrics[k] for k in keys}
+        resolved.append(c)
+    claims = resolved
     return to_jsonable(
         {
             "study": study,

@@ -94,6 +94,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
                 metrics[f"{name}.final_gamma1"] = float(s["Gamma"][-1, 0])
                 metrics[f"{name}.max_abs_u"] = float(np.nanmax(np.abs(s["u_applied"])))
                 metrics[f"{name}.sat_fraction"] = float(np.nanmean(s["drive_limited"]))
+                metrics[f"{name}.t_end"] = float(res.t_end[0])
     claims = []
     for reading in readings:
         pre, label = READINGS[reading]
@@ -105,11 +106,13 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
                     {
                         "text": f"ASTA < ASMC in {q}, Case {case} (book){label}",
                         "holds": bool(np.isfinite(a) and np.isfinite(b) and a < b),
+                        "keys": [f"{pre}asta.case{case}.{q}", f"{pre}asmc.case{case}.{q}"],
                     }
                 )
             claims.append({
                 "text": f"both keep the robot up for {duration:g} s, Case {case}{label}",
                 "holds": all(runs[f"{pre}{k}.case{case}"].status[0] == "ok" for k in KINDS),
+                "keys": [f"{pre}{k}.case{case}.t_end" for k in KINDS],
             })  # fmt: skip
     doc = metrics_document(
         study, SOURCE, metrics, PUBLISHED, claims,

@@ -143,6 +143,7 @@ def _rms_metrics(res: SimResult, q1d_dot: float, window: tuple[float, float]) ->
         "u_tv": float(np.sum(total_variation_rate(res.t, res.u.T))),
         "max_abs_u": float(np.nanmax(np.abs(s["u_applied"]))),
         "sat_fraction": float(np.nanmean(lim)) if lim is not None else 0.0,
+        "t_end": float(res.t_end[0]),
     }
 
 
@@ -200,11 +201,13 @@ def _rms_experiment(
                 claims.append({
                     "text": f"DO4SMC < DO1SMC < SMC in {q}, Case {case} (book){label}",
                     "holds": _ordered(metrics, pre + "{k}.case" + str(case) + ".{q}", q),
+                    "keys": [f"{pre}{k}.case{case}.{q}" for k in ("do4smc", "do1smc", "smc")],
                 })  # fmt: skip
             claims.append({
                 "text": f"all three controllers keep the robot up for {duration:g} s, Case "
                         f"{case}{label}",
                 "holds": all(runs[f"{pre}{k}.case{case}"].status[0] == "ok" for k in KINDS),
+                "keys": [f"{pre}{k}.case{case}.t_end" for k in KINDS],
             })  # fmt: skip
     doc = metrics_document(study, source, metrics, published, claims, _runs_doc(runs),
                            _settings({"q1d_dot": q1d_dot}, duration, window))  # fmt: skip
@@ -283,10 +286,12 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
             claims.append({
                 "text": f"settling time DO4SMC < DO1SMC < SMC, {what} (book){label}",
                 "holds": _ordered(metrics, pre + tag + "{k}.{q}", "settling_time"),
+                "keys": [f"{pre}{tag}{k}.settling_time" for k in ("do4smc", "do1smc", "smc")],
             })  # fmt: skip
             claims.append({
                 "text": f"all three cross the stick and settle in (-9, -5) rad/s, {what}{label}",
                 "holds": all(np.isfinite(metrics[f"{pre}{tag}{k}.settling_time"]) for k in KINDS),
+                "keys": [f"{pre}{tag}{k}.settling_time" for k in KINDS],
             })  # fmt: skip
     stick = _stick_doc()
     doc = metrics_document(

@@ -76,6 +76,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         metrics[f"{name}.u_tv"] = float(np.sum(total_variation_rate(res.t, res.u.T)))
         metrics[f"{name}.max_abs_u"] = float(np.nanmax(np.abs(res.u)))
         metrics[f"{name}.rms_S1"] = float(rms(res.t, res.series()["S1"], window))
+        metrics[f"{name}.t_end"] = float(res.t_end[0])
 
     def better(key: str) -> bool:
         return metrics[f"hodosmc.{key}"] < metrics[f"smc.{key}"]
@@ -83,24 +84,33 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     def balanced(name: str) -> bool:
         return runs[name].status[0] == "ok" and metrics[f"{name}.rms_theta"] < BALANCED
 
+    def pair(key: str) -> list[str]:
+        return [f"hodosmc.{key}", f"smc.{key}"]
+
+    def up(name: str) -> list[str]:
+        return [f"{name}.t_end", f"{name}.rms_theta"]
+
     claims = [
-        {"text": "HODOSMC has lower RMS theta than SMC (book)", "holds": better("rms_theta")},
+        {"text": "HODOSMC has lower RMS theta than SMC (book)", "holds": better("rms_theta"),
+         "keys": pair("rms_theta")},
         {"text": "HODOSMC has lower RMS speed error than SMC (book)",
-         "holds": better("rms_speed_err")},
+         "holds": better("rms_speed_err"), "keys": pair("rms_speed_err")},
         {"text": "HODOSMC has lower control total variation than SMC (book: less chattering)",
-         "holds": better("u_tv")},
+         "holds": better("u_tv"), "keys": pair("u_tv")},
         {"text": f"HODOSMC balances the real plant (RMS theta < {BALANCED} rad after the "
-                 "transient)", "holds": balanced("hodosmc")},
-        {"text": "SMC with the book's dbar = 15 balances the real plant", "holds": balanced("smc")},
+                 "transient)", "holds": balanced("hodosmc"), "keys": up("hodosmc")},
+        {"text": "SMC with the book's dbar = 15 balances the real plant", "holds": balanced("smc"),
+         "keys": up("smc")},
         {"text": "without model mismatch (nominal plant) HODOSMC balances",
-         "holds": balanced("hodosmc_nominal_plant")},
+         "holds": balanced("hodosmc_nominal_plant"), "keys": up("hodosmc_nominal_plant")},
         {"text": "the real plant with the nominal damping (Db, Dw) only: HODOSMC balances, so "
                  "the damping mismatch is what breaks it",
-         "holds": balanced("hodosmc_nominal_damping")},
+         "holds": balanced("hodosmc_nominal_damping"),
+         "keys": up("hodosmc_nominal_damping")},
         {"text": "SMC balances once dbar covers the lumped disturbance (dbar = 40)",
-         "holds": balanced("smc_dbar40")},
+         "holds": balanced("smc_dbar40"), "keys": up("smc_dbar40")},
         {"text": "with the book's fast 2nd-order observer the same law balances the real plant",
-         "holds": balanced("do2smc")},
+         "holds": balanced("do2smc"), "keys": up("do2smc")},
     ]  # fmt: skip
     doc = metrics_document(
         "hodosmc-vs-smc", SOURCE, metrics, {}, claims,

@@ -65,6 +65,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         metrics[f"{key}.settling_time"] = settling_time(res.t, th)
         metrics[f"{key}.final_abs_theta"] = float(abs(th[-1]))
         metrics[f"{key}.max_abs_u"] = float(np.nanmax(np.abs(res.u).sum(-1)))
+        metrics[f"{key}.t_end"] = float(res.t_end[0])
     for name, d in (("it2", robust), ("book", book)):
         for i in range(2):
             for j, s in enumerate(STATE):
@@ -77,17 +78,25 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     res = runs["it2"]
     tail = res.t >= res.t[-1] - 1.0
     converged = bool(res.status[0] == "ok" and np.nanmax(np.abs(res.theta[tail])) < 2e-3)
+    metrics["it2.tail_max_abs_theta"] = float(np.nanmax(np.abs(res.theta[tail])))
+    printed = np.array([BOOK_G1, BOOK_G2], dtype=float)
+    metrics["book.G_max_rel_err"] = float(np.max(np.abs(book.G - printed) / np.abs(printed)))
+    g_keys = [f"book.G{i + 1}.{s}" for i in range(2) for s in STATE]
     claims = [
         {"text": "theta converges quickly (robust nominal design, real plant) and stays at 0",
-         "holds": converged and metrics["it2.settling_time"] < 3.0},
+         "holds": converged and metrics["it2.settling_time"] < 3.0,
+         "keys": ["it2.t_end", "it2.tail_max_abs_theta", "it2.settling_time"]},
         {"text": "Lemma 5.1/5.2 on the nominal TS model alone balances the real plant",
          "holds": bool(runs["book"].status[0] == "ok"
-                       and metrics["book.final_abs_theta"] < 2e-3)},
+                       and metrics["book.final_abs_theta"] < 2e-3),
+         "keys": ["book.t_end", "book.final_abs_theta"]},
         {"text": "the same nominal-only design balances the nominal plant",
          "holds": bool(runs["book_nominal_plant"].status[0] == "ok"
-                       and metrics["book_nominal_plant.final_abs_theta"] < 2e-3)},
+                       and metrics["book_nominal_plant.final_abs_theta"] < 2e-3),
+         "keys": ["book_nominal_plant.t_end", "book_nominal_plant.final_abs_theta"]},
         {"text": "the designed gains reproduce the printed G1, G2 (within 10 %)",
-         "holds": bool(np.allclose(book.G, [BOOK_G1, BOOK_G2], rtol=0.1))},
+         "holds": bool(np.allclose(book.G, [BOOK_G1, BOOK_G2], rtol=0.1)),
+         "keys": ["book.G_max_rel_err", *g_keys]},
     ]  # fmt: skip
     doc = metrics_document(
         "it2-balance", SOURCE, metrics, published, claims,

@@ -57,18 +57,21 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         s = res.summary()
         metrics[f"{key}.settling_time"] = s["settling_time"]
         metrics[f"{key}.max_abs_u"] = s["max_abs_u"]
+        metrics[f"{key}.t_end"] = float(res.t_end[0])
     poles = np.sort(cont.poles.real)
     metrics["continuous.fastest_pole"] = float(poles[0])
     metrics["sampled.max_abs_eig"] = float(np.max(np.abs(samp.poles)))
     yaw_match = bool(np.allclose(np.abs(cont.K[:, [1, 4]]), [[70.71, 219.80]] * 2, rtol=0.005))
     claims = [
-        {"text": "yaw gains match the printed 70.71 and 219.80 (within 0.5 %)", "holds": yaw_match},
+        {"text": "yaw gains match the printed 70.71 and 219.80 (within 0.5 %)", "holds": yaw_match,
+         "keys": [f"continuous.K_{s}.{q}" for s in "rl" for q in ("alpha", "alpha_dot")]},
         {"text": "continuous LQR balances the real plant (continuous mode)",
-         "holds": runs["continuous"].status[0] == "ok"},
+         "holds": runs["continuous"].status[0] == "ok", "keys": ["continuous.t_end"]},
         {"text": "the 5 ms design balances the real plant with zero-order hold",
-         "holds": runs["sampled"].status[0] == "ok"},
+         "holds": runs["sampled"].status[0] == "ok", "keys": ["sampled.t_end"]},
         {"text": "the continuous gain with 5 ms hold is unstable (SPEC section 2)",
-         "holds": runs["continuous_gain_held"].status[0] != "ok"},
+         "holds": runs["continuous_gain_held"].status[0] != "ok",
+         "keys": ["continuous_gain_held.t_end"]},
     ]  # fmt: skip
     doc = metrics_document(
         "lqr-gain", SOURCE, metrics, published, claims,

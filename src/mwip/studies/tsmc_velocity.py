@@ -89,19 +89,23 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     l_ok = metrics["lqr.final_v_err"] < small * V_D and abs(metrics["lqr.final_theta"]) < small
     claims = [
         {"text": "TSMC reaches v_d = 1 m/s with theta -> 0 (book, Fig. 4.12): v within 2 % "
-                 "of v_d and |theta| < 0.02 rad at the end", "holds": bool(t_ok)},
+                 "of v_d and |theta| < 0.02 rad at the end", "holds": bool(t_ok),
+         "keys": ["tsmc.final_v_err", "tsmc.final_theta"]},
         {"text": "LQR cannot bring both v to v_d and theta to 0 (book, Fig. 4.14)",
-         "holds": bool(not l_ok)},
+         "holds": bool(not l_ok), "keys": ["lqr.final_v_err", "lqr.final_theta"]},
         {"text": "TSMC brings theta and alpha to 0 (its surfaces' targets)",
          "holds": bool(abs(metrics["tsmc.final_theta"]) < small
-                       and abs(metrics["tsmc.final_alpha"]) < small)},
+                       and abs(metrics["tsmc.final_alpha"]) < small),
+         "keys": ["tsmc.final_theta", "tsmc.final_alpha"]},
         {"text": "no controller can hold v_d = 1 m/s on this plant: a steady speed needs "
                  "2 Dw psi' = Gb sin(theta), i.e. sin(theta) = "
                  f"{metrics['real.sin_theta_needed_for_v_d']:.1f} > 1 (SPEC section 2 damping)",
-         "holds": bool(np.isnan(lean_for_speed(REAL, V_D)))},
+         "holds": bool(np.isnan(lean_for_speed(REAL, V_D))),
+         "keys": ["real.sin_theta_needed_for_v_d", "real.max_steady_speed"]},
         {"text": f"with the pitch target from (4.40)'s equilibrium, TSMC holds the feasible "
                  f"speed {V_FEASIBLE} m/s within 20 % (nominal-model lean, no speed feedback)",
-         "holds": bool(metrics["tsmc_lean.final_v_err"] < 0.2 * V_FEASIBLE)},
+         "holds": bool(metrics["tsmc_lean.final_v_err"] < 0.2 * V_FEASIBLE),
+         "keys": ["tsmc_lean.final_v_err", "tsmc_lean.v_target"]},
     ]  # fmt: skip
     doc = metrics_document(
         "tsmc-velocity", SOURCE, metrics, published, claims,

@@ -1,0 +1,120 @@
+"""Reading a results folder: each study's ``metrics.json`` (SPEC.md section 6), its figures,
+and the run record ``run.json`` written by ``mwip reproduce``.
+
+Everything the summary and the report say comes from these files, never from the text of a
+study's module: a verdict is the ``holds`` of a claim in ``metrics.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+__all__ = ["StudyResult", "load_catalog", "load_results", "load_run_record", "relative_diff"]
+
+RUN_RECORD = "run.json"
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    """One study's outcome in a results folder.
+
+    ``doc`` is the metrics document (``None`` when the study failed or has not run);
+    ``error`` the failure message from the run record, if any.
+    """
+
+    name: str
+    folder: Path
+    doc: dict[str, Any] | None
+    figures: tuple[Path, ...] = ()
+    error: str | None = None
+    wall_s: float | None = None
+    info: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def claims(self) -> list[dict[str, Any]]:
+        return list(self.doc.get("claims", [])) if self.doc else []
+
+    @property
+    def held(self) -> tuple[int, int]:
+        """(claims that hold, claims)."""
+        c = self.claims
+        return sum(bool(x.get("holds")) for x in c), len(c)
+
+    def comparison(self) -> list[tuple[str, float | None, float, float | None]]:
+        """``(key, ours, published, relative difference)`` for every published number."""
+        if not self.doc:
+            return []
+        ours = self.doc.get("metrics", {})
+        rows = []
+        for key, pub in self.doc.get("published", {}).items():
+            val = ours.get(key)
+            rows.append((key, val, pub, relative_diff(val, pub)))
+        return rows
+
+
+def relative_diff(ours: Any, published: Any) -> float | None:
+    """``(ours - published) / |published|``; ``None`` where undefined (missing, zero)."""
+    try:
+        o, p = float(ours), float(published)
+    except (TypeError, ValueError):
+        return None
+    if not (math.isfinite(o) and math.isfinite(p)) or p == 0.0:
+        return None
+    return (o - p) / abs(p)
+
+
+def load_catalog() -> dict[str, dict[str, str]]:
+    """The per-study texts (title, set-up, the book's figure, gaps) shipped with mwip."""
+    try:
+        text = resources.files("mwip.studies").joinpath("catalog.toml").read_text("utf-8")
+    except FileNotFoundError:  # a source tree without it: the report shows no texts
+        return {}
+    return tomllib.loads(text)
+
+
+def load_run_record(out: Path) -> dict[str, Any]:
+    """``OUT/run.json`` as written by ``mwip reproduce`` ({} if absent or unreadable)."""
+    path = Path(out) / RUN_RECORD
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+
+
+def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]:
+    """The studies in ``out``, in ``names`` order (default: every registered study that has
+    results there or is in the run record).
+
+    A study with no readable ``metrics.json`` is returned with ``doc=None`` and the error
+    recorded in ``run.json`` (or "not run").
+    """
+    from mwip.studies import STUDIES
+
+    out = Path(out)
+    record = load_run_record(out)
+    per_study = record.get("studies", {})
+    if names is None:
+        names = [n for n in STUDIES if n in per_study or (out / n / "metrics.json").is_file()]
+    catalog = load_catalog()
+    results = []
+    for name in names:
+        folder = out / name
+        rec = per_study.get(name, {})
+        doc: dict[str, Any] | None
+        try:
+            doc = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            doc = None
+        error = rec.get("error") or (None if doc is not None else "not run")
+        figures = tuple(sorted(folder.glob("*.png"))) if folder.is_dir() else ()
+        results.append(
+            StudyResult(name=name, folder=folder, doc=doc, figures=figures, error=error,
+                        wall_s=rec.get("wall_s"), info=catalog.get(name, {}))
+        )  # fmt: skip
+    return results

@@ -1,0 +1,142 @@
+"""Running several studies: in parallel processes, into a staging folder, with a run record.
+
+:func:`run_studies` is what ``mwip run`` and ``mwip reproduce`` call. The studies write into
+a staging folder beside ``out`` (:class:`mwip.report.Staging`); when all are done the
+successful ones replace their old folders in ``out``, the run record ``out/run.json`` is
+updated and the report ``out/index.html`` rebuilt. A study that raises is recorded with its
+error and does not stop the others (its earlier results in ``out``, if any, are kept);
+Ctrl-C discards the staging folder and leaves ``out`` as it was.
+"""
+
+from __future__ import annotations
+
+import platform
+import sys
+import time
+import warnings
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from datetime import UTC, datetime
+from importlib.metadata import version
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy
+
+from mwip.io import write_json_atomic
+from mwip.params import Params
+from mwip.report.html import write_report
+from mwip.report.results import RUN_RECORD, load_run_record
+from mwip.report.staging import Staging
+from mwip.studies import robot
+
+__all__ = ["StudyOutcome", "run_studies"]
+
+#: (name, metrics document or None, error or None, wall time in s)
+StudyOutcome = tuple[str, dict[str, Any] | None, str | None, float]
+
+
+def _run_one(
+    name: str, out: Path, quick: bool, plant: Params, nominal: Params
+) -> StudyOutcome:
+    """Run one study (in a worker process or here), catching its failure."""
+    from mwip.studies import run_study
+
+    t0 = time.perf_counter()
+    try:
+        with warnings.catch_warnings(), robot.using(plant, nominal):
+            warnings.simplefilter("ignore")
+            doc = run_study(name, out, quick=quick)
+    except Exception as exc:  # noqa: BLE001 - recorded and reported; exit code says so
+        return name, None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
+    return name, doc, None, time.perf_counter() - t0
+
+
+def _environment() -> dict[str, Any]:
+    return {
+        "mwip_version": version("mwip"),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "platform": platform.platform(),
+        "command": " ".join(["mwip", *sys.argv[1:]]),
+    }
+
+
+def run_studies(
+    names: list[str],
+    out: Path,
+    *,
+    quick: bool = False,
+    jobs: int = 1,
+    plant: Params | None = None,
+    nominal: Params | None = None,
+    on_done: Callable[[StudyOutcome], None] | None = None,
+) -> dict[str, Any]:
+    """Run ``names`` into ``out``; returns the run record (also written to ``out/run.json``).
+
+    ``jobs`` processes (1: in this process). ``plant``/``nominal`` replace the book's robot
+    and design model (:mod:`mwip.studies.robot`). ``on_done`` is called as each study ends.
+    """
+    from mwip.studies import STUDIES
+
+    for name in names:
+        if name not in STUDIES:
+            raise ValueError(f"unknown study {name!r}; choose from: {', '.join(STUDIES)}")
+    plant = plant if plant is not None else robot.plant()
+    nominal = nominal if nominal is not None else robot.nominal()
+    started = datetime.now(UTC).isoformat(timespec="seconds")
+    t0 = time.perf_counter()
+    outcomes: dict[str, StudyOutcome] = {}
+
+    def done(outcome: StudyOutcome) -> None:
+        outcomes[outcome[0]] = outcome
+        if on_done is not None:
+            on_done(outcome)
+
+    with Staging(out) as stage:
+        assert stage.path is not None
+        if jobs <= 1 or len(names) == 1:
+            for name in names:
+                done(_run_one(name, stage.path, quick, plant, nominal))
+        else:
+            pool = ProcessPoolExecutor(max_workers=min(jobs, len(names)))
+            try:
+                futures = [pool.submit(_run_one, n, stage.path, quick, plant, nominal)
+                           for n in _longest_first(names)]  # fmt: skip
+                for fut in as_completed(futures):
+                    done(fut.result())
+            except BaseException:
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
+            pool.shutdown()
+        record = load_run_record(out) if len(names) < len(STUDIES) else {}
+        studies = dict(record.get("studies", {}))
+        for name in names:
+            _, doc, error, wall = outcomes[name]
+            studies[name] = {"wall_s": round(wall, 3), "error": error}
+        record.update(_environment())
+        record.update({
+            "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
+            "quick": quick, "studies": {n: studies[n] for n in STUDIES if n in studies},
+            "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
+        })  # fmt: skip
+        write_json_atomic(stage.path / RUN_RECORD, record)
+        ok = [n for n in names if outcomes[n][1] is not None]
+        stage.commit([*ok, RUN_RECORD])
+    write_report(out)
+    return record
+
+
+# Rough cost of each study (s on one core, full runs): the longest start first so that the
+# processes finish together.
+_COST = {
+    "hodosmc-vs-smc": 20, "tsmc-velocity": 20, "tsmc-circle": 20, "tsmc-equilibrium": 15,
+    "asta-velocity": 14, "asta-balance": 12, "it2-balance": 13, "exp-it2": 9,
+}  # fmt: skip
+
+
+def _longest_first(names: list[str]) -> list[str]:
+    return sorted(names, key=lambda n: -_COST.get(n, 5))
+

@@ -1,0 +1,80 @@
+"""Study files: a TOML that names a study and the robot to run it on.
+
+``mwip run --scenario FILE.toml``; example (``examples/study_heavy_robot.toml``)::
+
+    [study]
+    name = "asta-balance"        # a study of `mwip list`
+    quick = false                # optional: shorter runs
+
+    [robot]                      # optional; default: the book's robot and design model
+    params = "heavy_robot.toml"  # the simulated robot: "real", "nominal" or a parameter TOML
+    nominal = "nominal"          # the design model: same choices
+
+Paths are relative to the study file. Unknown tables or keys are errors; every error is a
+one-line ``ValueError`` naming the field.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from mwip.io import read_toml
+from mwip.params import NOMINAL, REAL, Params, load_params
+
+__all__ = ["StudyFile", "load_study_file"]
+
+_TABLES = {"study": ("name", "quick"), "robot": ("params", "nominal")}
+
+
+@dataclass(frozen=True)
+class StudyFile:
+    """A parsed study file."""
+
+    path: Path
+    name: str
+    quick: bool
+    plant: Params
+    nominal: Params
+
+
+def _robot(value: object, key: str, base: Params, folder: Path) -> Params:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"[robot] {key} must be 'real', 'nominal' or a TOML path, got {value!r}")
+    if value.lower() == "real":
+        return REAL
+    if value.lower() == "nominal":
+        return NOMINAL
+    path = (folder / value).resolve()
+    if not path.is_file():
+        raise ValueError(f"[robot] {key}: no such parameter file {str(path)!r}")
+    return load_params(path, base=base)
+
+
+def load_study_file(path: str | Path) -> StudyFile:
+    """Read and validate a study file (see the module docstring)."""
+    from mwip.studies import STUDIES
+
+    path = Path(path)
+    data = read_toml(path, "study file")
+    for table, body in data.items():
+        if table not in _TABLES:
+            raise ValueError(f"{path.name}: unknown table [{table}]; allowed: study, robot")
+        if not isinstance(body, dict):
+            raise ValueError(f"{path.name}: [{table}] must be a table")
+        for key in body:
+            if key not in _TABLES[table]:
+                allowed = ", ".join(_TABLES[table])
+                raise ValueError(f"[{table}] {key}: unknown key; allowed: {allowed}")
+    study = data.get("study", {})
+    name = study.get("name")
+    if name not in STUDIES:
+        raise ValueError(f"[study] name must be one of {', '.join(STUDIES)}; got {name!r}")
+    quick = study.get("quick", False)
+    if not isinstance(quick, bool):
+        raise ValueError(f"[study] quick must be true or false, got {quick!r}")
+    robot = data.get("robot", {})
+    folder = path.resolve().parent
+    plant = _robot(robot.get("params", "real"), "params", REAL, folder)
+    nominal = _robot(robot.get("nominal", "nominal"), "nominal", NOMINAL, folder)
+    return StudyFile(path=path, name=name, quick=quick, plant=plant, nominal=nominal)
