@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.control.switching import Switching
-from mwip.models.reduced import f_g
+from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
 from mwip.sim.sensors import Measurement
 
@@ -176,6 +176,10 @@ class SlidingModeController:
         self.switching = switching if switching is not None else Switching()
         self.q1d_dot = float(q1d_dot)
         self.q3d = float(q3d)
+        self._coef = np.ascontiguousarray(coefficients(params).reshape(-1), dtype=float)
+        if self._coef.shape != (10,):
+            raise ValueError("the controller's nominal params must be one robot, not a batch")
+        self._lam = np.array(gains.lambdas, dtype=float)
         self._u: NDArray[np.float64] | None = None
         self._S = np.zeros((0, 2))
         self._tau = np.zeros((0, 3))
@@ -204,12 +208,20 @@ class SlidingModeController:
         self._u = None
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
-        q, qd = meas.q, meas.qdot
-        tau_hat = self.disturbance_estimate(t, meas)
-        F, G = f_g(self.params, q, qd)
-        S = sliding_surface(q, qd, t, self.gains.lambdas, self.q1d_dot, self.q3d)
-        uAB = smc_law(F, G, qd, S, tau_hat, self.gains, self.switching, self.q1d_dot)
-        u = np.column_stack([0.5 * (uAB[:, 0] + uAB[:, 1]), 0.5 * (uAB[:, 0] - uAB[:, 1])])
+        """(3.49)-(3.50) at a sample, in one compiled loop (:mod:`mwip.control._smc_kernel`;
+        the same equations as :func:`sliding_surface` and :func:`smc_law`)."""
+        from mwip.control._smc_kernel import smc_step
+
+        q = np.ascontiguousarray(meas.q)
+        qd = np.ascontiguousarray(meas.qdot)
+        tau_hat = np.ascontiguousarray(self.disturbance_estimate(t, meas), dtype=float)
+        n = q.shape[0]
+        u, S = np.empty((n, 2)), np.empty((n, 2))
+        sw = self.switching
+        smc_step(
+            self._coef, q, qd, tau_hat, float(t), self._lam, self.gains.K1, self.gains.K2,
+            sw.kind == "sat", float(sw.phi), self.q1d_dot, self.q3d, u, S,
+        )  # fmt: skip
         self._u, self._S, self._tau = u, S, tau_hat
         return u
 

@@ -51,7 +51,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.control.switching import Switching
-from mwip.models.reduced import f_g
+from mwip.models.reduced import coefficients, f_g
 from mwip.params import NOMINAL, Params
 from mwip.sim.sensors import Measurement
 
@@ -284,6 +284,11 @@ class TSMC:
         self.Ts = Ts
         self._coeffs: NDArray[np.float64] | None = None
         self._log: dict[str, NDArray[np.float64]] = {}
+        self._coef = np.ascontiguousarray(coefficients(params).reshape(-1), dtype=float)
+        if self._coef.shape != (10,):
+            raise ValueError("the controller's nominal params must be one robot, not a batch")
+        self._IDinv = np.ascontiguousarray(_inv2(np.eye(2) - self.D))
+        self._refs = np.array([self.theta_ref, self.alpha_ref, self.alpha_dot_ref])
 
     def errors(
         self, t: float, meas: Measurement
@@ -299,20 +304,30 @@ class TSMC:
     def reset(self, meas: Measurement) -> None:
         """Fit the augmenting cubics (4.43) to the initial errors so that ``s(0) = 0``."""
         e, ed = self.errors(meas.t, meas)
-        self._coeffs = cubic_coefficients(e, ed, self.Tf)
+        self._coeffs = np.ascontiguousarray(
+            np.broadcast_to(cubic_coefficients(e, ed, self.Tf), (e.shape[0], 2, 4))
+        )
         self._t0 = float(meas.t)
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
+        """(4.30)-(4.32) at ``(t, meas)`` in one compiled loop (:mod:`mwip.control._tsmc_kernel`;
+        the same equations as :func:`subsystem`, :func:`augmenting`, :func:`tsmc_surface`,
+        :func:`tsmc_gain` and :func:`tsmc_law`)."""
+        from mwip.control._tsmc_kernel import tsmc_step
+
         if self._coeffs is None:
             self.reset(meas)
         assert self._coeffs is not None
-        e, ed = self.errors(t, meas)
-        a, ad, add = augmenting(t - self._t0, self._coeffs, self.Tf)
-        s = tsmc_surface(e, ed, a, ad, self.C)
-        F1, G1 = subsystem(self.params, meas.q, meas.qdot)
-        nominal_term = F1 + self.C * ed - add - self.C * ad
-        k = tsmc_gain(F1, nominal_term, self.Ftilde_ratio, self.D, self.Gamma)
-        u = tsmc_law(F1, G1, ed, ad, add, 0.0, self.C, k, self.switching(s))
+        q = np.ascontiguousarray(meas.q)
+        qd = np.ascontiguousarray(meas.qdot)
+        n = q.shape[0]
+        u, s, k, a = (np.empty((n, 2)) for _ in range(4))
+        sw = self.switching
+        tsmc_step(
+            self._coef, q, qd, float(t), float(t) - self._t0, self._coeffs, self.Tf, self.C,
+            self.Ftilde_ratio, self.D, self._IDinv, self.Gamma, sw.kind == "sat", float(sw.phi),
+            self._refs, u, s, k, a,
+        )  # fmt: skip
         self._log = {"s": s, "k": k, "aug": a}
         return u
 

@@ -24,3 +24,19 @@ def f_g_batch(c, q, qd, F, G):  # noqa: ANN001, ANN201 - compiled kernel
         G[i, 0, 0] = g1
         G[i, 1, 0] = g2
         G[i, 2, 1] = g3
+
+
+@numba.njit(cache=True)
+def f_plus_g_u(c, q, qd, uAB, out):  # noqa: ANN001, ANN201 - compiled kernel
+    """``out = F + G [u_A, u_B]`` (N, 3) of (2.36) for one robot's coefficients ``c`` (10,)
+    at ``q, qd`` (N, 3) with ``uAB`` (N, 2): the nominal acceleration a sample-time observer
+    subtracts from the measured one."""
+    for i in range(q.shape[0]):
+        f1, f2, f3, g1, g2, g3 = _terms(
+            c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9],
+            q[i, 1], qd[i, 0], qd[i, 1], qd[i, 2],
+        )  # fmt: skip
+        out[i, 0] = f1 + g1 * uAB[i, 0]
+        out[i, 1] = f2 + g2 * uAB[i, 0]
+        out[i, 2] = f3 + g3 * uAB[i, 1]
+    return out

@@ -73,6 +73,8 @@ from mwip.params import Params
 
 __all__ = ["HighOrderDO", "HODO", "FGFunction", "discretize_observer", "euler_substeps_needed"]
 
+_TO_AB = np.array([[1.0, 1.0], [1.0, -1.0]])  # [u_r, u_l] @ _TO_AB = [u_A, u_B]
+
 #: ``f_g(params, q, qdot) -> (F (N, 3), G (N, 3, 2))`` of (2.36); ``G`` multiplies ``[u_A, u_B]``.
 FGFunction = Callable[[Params, NDArray[np.float64], NDArray[np.float64]], tuple[
     NDArray[np.float64], NDArray[np.float64]
@@ -198,10 +200,14 @@ class HighOrderDO:
                 f"gains (spectral radius {rho:.4f}); use discretization='exact' or "
                 f"substeps >= {need}"
             )
+        self._coef: NDArray[np.float64] | None = None
         if f_g is None:
+            from mwip.models.reduced import coefficients
             from mwip.models.reduced import f_g as default_f_g
 
             f_g = default_f_g
+            coef = np.asarray(coefficients(params), dtype=float).reshape(-1)
+            self._coef = coef if coef.shape == (10,) else None  # a batch: the NumPy path
         self.params = params
         self.Ts = float(Ts)
         self.discretization: str = discretization
@@ -267,6 +273,12 @@ class HighOrderDO:
     def _model(
         self, q: NDArray[np.float64], qdot: NDArray[np.float64], uAB: NDArray[np.float64]
     ) -> NDArray[np.float64]:
+        """``F + G [u_A, u_B]`` of (2.36) on the nominal parameters."""
+        if self._coef is not None:  # the default model: one compiled loop
+            from mwip.models._compiled import f_plus_g_u
+
+            return f_plus_g_u(self._coef, np.ascontiguousarray(q), np.ascontiguousarray(qdot),
+                              np.ascontiguousarray(uAB), np.empty((q.shape[0], 3)))  # fmt: skip
         F, G = self._f_g(self.params, q, qdot)  # (2.36)
         return np.asarray(F) + np.einsum("nij,nj->ni", np.asarray(G), uAB)
 
@@ -292,7 +304,7 @@ class HighOrderDO:
                 f"update expects q (N, 3), qdot (N, 3), u (N, 2) with N={N}; got "
                 f"{qq.shape}, {qd.shape}, {uu.shape}"
             )
-        uAB = np.stack([uu[:, 0] + uu[:, 1], uu[:, 0] - uu[:, 1]], axis=1)  # [u_A, u_B]
+        uAB = uu @ _TO_AB  # [u_A, u_B] = [u_r + u_l, u_r - u_l]
         q_start = qq if self._q_prev is None else self._q_prev
         if self.model_hold == "start":
             f = self._model(q_start, self._qdot_prev, uAB)
@@ -317,7 +329,9 @@ class HighOrderDO:
     @property
     def tau_hat(self) -> NDArray[np.float64]:
         """Current estimate of ``tau_d``, shape (N, 3)."""
-        return self.estimates[:, 0, :]
+        if self._z is None:
+            raise RuntimeError("call reset(qdot0) first")
+        return self._z[:, :3].copy()
 
     @property
     def auxiliary(self) -> NDArray[np.float64]:

@@ -25,8 +25,9 @@ from matplotlib.figure import Figure
 from mwip.control.asta import ASMC, ASTA, asta_surface
 from mwip.metrics import overshoot, rms, settling_time, total_variation_rate
 from mwip.models.reduced import accelerations
-from mwip.params import NOMINAL, REAL, Params
+from mwip.params import Params
 from mwip.sim import SimResult, simulate
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE = "Figs. 4.2-4.4"
@@ -41,7 +42,7 @@ THETA0 = -np.pi / 18
 def make(kind: str, psi_dot_ref: float = 0.0) -> ASTA | ASMC:
     """The study's ASTA or ASMC (book parameters, our reading)."""
     cls = ASTA if kind == "asta" else ASMC
-    return cls(NOMINAL, lam=LAM, K=K, rate=RATE, Gamma0=(0.0, 0.0), eps=EPS,
+    return cls(robot.nominal(), lam=LAM, K=K, rate=RATE, Gamma0=(0.0, 0.0), eps=EPS,
                psi_dot_ref=psi_dot_ref, Ts=TS)  # fmt: skip
 
 
@@ -58,7 +59,7 @@ def run_pair(
 ) -> dict[str, tuple[SimResult, np.ndarray, np.ndarray, Params]]:
     """ASTA and ASMC on the real plant and on the nominal plant ("matched")."""
     out = {}
-    for prefix, plant in (("", REAL), ("matched.", NOMINAL)):
+    for prefix, plant in (("", robot.plant()), ("matched.", robot.nominal())):
         for kind in ("asta", "asmc"):
             res = simulate(make(kind, psi_dot_ref), plant, q0=(0.0, THETA0, 0.0),
                            duration=duration, Ts=TS, dt=TS)  # fmt: skip

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from mwip.metrics import rms
-from mwip.params import NOMINAL, REAL
+from mwip.studies import robot
 from mwip.studies.asta_balance import (
     EPS,
     LAM,
@@ -55,8 +55,8 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         metrics[f"{name}.final_psi_dot"] = float(res.q_dot[-1, 0])
         metrics[f"{name}.final_abs_theta"] = float(abs(res.theta[-1]))
         metrics.update(common_metrics(name, res, s, sd))
-    metrics["real.speed_on_surface"] = speed_on_surface(REAL)
-    metrics["matched.speed_on_surface"] = speed_on_surface(NOMINAL)
+    metrics["real.speed_on_surface"] = speed_on_surface(robot.plant())
+    metrics["matched.speed_on_surface"] = speed_on_surface(robot.nominal())
     claims = []
     for p, where in (("", "real plant"), ("matched.", "nominal plant (extra)")):
         claims += [

@@ -40,8 +40,8 @@ from mwip.models.reduced import accelerations, lumped_disturbance, mass_matrix
 from mwip.observers import HighOrderDO
 from mwip.observers.bank import ObservedController
 from mwip.observers.design import published_gain_sets
-from mwip.params import NOMINAL, REAL
 from mwip.sim import BOOK_SINUSOIDS, SimResult, simulate
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE = "Fig. 3.2, Table 3.3"
@@ -60,8 +60,8 @@ def actual_lumped_disturbance(res: SimResult) -> np.ndarray:
     """``tau_d`` of (2.36) at each record's left limit, from the true plant state (K, 3)."""
     q, qd, u = res.q, res.q_dot, res.u
     u_prev = np.vstack([u[:1], u[:-1]])
-    acc = accelerations(REAL, q, qd, u_prev, BOOK_SINUSOIDS(res.t))
-    return lumped_disturbance(NOMINAL, q, qd, acc, u_prev)
+    acc = accelerations(robot.plant(), q, qd, u_prev, BOOK_SINUSOIDS(res.t))
+    return lumped_disturbance(robot.nominal(), q, qd, acc, u_prev)
 
 
 def predicted_rms(v: tuple[float, ...]) -> np.ndarray:
@@ -77,15 +77,16 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     folder = Path(out) / "do-comparison"
     duration = 8.0 if quick else 25.0
     window = (3.0, duration) if quick else (5.0, 25.0)
+    plant, nominal = robot.plant(), robot.nominal()
     sets = published_gain_sets()
-    observers = {k: HighOrderDO(NOMINAL, sets[k].gains, TS) for k in ORDERS}
-    ctrl = ObservedController(LQR(design_lqr(NOMINAL, Ts=TS)), observers)
+    observers = {k: HighOrderDO(nominal, sets[k].gains, TS) for k in ORDERS}
+    ctrl = ObservedController(LQR(design_lqr(nominal, Ts=TS)), observers)
     res = simulate(
-        ctrl, REAL, q0=(0.0, np.pi / 18, 0.0), duration=duration, Ts=TS, dt=DT,
+        ctrl, plant, q0=(0.0, np.pi / 18, 0.0), duration=duration, Ts=TS, dt=DT,
         disturbance=BOOK_SINUSOIDS,
     )  # fmt: skip
     td = actual_lumped_disturbance(res)
-    Mn = mass_matrix(NOMINAL, res.q)
+    Mn = mass_matrix(nominal, res.q)
     td_star = np.einsum("kij,kj->ki", Mn, td)
     series = res.series()
 

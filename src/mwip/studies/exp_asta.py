@@ -24,8 +24,9 @@ from matplotlib.figure import Figure
 from mwip.control.asta import ASMC, ASTA
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
-from mwip.params import NOMINAL, Params
+from mwip.params import Params
 from mwip.sim import SimResult
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 from mwip.studies.exp_hodosmc import READINGS, alt_damping, twin_for
 
@@ -46,8 +47,11 @@ PUBLISHED = {
 }  # fmt: skip
 
 
-def make_controller(kind: str, params: Params = NOMINAL) -> ASTA | ASMC:
-    """ASTA or ASMC with (6.1)-(6.2) at 5 ms."""
+def make_controller(kind: str, params: Params | None = None) -> ASTA | ASMC:
+    """ASTA or ASMC with (6.1)-(6.2) at 5 ms, designed on ``params`` (default: the robot's
+    nominal model, :func:`mwip.studies.robot.nominal`)."""
+    if params is None:
+        params = robot.nominal()
     cls = ASTA if kind == "asta" else ASMC
     return cls(params, lam=LAM, K=K, rate=RATE, Gamma0=(0.0, 0.0), eps=EPS, Ts=0.005)
 
@@ -57,10 +61,10 @@ def run_one(
     twin: Twin | None = None, seed: int = 0,
 ) -> SimResult:  # fmt: skip
     """One controller on the twin, Case 1 or 2, ``reading`` "spec", "ideal" or "alt"."""
-    plant = case_plant(case)
-    nominal = NOMINAL
+    plant = case_plant(case, base=robot.plant())
+    nominal = robot.nominal()
     if reading == "alt":
-        plant, nominal = alt_damping(plant), alt_damping(NOMINAL)
+        plant, nominal = alt_damping(plant), alt_damping(nominal)
     return run_on_twin(
         make_controller(kind, nominal), case, twin=twin_for(reading, twin), plant=plant,
         q0=(0.0, THETA0, 0.0), duration=duration, record_every=2, seed=seed,

@@ -36,8 +36,9 @@ from mwip.control.smc import SMCDesignWarning, make_smc
 from mwip.control.switching import Switching
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
-from mwip.params import NOMINAL, Params
+from mwip.params import Params
 from mwip.sim import SimResult
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE_BALANCE = "Sec. 6.2.1, Figs. 6.4-6.5, Table 6.4"
@@ -86,8 +87,11 @@ def alt_damping(p: Params) -> Params:
     return replace(p, Db=p.Db * p.r**2, Dw=p.Dw * p.r**2)
 
 
-def make_controller(kind: str, q1d_dot: float = 0.0, params: Params = NOMINAL) -> Any:
-    """Table 6.3's controller ``kind`` (smc, do1smc, do4smc) at 5 ms with saturation."""
+def make_controller(kind: str, q1d_dot: float = 0.0, params: Params | None = None) -> Any:
+    """Table 6.3's controller ``kind`` (smc, do1smc, do4smc) at 5 ms with saturation, designed
+    on ``params`` (default: the robot's nominal model, :func:`mwip.studies.robot.nominal`)."""
+    if params is None:
+        params = robot.nominal()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SMCDesignWarning)
         return make_smc(kind, LAMBDAS, K=TABLE_6_3[kind]["K"], params=params, Ts=0.005,
@@ -95,7 +99,7 @@ def make_controller(kind: str, q1d_dot: float = 0.0, params: Params = NOMINAL) -
 
 
 def _plant(case: int, reading: str) -> Params:
-    p = case_plant(case)
+    p = case_plant(case, base=robot.plant())
     return alt_damping(p) if reading == "alt" else p
 
 
@@ -119,7 +123,9 @@ def run_one(
 ) -> SimResult:  # fmt: skip
     """One controller on the twin for a case (3 = payload + stick; ``case=-1``: stick on the
     Case 1 robot) under the damping ``reading`` ("spec" or "alt")."""
-    nominal = alt_damping(NOMINAL) if reading == "alt" else NOMINAL
+    nominal = robot.nominal()
+    if reading == "alt":
+        nominal = alt_damping(nominal)
     ctrl = make_controller(kind, q1d_dot, nominal)
     plant_case = 1 if case == -1 else case
     return run_on_twin(
@@ -310,7 +316,7 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
 def _stick_doc() -> dict[str, float]:
     from mwip.hardware.twin import stick_for
 
-    s = stick_for(case_plant(3), SPEED, STICK_START)
+    s = stick_for(case_plant(3, base=robot.plant()), SPEED, STICK_START)
     return {"height": s.height, "start": s.start, "duration_each": s.duration,
             "torque": s.torque, "mass": s.mass}  # fmt: skip
 

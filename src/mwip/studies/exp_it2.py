@@ -70,9 +70,10 @@ from mwip.fuzzy.pdc import PDCDesign, check_design, design_pdc, uncertainty_mode
 from mwip.fuzzy.ts_model import nie_tan_weights, type1_weights
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms
-from mwip.params import NOMINAL, Params
+from mwip.params import Params
 from mwip.sim import SimResult
 from mwip.sim.sensors import Measurement
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 from mwip.studies.exp_hodosmc import READINGS, alt_damping
 from mwip.studies.it2_balance import RHO, UNCERTAINTY
@@ -112,8 +113,11 @@ CRITERIA = {
 
 def design(reading: str = "spec") -> PDCDesign:
     """The PDC gains (Lemma 5.1/5.2 on the nominal model and the +-35 % models, ``epsilon =
-    0.48``, ``rho = 20`` N m); ``reading="alt"`` designs on the alternative-damping model."""
-    nominal = alt_damping(NOMINAL) if reading == "alt" else NOMINAL
+    0.48``, ``rho = 20`` N m) of the robot's nominal model (:func:`mwip.studies.robot.nominal`);
+    ``reading="alt"`` designs on its alternative-damping model."""
+    nominal = robot.nominal()
+    if reading == "alt":
+        nominal = alt_damping(nominal)
     return design_pdc(uncertainty_models(nominal, UNCERTAINTY), epsilon=EPSILON, rho=RHO)
 
 
@@ -149,9 +153,11 @@ class BatchFuzzyController:
         p_d: Sequence[float | None],
         alpha_d: Sequence[float | None],
         *,
-        params: Params = NOMINAL,
+        params: Params | None = None,
         Ts: float | None = TS,
     ) -> None:
+        if params is None:  # the robot's nominal model, at call time
+            params = robot.nominal()
         n = len(designs)
         if not (len(kinds) == len(p_d) == len(alpha_d) == n) or n == 0:
             raise ValueError("designs, kinds, p_d and alpha_d must have the same length > 0")
@@ -237,7 +243,7 @@ def run_batch(
     des = dict(designs) if designs is not None else {}
     for rd in {r.reading for r in rows} - set(des):
         des[rd] = design(rd)
-    plant1 = case_plant(1)
+    plant1 = case_plant(1, base=robot.plant())
     per_row = [alt_damping(plant1) if r.reading == "alt" else plant1 for r in rows]
     # only the damping differs between rows; r, b stay scalars (the twin's sensor needs them)
     plant = replace(plant1, Db=np.array([p.Db for p in per_row]),
@@ -256,10 +262,13 @@ def _ok(res: SimResult) -> bool:
 
 def run_metrics(
     res: SimResult, row: Row, *, osc_window: float, rms_window: tuple[float, float],
-    r_nom: float = float(NOMINAL.r),
+    r_nom: float | None = None,
 ) -> dict[str, float]:  # fmt: skip
     """Metrics of one run (``nan`` where the plant fell). ``p = r_nom psi`` as the controller
-    reads it, ``p_true = r psi`` with the plant's wheel radius."""
+    reads it (``r_nom`` default: the robot's nominal model's), ``p_true = r psi`` with the
+    plant's wheel radius."""
+    if r_nom is None:
+        r_nom = float(robot.nominal().r)
     nan = float("nan")
     ok = _ok(res)
     t, th = res.t, res.theta
@@ -378,7 +387,8 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         "epsilon": EPSILON, "rho": RHO, "uncertainty": UNCERTAINTY,
         "G": {rd: d.G for rd, d in designs.items()},
         "lmi": {rd: check_design(d) for rd, d in designs.items()},
-        "position": "p = r_nom psi (r_nom = 0.03 m); final_pos_err_true uses the plant's r",
+        "position": f"p = r_nom psi (r_nom = {float(robot.nominal().r):g} m); "
+                    "final_pos_err_true uses the plant's r",
         "osc_window": osc_window, "rms_window": list(rms_window),
         "tolerances": {"osc": OSC_TOL, "pos": POS_TOL, "alpha": ALPHA_TOL, "theta": THETA_TOL},
         "criteria": CRITERIA,
@@ -410,9 +420,10 @@ def _figure(
     """Figs. 6.17-6.19's layout, one column per experiment: theta, distance, heading, wheel
     torque (the book plots PWM) and wheel rate against time in s (as the book's axes);
     ``n_rows`` keeps the first rows only (the extra runs' figure: 3)."""
+    r_nom = float(robot.nominal().r)
     panels = (
         ("θ [rad]", lambda r: r.theta),
-        ("Distance r_nom ψ [m]", lambda r: float(NOMINAL.r) * r.q[:, 0]),
+        ("Distance r_nom ψ [m]", lambda r: r_nom * r.q[:, 0]),
         ("α [rad]", lambda r: r.alpha),
         ("torque (u_r+u_l)/2 [N.m]", lambda r: r.series()["u_applied"].mean(-1)),
         ("dψ/dt [rad/s]", lambda r: r.q_dot[:, 0]),

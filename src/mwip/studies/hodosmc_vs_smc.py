@@ -25,8 +25,8 @@ from matplotlib.figure import Figure
 from mwip.control.smc import make_smc
 from mwip.metrics import rms, total_variation_rate
 from mwip.observers.design import published_gain_sets
-from mwip.params import NOMINAL, REAL
 from mwip.sim import BOOK_SINUSOIDS, SimResult, simulate
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE = "Fig. 3.3"
@@ -38,22 +38,23 @@ BALANCED = 0.05  # rad: RMS pitch below this after the transient counts as balan
 
 def _runs(duration: float) -> dict[str, SimResult]:
     do2 = published_gain_sets()["do2"].gains
+    real, nominal = robot.plant(), robot.nominal()
     specs = {
-        "hodosmc": ("hodosmc", (3.0, 3.0, 3.0), None, REAL),
-        "smc": ("smc", (15.0, 15.0, 15.0), None, REAL),
-        "hodosmc_nominal_plant": ("hodosmc", (3.0, 3.0, 3.0), None, NOMINAL),
+        "hodosmc": ("hodosmc", (3.0, 3.0, 3.0), None, real),
+        "smc": ("smc", (15.0, 15.0, 15.0), None, real),
+        "hodosmc_nominal_plant": ("hodosmc", (3.0, 3.0, 3.0), None, nominal),
         "hodosmc_nominal_damping": (
             "hodosmc",
             (3.0, 3.0, 3.0),
             None,
-            replace(REAL, Db=NOMINAL.Db, Dw=NOMINAL.Dw),
+            replace(real, Db=nominal.Db, Dw=nominal.Dw),
         ),
-        "smc_dbar40": ("smc", (40.0, 40.0, 40.0), None, REAL),
-        "do2smc": ("do4smc", (3.0, 3.0, 3.0), do2, REAL),
+        "smc_dbar40": ("smc", (40.0, 40.0, 40.0), None, real),
+        "do2smc": ("do4smc", (3.0, 3.0, 3.0), do2, real),
     }
     out = {}
     for name, (kind, dbar, obs_gains, plant) in specs.items():
-        ctrl = make_smc(kind, LAMBDAS, dbar=dbar, Ts=TS, observer_gains=obs_gains)
+        ctrl = make_smc(kind, LAMBDAS, dbar=dbar, Ts=TS, observer_gains=obs_gains, params=nominal)
         out[name] = simulate(
             ctrl, plant, q0=(0.0, np.pi / 18, 0.0), duration=duration, Ts=TS, dt=DT,
             disturbance=BOOK_SINUSOIDS,

@@ -32,8 +32,8 @@ from mwip.fuzzy.pdc import (
     uncertainty_models,
 )
 from mwip.metrics import settling_time
-from mwip.params import NOMINAL, REAL
 from mwip.sim import simulate
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE = "Fig. 5.4"
@@ -48,15 +48,16 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/it2-balance``; returns the metrics document."""
     folder = Path(out) / "it2-balance"
     duration = 3.0 if quick else 25.0
-    robust = design_pdc(uncertainty_models(NOMINAL, UNCERTAINTY), epsilon=EPSILON, rho=RHO)
-    book = design_pdc(epsilon=EPSILON, rho=RHO)
+    plant, nominal = robot.plant(), robot.nominal()
+    robust = design_pdc(uncertainty_models(nominal, UNCERTAINTY), epsilon=EPSILON, rho=RHO)
+    book = design_pdc(epsilon=EPSILON, rho=RHO, params=nominal)
     common = {"q0": (0.0, THETA0, 0.0), "duration": duration, "Ts": 0.005}
     runs = {
-        "it2": simulate(PDCBalance(robust), REAL, mode="continuous", **common),
-        "t1": simulate(PDCBalance(robust, kind="t1"), REAL, mode="continuous", **common),
-        "it2_sampled": simulate(PDCBalance(robust, Ts=0.005), REAL, mode="sampled", **common),
-        "book": simulate(PDCBalance(book), REAL, mode="sampled", **common),
-        "book_nominal_plant": simulate(PDCBalance(book), NOMINAL, mode="sampled", **common),
+        "it2": simulate(PDCBalance(robust), plant, mode="continuous", **common),
+        "t1": simulate(PDCBalance(robust, kind="t1"), plant, mode="continuous", **common),
+        "it2_sampled": simulate(PDCBalance(robust, Ts=0.005), plant, mode="sampled", **common),
+        "book": simulate(PDCBalance(book), plant, mode="sampled", **common),
+        "book_nominal_plant": simulate(PDCBalance(book), nominal, mode="sampled", **common),
     }
     metrics: dict[str, float] = {}
     published: dict[str, float] = {}

@@ -19,8 +19,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from mwip.control.lqr import LQR, design_lqr
-from mwip.params import NOMINAL, REAL
 from mwip.sim import simulate
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE = "Sec. 4.4.2"
@@ -33,14 +33,15 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/lqr-gain``; returns the metrics document."""
     folder = Path(out) / "lqr-gain"
     duration = 3.0 if quick else 10.0
-    cont = design_lqr(NOMINAL, Ts=None)
-    samp = design_lqr(NOMINAL, Ts=0.005)
+    plant, nominal = robot.plant(), robot.nominal()
+    cont = design_lqr(nominal, Ts=None)
+    samp = design_lqr(nominal, Ts=0.005)
     runs = {
-        "continuous": simulate(LQR(cont), REAL, q0=(0, THETA0, 0), duration=duration,
+        "continuous": simulate(LQR(cont), plant, q0=(0, THETA0, 0), duration=duration,
                                Ts=0.005, dt=0.001, mode="continuous"),
-        "sampled": simulate(LQR(samp), REAL, q0=(0, THETA0, 0), duration=duration),
+        "sampled": simulate(LQR(samp), plant, q0=(0, THETA0, 0), duration=duration),
         "continuous_gain_held": simulate(
-            LQR(cont), REAL, q0=(0, THETA0, 0), duration=duration, Ts=0.005, mode="sampled"
+            LQR(cont), plant, q0=(0, THETA0, 0), duration=duration, Ts=0.005, mode="sampled"
         ),
     }  # fmt: skip
     names = ("theta", "alpha", "theta_dot", "v", "alpha_dot")

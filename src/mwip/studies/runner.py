@@ -37,9 +37,7 @@ __all__ = ["StudyOutcome", "run_studies"]
 StudyOutcome = tuple[str, dict[str, Any] | None, str | None, float]
 
 
-def _run_one(
-    name: str, out: Path, quick: bool, plant: Params, nominal: Params
-) -> StudyOutcome:
+def _run_one(name: str, out: Path, quick: bool, plant: Params, nominal: Params) -> StudyOutcome:
     """Run one study (in a worker process or here), catching its failure."""
     from mwip.studies import run_study
 
@@ -139,4 +137,3 @@ _COST = {
 
 def _longest_first(names: list[str]) -> list[str]:
     return sorted(names, key=lambda n: -_COST.get(n, 5))
-

@@ -26,7 +26,7 @@ import numpy as np
 from mwip.control.switching import Switching
 from mwip.control.tsmc import TSMC, lean_for_speed
 from mwip.metrics import settling_time
-from mwip.params import NOMINAL, REAL
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, write_metrics
 from mwip.studies.tsmc_equilibrium import (
     DT,
@@ -50,8 +50,9 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/tsmc-circle``; returns the metrics document."""
     folder = Path(out) / "tsmc-circle"
     duration = 1.5 if quick else 40.0
+    real = robot.plant()
     tsmc = TSMC(
-        NOMINAL, C=(2.5, 2.5), Gamma=(5.0, 5.0), D=0.4, Ftilde_ratio=0.8, Tf=1.0,
+        robot.nominal(), C=(2.5, 2.5), Gamma=(5.0, 5.0), D=0.4, Ftilde_ratio=0.8, Tf=1.0,
         switching=Switching("sat", PHI), alpha_dot_ref=ALPHA_DOT_D, v_ref=V_D,
     )  # fmt: skip
     res = run_continuous(tsmc, duration, q0=(0.0, THETA0, ALPHA0), qdot0=(0.0, 0.0, 0.0))
@@ -76,14 +77,14 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
                                                        np.diff(res.y[tail])))),
         # yaw damping torque the wheels must supply at alpha'_d (real plant):
         # (b/r)(u_r - u_l) = (2 b^2/r^2)(Db + Dw) alpha'_d
-        "real.yaw_torque_each_wheel": float(REAL.b / REAL.r * (REAL.Db + REAL.Dw)
+        "real.yaw_torque_each_wheel": float(real.b / real.r * (real.Db + real.Dw)
                                             * ALPHA_DOT_D),
     }  # fmt: skip
     settled = metrics["tsmc.tail_tau_spread"] < 0.01 * max(np.max(np.abs(u_tail)), 1e-9)
     metrics["tsmc.tail_max_abs_tau"] = float(np.max(np.abs(u_tail)))
     # sin(theta) that steady motion at v_d, alpha'_d needs (lean_for_speed: nan when |.| > 1)
     metrics["real.sin_theta_needed_for_v_d"] = float(
-        2.0 * REAL.Dw * V_D / REAL.r / (REAL.Gb + (REAL.m12 + REAL.Ibl) * ALPHA_DOT_D**2)
+        2.0 * real.Dw * V_D / real.r / (real.Gb + (real.m12 + real.Ibl) * ALPHA_DOT_D**2)
     )
     claims = [
         {"text": "the path converges to a circle of radius v_d / alpha'_d = 1 m within 2 % "
@@ -102,7 +103,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
          "keys": ["tsmc.final_alpha_dot"]},
         {"text": "v_d = 0.2 m/s is unreachable on this plant for any controller: steady motion "
                  "needs 2 Dw psi' = sin(theta)(Gb + ...) with |sin(theta)| <= 1",
-         "holds": bool(np.isnan(lean_for_speed(REAL, V_D, ALPHA_DOT_D))),
+         "holds": bool(np.isnan(lean_for_speed(real, V_D, ALPHA_DOT_D))),
          "keys": ["real.sin_theta_needed_for_v_d"]},
     ]  # fmt: skip
     doc = metrics_document(

@@ -29,9 +29,9 @@ from mwip.control.switching import Switching
 from mwip.control.tsmc import TSMC
 from mwip.io import write_atomic
 from mwip.metrics import settling_time, total_variation_rate
-from mwip.params import NOMINAL, REAL
 from mwip.sim import SimResult, simulate
 from mwip.sim.sensors import Measurement
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE = "Figs. 4.8-4.11"
@@ -73,7 +73,9 @@ def replay(ctrl: TSMC, res: SimResult) -> dict[str, np.ndarray]:
 
 def run_continuous(ctrl: Any, duration: float, **kw: Any) -> SimResult:
     """The study's loop: ``ctrl`` inside the right-hand side of the real plant."""
-    return simulate(ctrl, REAL, duration=duration, Ts=TS_RECORD, dt=DT, mode="continuous", **kw)
+    return simulate(
+        ctrl, robot.plant(), duration=duration, Ts=TS_RECORD, dt=DT, mode="continuous", **kw
+    )
 
 
 def state_figure(
@@ -133,12 +135,13 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/tsmc-equilibrium``; returns the metrics document."""
     folder = Path(out) / "tsmc-equilibrium"
     duration = 1.5 if quick else 20.0
-    init = {"q0": (0.0, THETA0, ALPHA0), "qdot0": (V0 / REAL.r, 0.0, 0.0)}
+    nominal = robot.nominal()
+    init = {"q0": (0.0, THETA0, ALPHA0), "qdot0": (V0 / robot.plant().r, 0.0, 0.0)}
     tsmc = TSMC(
-        NOMINAL, C=(2.5, 2.5), Gamma=(10.0, 10.0), D=0.4, Ftilde_ratio=0.8, Tf=1.0,
+        nominal, C=(2.5, 2.5), Gamma=(10.0, 10.0), D=0.4, Ftilde_ratio=0.8, Tf=1.0,
         switching=Switching("sat", PHI),
     )  # fmt: skip
-    lqr = LQR(design_lqr(NOMINAL, Ts=None))
+    lqr = LQR(design_lqr(nominal, Ts=None))
     runs = {
         "tsmc": run_continuous(tsmc, duration, **init),
         "lqr": run_continuous(lqr, duration, **init),

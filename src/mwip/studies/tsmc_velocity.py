@@ -27,7 +27,7 @@ import numpy as np
 from mwip.control.lqr import LQR, design_lqr
 from mwip.control.switching import Switching
 from mwip.control.tsmc import TSMC, lean_for_speed
-from mwip.params import NOMINAL, REAL
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, write_metrics
 from mwip.studies.tsmc_equilibrium import (
     DT,
@@ -55,12 +55,13 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/tsmc-velocity``; returns the metrics document."""
     folder = Path(out) / "tsmc-velocity"
     duration = 1.5 if quick else 20.0
+    real, nominal = robot.plant(), robot.nominal()
     init = {"q0": (0.0, THETA0, ALPHA0), "qdot0": (0.0, 0.0, 0.0)}
     gains = {"C": (2.5, 0.5), "Gamma": (5.0, 20.0), "D": 0.4, "Ftilde_ratio": 0.9, "Tf": 1.0,
              "switching": Switching("sat", PHI)}  # fmt: skip
-    tsmc = TSMC(NOMINAL, v_ref=V_D, **gains)  # type: ignore[arg-type]
-    lean = TSMC(NOMINAL, v_ref=V_FEASIBLE, speed="lean", **gains)  # type: ignore[arg-type]
-    lqr = LQR(design_lqr(NOMINAL, Ts=None), reference=(0.0, 0.0, 0.0, V_D, 0.0))
+    tsmc = TSMC(nominal, v_ref=V_D, **gains)  # type: ignore[arg-type]
+    lean = TSMC(nominal, v_ref=V_FEASIBLE, speed="lean", **gains)  # type: ignore[arg-type]
+    lqr = LQR(design_lqr(nominal, Ts=None), reference=(0.0, 0.0, 0.0, V_D, 0.0))
     runs = {
         "tsmc": run_continuous(tsmc, duration, **init),
         "lqr": run_continuous(lqr, duration, **init),
@@ -77,12 +78,12 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         # steady-state balance of (2.33): 2 Dw psi' - Gb sin(theta) (real parameters)
         psid = res.q_dot[-1, 0]
         metrics[f"{name}.steady_balance_residual"] = float(
-            2.0 * REAL.Dw * psid - REAL.Gb * np.sin(res.theta[-1])
+            2.0 * real.Dw * psid - real.Gb * np.sin(res.theta[-1])
         )
     metrics["tsmc_lean.theta_target"] = lean.theta_ref
     metrics["tsmc_lean.v_target"] = V_FEASIBLE
-    metrics["real.max_steady_speed"] = max_steady_speed(REAL)
-    metrics["real.sin_theta_needed_for_v_d"] = float(2 * REAL.Dw * V_D / (REAL.r * REAL.Gb))
+    metrics["real.max_steady_speed"] = max_steady_speed(real)
+    metrics["real.sin_theta_needed_for_v_d"] = float(2 * real.Dw * V_D / (real.r * real.Gb))
     published = {"tsmc.final_v_err": 0.0, "tsmc.final_theta": 0.0}
     small = 0.02
     t_ok = metrics["tsmc.final_v_err"] < small * V_D and abs(metrics["tsmc.final_theta"]) < small
@@ -100,7 +101,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         {"text": "no controller can hold v_d = 1 m/s on this plant: a steady speed needs "
                  "2 Dw psi' = Gb sin(theta), i.e. sin(theta) = "
                  f"{metrics['real.sin_theta_needed_for_v_d']:.1f} > 1 (SPEC section 2 damping)",
-         "holds": bool(np.isnan(lean_for_speed(REAL, V_D))),
+         "holds": bool(np.isnan(lean_for_speed(real, V_D))),
          "keys": ["real.sin_theta_needed_for_v_d", "real.max_steady_speed"]},
         {"text": f"with the pitch target from (4.40)'s equilibrium, TSMC holds the feasible "
                  f"speed {V_FEASIBLE} m/s within 20 % (nominal-model lean, no speed feedback)",
