@@ -174,11 +174,11 @@ def test_reproduce_reports_a_failing_study_and_runs_the_others(tmp_path, capsys,
     old.mkdir()
     (old / "metrics.json").write_text("{}")  # an earlier result of the failing study is kept
     monkeypatch.setattr(studies, "STUDIES", {"bad": (bad, "x"), "good": (good, "y")})
-    assert main(["reproduce", "--out", str(tmp_path), "--quick", "-j", "1"]) == 1
+    assert main(["reproduce", "--out", str(tmp_path), "--quick", "-j", "1", "-v"]) == 1
     cap = capsys.readouterr()
     assert "bad: FAILED" in cap.err and "RuntimeError: boom" in cap.err
-    assert "good (test): 1/1 claims hold" in cap.out and "1/2 studies done" in cap.out
-    assert "[ok] x  <a.x=1>" in cap.out
+    assert "[ok] good (test): no book claim, all 1/1" in cap.out and "1/2 studies done" in cap.out
+    assert "     [ok] x  <a.x=1>" in cap.out
     assert (old / "metrics.json").read_text() == "{}"
     record = json.loads((tmp_path / "run.json").read_text())
     assert record["studies"]["bad"]["error"] == "RuntimeError: boom"

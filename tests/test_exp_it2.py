@@ -12,7 +12,7 @@ import pytest
 
 from mwip.fuzzy.mamdani import FuzzyMWIPController
 from mwip.sim.sensors import Measurement
-from mwip.studies import exp_it2
+from mwip.studies import exp_it2, settings
 
 KINDS = ("it2", "t1")
 REQUIRED = (
@@ -138,7 +138,8 @@ def test_it2_full_duration_upright_and_converging(reading: str, it2_full: dict[s
     runs = it2_full["runs"]
     for r in rows:
         res = runs[r.name]
-        assert res.status[0] == "ok" and res.t_end[0] == pytest.approx(exp_it2.DURATION)
+        duration = settings.current("exp-it2")["duration"]
+        assert res.status[0] == "ok" and res.t_end[0] == pytest.approx(duration)
         tail = res.t >= res.t[-1] - 5.0
         assert np.ptp(res.theta[tail]) < exp_it2.OSC_TOL
         assert np.max(np.abs(res.theta[tail])) < 0.1

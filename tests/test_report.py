@@ -36,14 +36,14 @@ def test_reproduce_writes_every_study_the_record_and_the_report(quick_reproducti
     )
     assert (out / "index.html").is_file()
     assert not [p for p in out.parent.iterdir() if ".partial-" in p.name]  # staging removed
-    # the one-screen summary: one header per study, one line per claim, a total
+    # the one-screen summary: one line per study, a failing book claim and its numbers, totals
+    docs = [json.loads((out / n / "metrics.json").read_text()) for n in STUDIES]
     for name in STUDIES:
-        assert f"\n{name} (" in "\n" + stdout
-    n_claims = sum(
-        len(json.loads((out / n / "metrics.json").read_text())["claims"]) for n in STUDIES
-    )
-    assert stdout.count("  [ok] ") + stdout.count("  [no] ") == n_claims
-    assert f"/{n_claims} over {len(STUDIES)} studies" in stdout
+        assert f"] {name} (" in stdout
+    held = sum(c["holds"] for d in docs for c in d["claims"])
+    n_claims = sum(len(d["claims"]) for d in docs)
+    assert f"all claims (with our extra readings): {held}/{n_claims}; over 14 studies" in stdout
+    assert len(stdout.splitlines()) <= 4 * len(STUDIES) + 2
 
 
 def test_summary_verdicts_come_from_metrics_json(quick_reproduction, tmp_path):
@@ -52,11 +52,17 @@ def test_summary_verdicts_come_from_metrics_json(quick_reproduction, tmp_path):
     shutil.copytree(out, copy)
     path = copy / "lqr-gain" / "metrics.json"
     doc = json.loads(path.read_text())
-    doc["claims"] = [{"text": "a planted claim", "holds": False, "values": {"k.x": 2.5}}]
+    doc["claims"] = [
+        {"text": "a planted claim (book)", "holds": False, "values": {"k.x": 2.5}},
+        {"text": "our extra check", "holds": True},
+    ]
     path.write_text(json.dumps(doc))
     lines = summary_lines(load_results(copy, ["lqr-gain"]))
-    assert lines[0].startswith("lqr-gain (Sec. 4.4.2): 0/1 claims hold")
-    assert lines[1] == "  [no] a planted claim  <k.x=2.5>"
+    assert lines[0].startswith("[no] lqr-gain (Sec. 4.4.2): book claims 0/1, all 1/2; runs ")
+    assert lines[1:3] == ["     fails: a planted claim (book)", "            k.x=2.5"]
+    verbose = summary_lines(load_results(copy, ["lqr-gain"]), verbose=True)
+    assert verbose[1] == "     [no] a planted claim (book)  <k.x=2.5>"
+    assert verbose[2] == "     [ok] our extra check"
     page = render_html(copy, ["lqr-gain"])
     assert "a planted claim" in page and "does not hold" in page and "k.x = 2.5" in page
 
@@ -137,7 +143,7 @@ def test_report_command_rebuilds_the_page(quick_reproduction, tmp_path, capsys):
     shutil.copytree(out, copy)
     (copy / "index.html").unlink()
     assert main(["report", "--out", str(copy)]) == 0
-    assert (copy / "index.html").is_file() and "claims holding:" in capsys.readouterr().out
+    assert (copy / "index.html").is_file() and "book claims holding:" in capsys.readouterr().out
     empty = tmp_path / "empty"
     empty.mkdir()
     assert main(["report", "--out", str(empty)]) == 2

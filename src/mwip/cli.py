@@ -529,6 +529,9 @@ _NOMINAL = click.option(
     default=None,
     help="The design model: a parameter TOML file (default: the book's, Table 3.2).",
 )
+_VERBOSE = click.option(
+    "--verbose", "-v", is_flag=True, help="List every claim in the summary, not only failures."
+)
 _JOBS = click.option(
     "--jobs",
     "-j",
@@ -554,8 +557,9 @@ def _jobs(jobs: int) -> int:
 
 
 def _execute(
-    names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params
-) -> None:
+    names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params,
+    verbose: bool = False, overrides: dict[str, dict[str, Any]] | None = None,
+) -> None:  # fmt: skip
     """Run ``names`` with a progress bar, then print the one-screen summary."""
     from mwip.report import load_results, summary_lines
     from mwip.studies.runner import run_studies
@@ -572,11 +576,11 @@ def _execute(
             bar.update(1, f"{name} ({wall:.1f} s)")
 
         record = run_studies(names, out, quick=quick, jobs=jobs, plant=plant, nominal=design,
-                             on_done=done)  # fmt: skip
+                             overrides=overrides, on_done=done)  # fmt: skip
     import shutil
 
     width = max(100, shutil.get_terminal_size((120, 40)).columns)
-    for line in summary_lines(load_results(out, names), width=width):
+    for line in summary_lines(load_results(out, names), width=width, verbose=verbose):
         click.echo(line)
     click.echo(f"{len(names) - len(failed)}/{len(names)} studies done in "
                f"{record['wall_s']:.1f} s; report: {out / 'index.html'}")  # fmt: skip
@@ -586,7 +590,7 @@ def _execute(
 
 def _run_scenarios(
     files: tuple[Path, ...], out: Path, quick: bool, params_file: str | None,
-    nominal_file: str | None,
+    nominal_file: str | None, verbose: bool,
 ) -> None:  # fmt: skip
     """Run each study file (its robot unless --params/--nominal override it)."""
     from mwip.studies.study_file import load_study_file
@@ -596,7 +600,8 @@ def _run_scenarios(
         plant = sf.plant if params_file is None else _params(params_file, "--plant")
         design = sf.nominal if nominal_file is None else _params(nominal_file, "--nominal")
         click.echo(f"{sf.path}: {sf.name}", err=True)
-        _execute([sf.name], out, quick or sf.quick, 1, plant, design)
+        _execute([sf.name], out, quick or sf.quick, 1, plant, design, verbose,
+                 {sf.name: sf.settings})  # fmt: skip
 
 
 @cli.command("run")
@@ -606,13 +611,14 @@ def _run_scenarios(
     "scenarios",
     multiple=True,
     type=click.Path(dir_okay=False, path_type=Path),
-    help="A study file (TOML: [study] name, [robot] params; see examples/); repeatable.",
+    help="A study file (TOML; `mwip scenario STUDY` prints one to copy); repeatable.",
 )
 @_OUT
 @_QUICK
 @_PLANT
 @_NOMINAL
 @_JOBS
+@_VERBOSE
 def run_cmd(
     studies: tuple[str, ...],
     scenarios: tuple[Path, ...],
@@ -621,6 +627,7 @@ def run_cmd(
     params_file: str | None,
     nominal_file: str | None,
     jobs: int,
+    verbose: bool,
 ) -> None:
     """Run one or more studies (see `mwip list`) and update OUT/index.html."""
     from mwip.studies import STUDIES
@@ -634,9 +641,9 @@ def run_cmd(
         raise click.UsageError("give at least one STUDY or --scenario FILE")
     plant, design = _robot(params_file, nominal_file)
     if scenarios:
-        _run_scenarios(scenarios, out, quick, params_file, nominal_file)
+        _run_scenarios(scenarios, out, quick, params_file, nominal_file, verbose)
     if studies:
-        _execute(list(dict.fromkeys(studies)), out, quick, _jobs(jobs), plant, design)
+        _execute(list(dict.fromkeys(studies)), out, quick, _jobs(jobs), plant, design, verbose)
 
 
 @cli.command()
@@ -645,6 +652,7 @@ def run_cmd(
 @_PLANT
 @_NOMINAL
 @_JOBS
+@_VERBOSE
 @click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
 def reproduce(
     out: Path,
@@ -652,6 +660,7 @@ def reproduce(
     params_file: str | None,
     nominal_file: str | None,
     jobs: int,
+    verbose: bool,
     list_only: bool,
 ) -> None:
     """Run every study on built-in defaults; write OUT/<study>/, OUT/index.html, OUT/run.json.
@@ -667,7 +676,36 @@ def reproduce(
             click.echo(f"{name:24s} {source}")
         return
     plant, design = _robot(params_file, nominal_file)
-    _execute(list(STUDIES), out, quick, _jobs(jobs), plant, design)
+    _execute(list(STUDIES), out, quick, _jobs(jobs), plant, design, verbose)
+
+
+@cli.command()
+@click.argument("study")
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Write the study file here (default: print it).",
+)
+def scenario(study: str, out: Path | None) -> None:
+    """Print (or write) the study file of STUDY: which study, the robot, and all its settings.
+
+    Copy it, edit it, run it with `mwip run --scenario FILE.toml`.
+    """
+    from mwip.io import write_text_atomic
+    from mwip.studies import STUDIES
+    from mwip.studies.settings import packaged_text
+
+    if study not in STUDIES:
+        raise click.BadParameter(
+            f"unknown study {study!r}; choose from: {', '.join(STUDIES)}", param_hint="STUDY"
+        )
+    text = packaged_text(study)
+    if out is None:
+        click.echo(text, nl=False)
+    else:
+        write_text_atomic(out, text)
+        click.echo(f"wrote {out}")
 
 
 @cli.command()
@@ -678,7 +716,8 @@ def reproduce(
     show_default=True,
     help="Results folder to report on.",
 )
-def report(out: Path) -> None:
+@_VERBOSE
+def report(out: Path, verbose: bool) -> None:
     """Rebuild OUT/index.html from the results in OUT and print the summary."""
     from mwip.report import load_results, summary_lines, write_report
     from mwip.studies import STUDIES
@@ -687,7 +726,7 @@ def report(out: Path) -> None:
     if not names:
         raise click.UsageError(f"--out: no study results in {out}")
     path = write_report(out, names)
-    for line in summary_lines(load_results(out, names)):
+    for line in summary_lines(load_results(out, names), verbose=verbose):
         click.echo(line)
     click.echo(f"report: {path}")
 

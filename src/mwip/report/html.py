@@ -17,7 +17,7 @@ from typing import Any
 
 from mwip.io import write_text_atomic
 from mwip.report.results import StudyResult, load_results, load_run_record
-from mwip.report.summary import format_number
+from mwip.report.summary import format_number, is_book_claim
 
 __all__ = ["render_html", "write_report"]
 
@@ -58,6 +58,12 @@ def _img(path: Path) -> str:
     )
 
 
+def _setting(v: Any) -> str:
+    if isinstance(v, list):
+        return "[" + ", ".join(format_number(x) for x in v) + "]"
+    return format_number(v)
+
+
 def _verdict(holds: Any) -> str:
     return '<span class="ok">holds</span>' if holds else '<span class="no">does not hold</span>'
 
@@ -85,10 +91,13 @@ def _claims_table(res: StudyResult) -> str:
     for c in res.claims:
         values = c.get("values") or {}
         vals = ", ".join(f"{_e(k)} = {format_number(v)}" for k, v in values.items())
-        body += f"<tr><td>{_e(c.get('text', ''))}</td><td>{_verdict(c.get('holds'))}</td>"
+        kind = "book" if is_book_claim(c) else "ours"
+        body += f"<tr><td>{kind}</td><td>{_e(c.get('text', ''))}</td>"
+        body += f"<td>{_verdict(c.get('holds'))}</td>"
         body += f"<td class='muted'>{vals or '-'}</td></tr>"
     return (
-        '<table class="claims"><tr><th>claim</th><th>verdict</th><th>deciding numbers</th></tr>'
+        '<table class="claims"><tr><th>by</th><th>claim</th><th>verdict</th>'
+        "<th>deciding numbers</th></tr>"
         f"{body}</table>"
     )
 
@@ -117,6 +126,15 @@ def _study_section(res: StudyResult) -> str:
         parts.append(f'<p class="fail">This study failed: {_e(res.error)}.{extra}</p>')
     if info.get("setup"):
         parts.append(f"<h3>Set-up</h3><p>{_e(info['setup'])}</p>")
+    if res.settings:
+        rows = "".join(
+            f"<tr><td>{_e(k)}</td><td>{_e(_setting(v))}</td></tr>" for k, v in res.settings.items()
+        )
+        parts.append(
+            "<details><summary>Study settings (its study file: "
+            f"<code>mwip scenario {_e(res.name)}</code>)</summary>"
+            f"<table><tr><th>setting</th><th>value</th></tr>{rows}</table></details>"
+        )
     figs = "".join(_img(p) for p in res.figures) or '<p class="muted">No figure.</p>'
     book = info.get("book", "")
     parts.append(

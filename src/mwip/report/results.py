@@ -35,6 +35,7 @@ class StudyResult:
     error: str | None = None
     wall_s: float | None = None
     info: dict[str, str] = field(default_factory=dict)
+    settings: dict[str, Any] = field(default_factory=dict)
 
     @property
     def claims(self) -> list[dict[str, Any]]:
@@ -115,6 +116,7 @@ def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]
         figures = tuple(sorted(folder.glob("*.png"))) if folder.is_dir() else ()
         results.append(
             StudyResult(name=name, folder=folder, doc=doc, figures=figures, error=error,
-                        wall_s=rec.get("wall_s"), info=catalog.get(name, {}))
+                        wall_s=rec.get("wall_s"), info=catalog.get(name, {}),
+                        settings=dict(rec.get("settings") or {}))
         )  # fmt: skip
     return results

@@ -37,28 +37,60 @@ def _values(claim: dict[str, Any]) -> str:
     return ", ".join(f"{k}={format_number(v)}" for k, v in vals.items())
 
 
-def summary_lines(results: list[StudyResult], width: int = 100) -> list[str]:
-    """Lines of the summary: per study a header, then ``[ok]``/``[no]`` per claim with the
-    deciding values (``values`` of the claim, from ``metrics.json``)."""
+def is_book_claim(claim: dict[str, Any]) -> bool:
+    """A claim the book makes (``"book": true``, or its text cites the book and it is not one
+    of our extra readings, e.g. "[extra: ideal sensors and actuator]")."""
+    if "book" in claim:
+        return bool(claim["book"])
+    text = str(claim.get("text", "")).lower()
+    return "book" in text and "extra" not in text
+
+
+def _claim_line(c: dict[str, Any], width: int, indent: str = "  ") -> str:
+    mark = "[ok]" if c.get("holds") else "[no]"
+    vals = _clip(f"  <{_values(c)}>", width // 2) if c.get("values") else ""
+    return _clip(f"{indent}{mark} {c.get('text', '')}", width - len(vals)) + vals
+
+
+def summary_lines(results: list[StudyResult], width: int = 100, verbose: bool = False) -> list[str]:
+    """The summary, from each study's ``metrics.json``.
+
+    Default (one screen): per study one line - ``[ok]`` when every book claim holds - with
+    the counts of book claims and of all claims that hold, and the first failing book claim
+    with its deciding numbers (``values`` of the claim). ``verbose``: every claim.
+    """
     lines: list[str] = []
-    total_held = total = 0
+    held_all = total_all = held_book = total_book = 0
     for res in results:
-        held, n = res.held
-        total_held += held
-        total += n
         src = res.doc.get("source", "") if res.doc else res.info.get("source", "")
         if res.doc is None:
-            lines.append(_clip(f"{res.name} ({src}): FAILED - {res.error}", width))
+            lines.append(_clip(f"[!!] {res.name} ({src}): FAILED - {res.error}", width))
             continue
-        status = ", ".join(sorted({str(r.get("status")) for r in res.doc.get("runs", {}).values()}))
-        head = f"{res.name} ({src}): {held}/{n} claims hold; runs {status or '-'}"
+        claims = res.claims
+        book = [c for c in claims if is_book_claim(c)]
+        hb = sum(bool(c.get("holds")) for c in book)
+        ha = sum(bool(c.get("holds")) for c in claims)
+        held_all, total_all = held_all + ha, total_all + len(claims)
+        held_book, total_book = held_book + hb, total_book + len(book)
+        runs = ", ".join(sorted({str(r.get("status")) for r in res.doc.get("runs", {}).values()}))
+        mark = "[ok]" if hb == len(book) else "[no]"
+        counted = f"book claims {hb}/{len(book)}" if book else "no book claim"
+        head = f"{mark} {res.name} ({src}): {counted}, all {ha}/{len(claims)}; runs {runs or '-'}"
         if res.error:
             head += f"; FAILED this time ({res.error}), earlier results shown"
         lines.append(_clip(head, width))
-        for c in res.claims:
-            mark = "[ok]" if c.get("holds") else "[no]"
-            vals = f"  <{_values(c)}>" if c.get("values") else ""
-            vals = _clip(vals, width // 2)
-            lines.append(_clip(f"  {mark} {c.get('text', '')}", width - len(vals)) + vals)
-    lines.append(f"claims holding: {total_held}/{total} over {len(results)} studies")
+        if verbose:
+            lines.extend(_claim_line(c, width, "     ") for c in claims)
+            continue
+        failing = [c for c in book if not c.get("holds")]
+        if failing:
+            more = f" (+{len(failing) - 1} more)" if len(failing) > 1 else ""
+            first = failing[0]
+            lines.append(_clip(f"     fails: {first.get('text', '')}", width - len(more)) + more)
+            if first.get("values"):
+                lines.append(_clip(f"            {_values(first)}", width))
+    lines.append(
+        f"book claims holding: {held_book}/{total_book}; all claims (with our extra readings): "
+        f"{held_all}/{total_all}; over {len(results)} studies"
+    )
     return lines

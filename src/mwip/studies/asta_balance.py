@@ -12,10 +12,15 @@ Runs: ``asta``/``asmc`` on the real plant (the study's keys) and, as extras,
 ``matched.asta``/``matched.asmc`` on the nominal plant (no model mismatch) to separate the
 algorithms' properties from the effect of the mismatch. ``sigma'`` is the true derivative of
 the sliding variable, from the plant's accelerations at each record (the input just applied).
+
+Settings (``scenarios/asta-balance.toml``, :mod:`mwip.studies.settings`): ``theta0``,
+``duration``, ``Ts``, ``dt``, ``lam``, ``K``, ``rate``, ``Gamma0``, ``eps``. The helpers below
+take them as a mapping, so :mod:`mwip.studies.asta_velocity` runs them with its own settings.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -27,45 +32,56 @@ from mwip.metrics import overshoot, rms, settling_time, total_variation_rate
 from mwip.models.reduced import accelerations
 from mwip.params import Params
 from mwip.sim import SimResult, simulate
-from mwip.studies import robot
+from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE = "Figs. 4.2-4.4"
-TS = 0.0005
-LAM = (10.0, 0.3, 0.3)
-K = (10.0, 0.3)
-RATE = (5.0, 5.0)
-EPS = 0.01
-THETA0 = -np.pi / 18
+NAME = "asta-balance"
 
 
-def make(kind: str, psi_dot_ref: float = 0.0) -> ASTA | ASMC:
-    """The study's ASTA or ASMC (book parameters, our reading)."""
+def make(kind: str, cfg: Mapping[str, Any], psi_dot_ref: float = 0.0) -> ASTA | ASMC:
+    """The study's ASTA or ASMC with the gains of the settings ``cfg``."""
     cls = ASTA if kind == "asta" else ASMC
-    return cls(robot.nominal(), lam=LAM, K=K, rate=RATE, Gamma0=(0.0, 0.0), eps=EPS,
-               psi_dot_ref=psi_dot_ref, Ts=TS)  # fmt: skip
+    return cls(robot.nominal(), lam=tuple(cfg["lam"]), K=tuple(cfg["K"]),
+               rate=tuple(cfg["rate"]), Gamma0=tuple(cfg["Gamma0"]), eps=cfg["eps"],
+               psi_dot_ref=psi_dot_ref, Ts=cfg["Ts"])  # fmt: skip
 
 
-def sigma_dot(res: SimResult, plant: Params, psi_dot_ref: float = 0.0) -> np.ndarray:
-    """True ``sigma'`` (K, 2) from the plant's accelerations at each record."""
+def sigma_dot(
+    res: SimResult, plant: Params, lam: tuple[float, ...], psi_dot_ref: float = 0.0
+) -> np.ndarray:
+    """True ``sigma'`` (K, 2) from the plant's accelerations at each record (surface ``lam``)."""
     acc = accelerations(plant, res.q, res.q_dot, res.u)
-    l1, l2, l3 = LAM
+    l1, l2, l3 = lam
     qd = res.q_dot
     return np.column_stack([acc[:, 1] + l1 * qd[:, 1] + l2 * acc[:, 0], acc[:, 2] + l3 * qd[:, 2]])
 
 
 def run_pair(
-    duration: float, psi_dot_ref: float = 0.0
+    cfg: Mapping[str, Any], duration: float, psi_dot_ref: float = 0.0
 ) -> dict[str, tuple[SimResult, np.ndarray, np.ndarray, Params]]:
-    """ASTA and ASMC on the real plant and on the nominal plant ("matched")."""
+    """ASTA and ASMC on the real plant and on the nominal plant ("matched"), settings ``cfg``
+    (``theta0``, ``Ts``, ``dt``, ``lam``, ``K``, ``rate``, ``Gamma0``, ``eps``)."""
+    lam = tuple(cfg["lam"])
     out = {}
     for prefix, plant in (("", robot.plant()), ("matched.", robot.nominal())):
         for kind in ("asta", "asmc"):
-            res = simulate(make(kind, psi_dot_ref), plant, q0=(0.0, THETA0, 0.0),
-                           duration=duration, Ts=TS, dt=TS)  # fmt: skip
-            s = asta_surface(res.q, res.q_dot, LAM, (psi_dot_ref, 0.0, 0.0, 0.0))
-            out[prefix + kind] = (res, s, sigma_dot(res, plant, psi_dot_ref), plant)
+            res = simulate(make(kind, cfg, psi_dot_ref), plant, q0=(0.0, cfg["theta0"], 0.0),
+                           duration=duration, Ts=cfg["Ts"], dt=cfg["dt"])  # fmt: skip
+            s = asta_surface(res.q, res.q_dot, lam, (psi_dot_ref, 0.0, 0.0, 0.0))
+            out[prefix + kind] = (res, s, sigma_dot(res, plant, lam, psi_dot_ref), plant)
     return out
+
+
+def settings_doc(cfg: Mapping[str, Any]) -> dict[str, Any]:
+    """The settings block shared by both ASTA studies (the values used)."""
+    Ts, dt = cfg["Ts"], cfg["dt"]
+    step = (
+        f"Ts = dt = {Ts * 1e3:g} ms" if Ts == dt else f"Ts = {Ts * 1e3:g} ms, dt = {dt * 1e3:g} ms"
+    )
+    return {"dt": dt, "Ts": Ts, "mode": f"sampled, quasi-continuous ({step})",
+            "theta0": cfg["theta0"], "lambda": cfg["lam"], "K": cfg["K"],
+            "adaptation_rate": cfg["rate"], "Gamma0": cfg["Gamma0"], "eps": cfg["eps"]}  # fmt: skip
 
 
 def common_metrics(name: str, res: SimResult, s: np.ndarray, sd: np.ndarray) -> dict[str, float]:
@@ -122,9 +138,10 @@ def three_panel_figure(
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/asta-balance``; returns the metrics document."""
-    folder = Path(out) / "asta-balance"
-    duration = 1.5 if quick else 10.0
-    runs = run_pair(duration)
+    folder = Path(out) / NAME
+    cfg = settings.current(NAME)
+    duration = min(1.5, cfg["duration"]) if quick else cfg["duration"]
+    runs = run_pair(cfg, duration)
     metrics: dict[str, float] = {}
     for name, (res, s, sd, _) in runs.items():
         metrics[f"{name}.settling_time"] = settling_time(res.t, res.theta)
@@ -160,12 +177,10 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
              "keys": [f"{p}asta.u_tv", f"{p}asmc.u_tv"]},
         ]  # fmt: skip
     doc = metrics_document(
-        "asta-balance", SOURCE, metrics, {}, claims, runs_doc(runs),
-        {"dt": TS, "Ts": TS, "mode": "sampled, quasi-continuous (Ts = dt = 0.5 ms)",
-         "duration": duration, "window": [0.0, duration], "seed": 0, "plant": "real "
-         "(matched.*: nominal)", "design": "nominal", "theta0": THETA0,
-         "lambda": list(LAM), "K": list(K), "adaptation_rate": list(RATE), "Gamma0": [0, 0],
-         "eps": EPS, "settling": "|theta| within max(2 % of peak, 1 mrad)",
+        NAME, SOURCE, metrics, {}, claims, runs_doc(runs),
+        {**settings_doc(cfg), "duration": duration, "window": [0.0, duration], "seed": 0,
+         "plant": "real (matched.*: nominal)", "design": "nominal",
+         "settling": "|theta| within max(2 % of peak, 1 mrad)",
          "published_note": "the book prints no numbers for this case (figures only)"},
     )  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)

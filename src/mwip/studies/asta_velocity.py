@@ -10,58 +10,60 @@ speed needs ``lambda_1 theta = lambda_2 (psi'_d - psi')`` while the plant's stea
 ``2 Dw psi' = Gb sin(theta)``: with the SPEC's damping the speed settles at
 ``psi' ~ lambda_2 psi'_d / (lambda_2 + lambda_1 2 Dw / Gb)`` (about 0.015 rad/s), not 0.5 rad/s,
 for *any* controller that reaches this surface (``speed_on_surface`` in metrics).
+
+Settings (``scenarios/asta-velocity.toml``, :mod:`mwip.studies.settings`): ``theta0``,
+``psi_dot_d``, ``duration``, ``rms_window``, ``Ts``, ``dt``, ``lam``, ``K``, ``rate``,
+``Gamma0``, ``eps`` (this study's own file; the runs are :mod:`mwip.studies.asta_balance`'s).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from mwip.metrics import rms
-from mwip.studies import robot
+from mwip.studies import robot, settings
 from mwip.studies.asta_balance import (
-    EPS,
-    LAM,
-    RATE,
-    THETA0,
-    TS,
-    K,
     common_metrics,
     run_pair,
     runs_doc,
+    settings_doc,
     three_panel_figure,
 )  # fmt: skip
 from mwip.studies.common import metrics_document, write_metrics
 
 SOURCE = "Figs. 4.5-4.7"
-PSI_DOT_D = 0.5
+NAME = "asta-velocity"
 
 
-def speed_on_surface(p: Any, psi_dot_d: float = PSI_DOT_D) -> float:
+def speed_on_surface(p: Any, psi_dot_d: float, lam: Sequence[float]) -> float:
     """Steady wheel speed on sigma_1 = 0 for the plant ``p`` (small-angle): see module doc."""
-    l1, l2 = LAM[0], LAM[1]
+    l1, l2 = lam[0], lam[1]
     return float(l2 * psi_dot_d / (l2 + l1 * 2.0 * p.Dw / p.Gb))
 
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/asta-velocity``; returns the metrics document."""
-    folder = Path(out) / "asta-velocity"
-    duration = 1.5 if quick else 10.0
-    window = (0.5 * duration, duration)
-    runs = run_pair(duration, PSI_DOT_D)
+    folder = Path(out) / NAME
+    cfg = settings.current(NAME)
+    duration = min(1.5, cfg["duration"]) if quick else cfg["duration"]
+    window = (0.5 * duration, duration) if quick else tuple(cfg["rms_window"])
+    psi_dot_d = cfg["psi_dot_d"]
+    runs = run_pair(cfg, duration, psi_dot_d)
     metrics: dict[str, float] = {}
     for name, (res, s, sd, _) in runs.items():
-        metrics[f"{name}.rms_speed_err"] = float(rms(res.t, res.q_dot[:, 0] - PSI_DOT_D, window))
+        metrics[f"{name}.rms_speed_err"] = float(rms(res.t, res.q_dot[:, 0] - psi_dot_d, window))
         metrics[f"{name}.final_psi_dot"] = float(res.q_dot[-1, 0])
         metrics[f"{name}.final_abs_theta"] = float(abs(res.theta[-1]))
         metrics.update(common_metrics(name, res, s, sd))
-    metrics["real.speed_on_surface"] = speed_on_surface(robot.plant())
-    metrics["matched.speed_on_surface"] = speed_on_surface(robot.nominal())
+    metrics["real.speed_on_surface"] = speed_on_surface(robot.plant(), psi_dot_d, cfg["lam"])
+    metrics["matched.speed_on_surface"] = speed_on_surface(robot.nominal(), psi_dot_d, cfg["lam"])
     claims = []
     for p, where in (("", "real plant"), ("matched.", "nominal plant (extra)")):
         claims += [
-            {"text": f"both reach the desired speed 0.5 rad/s (book, Fig. 4.5): RMS speed "
-                     f"error < 0.05 rad/s, {where}",
+            {"text": f"both reach the desired speed {psi_dot_d:g} rad/s (book, Fig. 4.5): RMS "
+                     f"speed error < 0.05 rad/s, {where}",
              "holds": bool(max(metrics[f"{p}asta.rms_speed_err"],
                                metrics[f"{p}asmc.rms_speed_err"]) < 0.05),
              "keys": [f"{p}asta.rms_speed_err", f"{p}asmc.rms_speed_err"]},
@@ -76,12 +78,9 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
              "keys": [f"{p}asta.tail_max_abs_sigma1", f"{p}asta.tail_max_abs_sigma1_dot"]},
         ]  # fmt: skip
     doc = metrics_document(
-        "asta-velocity", SOURCE, metrics, {}, claims, runs_doc(runs),
-        {"dt": TS, "Ts": TS, "mode": "sampled, quasi-continuous (Ts = dt = 0.5 ms)",
-         "duration": duration, "window": list(window), "seed": 0, "plant": "real "
-         "(matched.*: nominal)", "design": "nominal", "theta0": THETA0,
-         "psi_dot_d": PSI_DOT_D, "lambda": list(LAM), "K": list(K),
-         "adaptation_rate": list(RATE), "Gamma0": [0, 0], "eps": EPS,
+        NAME, SOURCE, metrics, {}, claims, runs_doc(runs),
+        {**settings_doc(cfg), "duration": duration, "window": list(window), "seed": 0,
+         "plant": "real (matched.*: nominal)", "design": "nominal", "psi_dot_d": psi_dot_d,
          "published_note": "the book prints no numbers for this case (figures only)"},
     )  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)

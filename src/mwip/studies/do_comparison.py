@@ -23,6 +23,10 @@ Choices the book leaves open, stated here and in metrics.json:
 - Prediction: for a sinusoid of frequency ``w`` the steady-state error of the linear error
   dynamics (3.31) is ``|H_n(jw)|`` times the input, ``H_n(s) = s^n / (s^n + v_1 s^(n-1) + ...
   + v_n)``; ``do{n}.rms_d{j}_theory`` is that for the sinusoid of channel j.
+
+Settings (``scenarios/do-comparison.toml``, :mod:`mwip.studies.settings`): ``theta0``,
+``duration``, ``rms_window``, ``Ts``, ``dt``, ``disturbance_amplitude``, ``disturbance_omega``,
+``disturbance_phase``, ``do2_v``, ``do3_v``, ``do4_v``, ``Q_diag``, ``R_diag``.
 """
 
 from __future__ import annotations
@@ -39,9 +43,10 @@ from mwip.metrics import rms
 from mwip.models.reduced import accelerations, lumped_disturbance, mass_matrix
 from mwip.observers import HighOrderDO
 from mwip.observers.bank import ObservedController
-from mwip.observers.design import published_gain_sets
-from mwip.sim import BOOK_SINUSOIDS, SimResult, simulate
-from mwip.studies import robot
+from mwip.observers.design import as_gain_matrices
+from mwip.sim import SimResult, simulate
+from mwip.sim.disturbance import Sinusoid
+from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE = "Fig. 3.2, Table 3.3"
@@ -52,40 +57,51 @@ PUBLISHED = {
     "do3": (4.0041e-4, 1.8535e-4, 1.1e-3),
     "do2": (1.1e-3, 6.0453e-4, 3.5e-3),
 }
-TS = 0.001
-DT = 0.0005
+NAME = "do-comparison"
 
 
-def actual_lumped_disturbance(res: SimResult) -> np.ndarray:
+def disturbance(cfg: dict[str, Any]) -> Sinusoid:
+    """The external sinusoids of the settings (the book's by default)."""
+    return Sinusoid(
+        amplitude=tuple(cfg["disturbance_amplitude"]),
+        omega=tuple(cfg["disturbance_omega"]),
+        phase=tuple(cfg["disturbance_phase"]),
+    )
+
+
+def actual_lumped_disturbance(res: SimResult, dist: Sinusoid) -> np.ndarray:
     """``tau_d`` of (2.36) at each record's left limit, from the true plant state (K, 3)."""
     q, qd, u = res.q, res.q_dot, res.u
     u_prev = np.vstack([u[:1], u[:-1]])
-    acc = accelerations(robot.plant(), q, qd, u_prev, BOOK_SINUSOIDS(res.t))
+    acc = accelerations(robot.plant(), q, qd, u_prev, dist(res.t))
     return lumped_disturbance(robot.nominal(), q, qd, acc, u_prev)
 
 
-def predicted_rms(v: tuple[float, ...]) -> np.ndarray:
-    """Steady-state RMS error per channel of the linear error dynamics for the book's sinusoids."""
-    s = 1j * np.asarray(BOOK_SINUSOIDS.omega)
+def predicted_rms(v: tuple[float, ...], dist: Sinusoid) -> np.ndarray:
+    """Steady-state RMS error per channel of the linear error dynamics for the sinusoids."""
+    s = 1j * np.asarray(dist.omega)
     n = len(v)
     den = s**n + sum(vi * s ** (n - 1 - i) for i, vi in enumerate(v))
-    return np.abs(s**n / den) * np.asarray(BOOK_SINUSOIDS.amplitude) / np.sqrt(2.0)
+    return np.abs(s**n / den) * np.asarray(dist.amplitude) / np.sqrt(2.0)
 
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/do-comparison``; returns the metrics document."""
-    folder = Path(out) / "do-comparison"
-    duration = 8.0 if quick else 25.0
-    window = (3.0, duration) if quick else (5.0, 25.0)
+    folder = Path(out) / NAME
+    cfg = settings.current(NAME)
+    duration = min(8.0, cfg["duration"]) if quick else cfg["duration"]
+    window = (3.0, duration) if quick else tuple(cfg["rms_window"])
+    Ts, dt, dist = cfg["Ts"], cfg["dt"], disturbance(cfg)
     plant, nominal = robot.plant(), robot.nominal()
-    sets = published_gain_sets()
-    observers = {k: HighOrderDO(nominal, sets[k].gains, TS) for k in ORDERS}
-    ctrl = ObservedController(LQR(design_lqr(nominal, Ts=TS)), observers)
+    v = {k: tuple(cfg[f"{k}_v"]) for k in ORDERS}
+    observers = {k: HighOrderDO(nominal, as_gain_matrices(list(v[k])), Ts) for k in ORDERS}
+    Q, R = np.diag(cfg["Q_diag"]), np.diag(cfg["R_diag"])
+    ctrl = ObservedController(LQR(design_lqr(nominal, Q, R, Ts=Ts)), observers)
     res = simulate(
-        ctrl, plant, q0=(0.0, np.pi / 18, 0.0), duration=duration, Ts=TS, dt=DT,
-        disturbance=BOOK_SINUSOIDS,
+        ctrl, plant, q0=(0.0, cfg["theta0"], 0.0), duration=duration, Ts=Ts, dt=dt,
+        disturbance=dist,
     )  # fmt: skip
-    td = actual_lumped_disturbance(res)
+    td = actual_lumped_disturbance(res, dist)
     Mn = mass_matrix(nominal, res.q)
     td_star = np.einsum("kij,kj->ki", Mn, td)
     series = res.series()
@@ -100,7 +116,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         r_ss = rms(res.t, err.T, window)
         r_full = rms(res.t, err.T)
         r_acc = rms(res.t, err_acc.T, window)
-        r_th = predicted_rms(sets[name].v)
+        r_th = predicted_rms(v[name], dist)
         for j in range(3):
             metrics[f"{name}.rms_d{j + 1}"] = float(r_ss[j])
             metrics[f"{name}.rms_d{j + 1}_full"] = float(r_full[j])
@@ -138,17 +154,20 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
          "keys": [f"{n}.rms_d1_over_theory" for n in ORDERS]},
     ]  # fmt: skip
     doc = metrics_document(
-        "do-comparison", SOURCE, metrics, published, claims,
+        NAME, SOURCE, metrics, published, claims,
         {name: {"status": str(res.status[0]), "t_end": float(res.t_end[0])} for name in ORDERS},
-        {"dt": DT, "Ts": TS, "window": list(window), "seed": 0, "duration": duration,
-         "mode": "sampled (quasi-continuous, Ts = 1 ms)", "controller": "LQR (book Q, R, "
-         "designed for Ts)", "observer_discretization": "exact", "coordinates":
+        {"dt": dt, "Ts": Ts, "window": list(window), "seed": 0, "duration": duration,
+         "theta0": cfg["theta0"], "mode": f"sampled (quasi-continuous, Ts = {Ts * 1e3:g} ms)",
+         "controller": "LQR (Q_diag, R_diag, designed for Ts)", "Q_diag": cfg["Q_diag"],
+         "R_diag": cfg["R_diag"], "observer_discretization": "exact", "coordinates":
          "rms_d*: force coordinates tau* = M_nom tau_d (N m); rms_acc_d*: (2.36) coordinates",
-         "gains": {k: list(sets[k].v) for k in ORDERS}},
+         "gains": {k: list(v[k]) for k in ORDERS},
+         "disturbance": {"amplitude": cfg["disturbance_amplitude"],
+                         "omega": cfg["disturbance_omega"], "phase": cfg["disturbance_phase"]}},
     )  # fmt: skip
 
     folder.mkdir(parents=True, exist_ok=True)
-    _figure(res, td_star, Mn, series, errors, folder / "do-comparison.png")
+    _figure(res, td_star, Mn, series, errors, Ts, folder / "do-comparison.png")
     res.to_npz(folder / "timeseries.npz")
     write_atomic(
         folder / "actual_disturbance.npz",
@@ -164,6 +183,7 @@ def _figure(
     Mn: np.ndarray,
     series: dict[str, np.ndarray],
     errors: dict[str, np.ndarray],
+    Ts: float,
     path: Path,
 ) -> None:
     """The book's layout: estimate vs actual per channel (left), estimation errors (right)."""
@@ -188,5 +208,5 @@ def _figure(
     axes[0, 1].legend(loc="upper right", fontsize=8)
     axes[2, 0].set_xlabel("t (s)")
     axes[2, 1].set_xlabel("t (s)")
-    fig.suptitle("Disturbance observers of order 2, 3, 4 (book gains), LQR balance, Ts = 1 ms")
+    fig.suptitle(f"Disturbance observers of order 2, 3, 4, LQR balance, Ts = {Ts * 1e3:g} ms")
     save_figure(fig, path)

@@ -11,10 +11,15 @@ of ``q2`` and of the sliding variable ``S1`` (the controller's, from measurement
 Extra runs: keys prefixed ``ideal.``, the same with ideal sensors and actuator; ``alt.``, the
 same under the alternative damping reading (Db, Dw as linear damping, rotational ``D r^2``, in
 the plant and the nominal model; docs/twin.md).
+
+Settings (``scenarios/exp-asta.toml``, :mod:`mwip.studies.settings`): ``theta0``,
+``lambdas``, ``K``, ``Gamma_rate``, ``Gamma0``, ``eps``, ``duration``, ``rms_window``,
+``Ts``, ``record_every``, ``seed``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -26,18 +31,12 @@ from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
 from mwip.params import Params
 from mwip.sim import SimResult
-from mwip.studies import robot
+from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 from mwip.studies.exp_hodosmc import READINGS, alt_damping, twin_for
 
 SOURCE = "Sec. 6.2.2, Figs. 6.9-6.16, Tables 6.7-6.8"
-LAM = (10.0, 0.3, 3.0)
-K = (10.0, 10.0)
-RATE = (5.0, 5.0)
-EPS = 0.01
-THETA0 = -np.pi / 18
-WINDOW = (2.0, 10.0)
-DURATION = 10.0
+NAME = "exp-asta"
 KINDS = ("asmc", "asta")
 PUBLISHED = {
     "asmc.case1.rms_theta": 0.0138, "asmc.case1.rms_s1": 0.4184,
@@ -47,36 +46,43 @@ PUBLISHED = {
 }  # fmt: skip
 
 
-def make_controller(kind: str, params: Params | None = None) -> ASTA | ASMC:
-    """ASTA or ASMC with (6.1)-(6.2) at 5 ms, designed on ``params`` (default: the robot's
-    nominal model, :func:`mwip.studies.robot.nominal`)."""
+def make_controller(kind: str, cfg: Mapping[str, Any], params: Params | None = None) -> ASTA | ASMC:
+    """ASTA or ASMC with (6.1)-(6.2), gains and sample period from the settings ``cfg``,
+    designed on ``params`` (default: the robot's nominal model,
+    :func:`mwip.studies.robot.nominal`)."""
     if params is None:
         params = robot.nominal()
     cls = ASTA if kind == "asta" else ASMC
-    return cls(params, lam=LAM, K=K, rate=RATE, Gamma0=(0.0, 0.0), eps=EPS, Ts=0.005)
+    return cls(params, lam=tuple(cfg["lambdas"]), K=tuple(cfg["K"]),
+               rate=tuple(cfg["Gamma_rate"]), Gamma0=tuple(cfg["Gamma0"]), eps=cfg["eps"],
+               Ts=cfg["Ts"])  # fmt: skip
 
 
 def run_one(
-    kind: str, case: int, *, reading: str = "spec", duration: float = DURATION,
-    twin: Twin | None = None, seed: int = 0,
+    kind: str, case: int, cfg: Mapping[str, Any], *, reading: str = "spec",
+    duration: float | None = None, twin: Twin | None = None,
 ) -> SimResult:  # fmt: skip
-    """One controller on the twin, Case 1 or 2, ``reading`` "spec", "ideal" or "alt"."""
+    """One controller on the twin, Case 1 or 2, ``reading`` "spec", "ideal" or "alt", with
+    the settings ``cfg`` (``duration`` default: ``cfg["duration"]``)."""
     plant = case_plant(case, base=robot.plant())
     nominal = robot.nominal()
     if reading == "alt":
         plant, nominal = alt_damping(plant), alt_damping(nominal)
     return run_on_twin(
-        make_controller(kind, nominal), case, twin=twin_for(reading, twin), plant=plant,
-        q0=(0.0, THETA0, 0.0), duration=duration, record_every=2, seed=seed,
+        make_controller(kind, cfg, nominal), case, twin=twin_for(reading, twin, cfg["Ts"]),
+        plant=plant, q0=(0.0, cfg["theta0"], 0.0),
+        duration=cfg["duration"] if duration is None else duration,
+        record_every=cfg["record_every"], seed=cfg["seed"],
     )  # fmt: skip
 
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the experiment into ``out/exp-asta``; returns the metrics document."""
-    study = "exp-asta"
+    study = NAME
     folder = Path(out) / study
-    duration = 4.0 if quick else DURATION
-    window = (2.0, duration) if quick else WINDOW
+    cfg = settings.current(NAME)
+    duration = min(4.0, cfg["duration"]) if quick else cfg["duration"]
+    window = (2.0, duration) if quick else tuple(cfg["rms_window"])
     readings = ("spec",) if quick else tuple(READINGS)
     runs: dict[str, SimResult] = {}
     metrics: dict[str, float] = {}
@@ -85,7 +91,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         pre = READINGS[reading][0]
         for case in (1, 2):
             for kind in KINDS:
-                res = run_one(kind, case, reading=reading, duration=duration)
+                res = run_one(kind, case, cfg, reading=reading, duration=duration)
                 name = f"{pre}{kind}.case{case}"
                 runs[name] = res
                 ok = res.status[0] == "ok"
@@ -121,10 +127,12 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     doc = metrics_document(
         study, SOURCE, metrics, PUBLISHED, claims,
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
-        {"dt": 0.0005, "Ts": 0.005, "window": list(window), "seed": 0, "duration": duration,
-         "record_period": 0.01, "mode": "sampled on the digital twin (5 ms)",
-         "lambda": list(LAM), "K": list(K), "rate": list(RATE), "Gamma0": [0.0, 0.0],
-         "eps": EPS, "theta0": THETA0,
+        {"dt": Twin().dt, "Ts": cfg["Ts"], "window": list(window), "seed": cfg["seed"],
+         "duration": duration, "record_every": cfg["record_every"],
+         "record_period": cfg["Ts"] * cfg["record_every"],
+         "mode": f"sampled on the digital twin ({cfg['Ts'] * 1e3:g} ms)",
+         "lambda": list(cfg["lambdas"]), "K": list(cfg["K"]), "rate": list(cfg["Gamma_rate"]),
+         "Gamma0": list(cfg["Gamma0"]), "eps": cfg["eps"], "theta0": cfg["theta0"],
          "alt": "extra runs: Db, Dw read as linear damping (rotational D r^2)",
          "ideal": "extra runs: SPEC plant, ideal sensors and actuator"},
     )  # fmt: skip

@@ -20,11 +20,17 @@ Runs whose plant falls get ``null`` metrics (status in ``runs``). Extra runs, ke
 linear damping in N s/m, i.e. rotational ``D r^2``, in both the plant and the controllers'
 nominal model), under which the -7 rad/s target is reachable (docs/twin.md). The obstacle
 study also runs ``case1_stick`` (the stick without the payload) in both readings.
+
+Settings (``scenarios/exp-hodosmc-{balance,speed,obstacle}.toml``, one file per study,
+:mod:`mwip.studies.settings`): ``theta0``, ``speed``, ``lambdas``, ``smc_K``, ``do1smc_K``,
+``do4smc_K``, ``do1_gain``, ``phi``, ``duration``, ``Ts``, ``record_every``, ``seed``; balance
+and speed also ``rms_window``; obstacle also ``rms_start``, ``stick_start``, ``stick_speed``.
 """
 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -38,28 +44,22 @@ from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
 from mwip.params import Params
 from mwip.sim import SimResult
-from mwip.studies import robot
+from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE_BALANCE = "Sec. 6.2.1, Figs. 6.4-6.5, Table 6.4"
 SOURCE_SPEED = "Sec. 6.2.1, Figs. 6.6-6.7, Table 6.5"
 SOURCE_OBSTACLE = "Sec. 6.2.1, Fig. 6.8, Table 6.6"
 
-LAMBDAS = (3.0, 0.01, 0.1, 3.0)
-#: Table 6.3: dbar (printed, not used: K given directly) and K = (K1, K2)
-TABLE_6_3: dict[str, dict[str, Any]] = {
-    "smc": {"dbar": 20.0, "K": (25.0, 21.0)},
-    "do1smc": {"dbar": 13.0, "K": (17.3, 14.0)},
-    "do4smc": {"dbar": 3.0, "K": (6.3, 4.0)},
-}
-KINDS = tuple(TABLE_6_3)
-PHI = 0.05
-THETA0 = np.pi / 18
-SPEED = -7.0
-WINDOW = (2.0, 10.0)
-DURATION = 10.0
-RECORD_EVERY = 2  # 2 x 5 ms = the book's 10 ms records
-STICK_START = 6.0
+NAME_BALANCE = "exp-hodosmc-balance"
+NAME_SPEED = "exp-hodosmc-speed"
+NAME_OBSTACLE = "exp-hodosmc-obstacle"
+
+KINDS = ("smc", "do1smc", "do4smc")
+#: Table 6.3's dbar and gamma (printed, not used: the gains K are given directly, settings)
+DBAR_PRINTED = {"smc": 20.0, "do1smc": 13.0, "do4smc": 3.0}
+GAMMA_PRINTED = (1.0, 1.0)
+#: Table 6.6's steady-state band of ``psi'`` (rad/s) for the obstacle settling time
 BAND = (-9.0, -5.0)
 
 PUBLISHED_BALANCE = {
@@ -87,15 +87,21 @@ def alt_damping(p: Params) -> Params:
     return replace(p, Db=p.Db * p.r**2, Dw=p.Dw * p.r**2)
 
 
-def make_controller(kind: str, q1d_dot: float = 0.0, params: Params | None = None) -> Any:
-    """Table 6.3's controller ``kind`` (smc, do1smc, do4smc) at 5 ms with saturation, designed
-    on ``params`` (default: the robot's nominal model, :func:`mwip.studies.robot.nominal`)."""
+def make_controller(
+    kind: str, cfg: Mapping[str, Any], q1d_dot: float = 0.0, params: Params | None = None
+) -> Any:
+    """Table 6.3's controller ``kind`` (smc, do1smc, do4smc) with saturation, gains from the
+    calling study's settings ``cfg`` (``lambdas``, ``{kind}_K``, ``do1_gain``, ``phi``,
+    ``Ts``), designed on ``params`` (default: the robot's nominal model,
+    :func:`mwip.studies.robot.nominal`)."""
     if params is None:
         params = robot.nominal()
+    obs = [cfg["do1_gain"]] if kind == "do1smc" else None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SMCDesignWarning)
-        return make_smc(kind, LAMBDAS, K=TABLE_6_3[kind]["K"], params=params, Ts=0.005,
-                        switching=Switching("sat", PHI), q1d_dot=q1d_dot)  # fmt: skip
+        return make_smc(kind, tuple(cfg["lambdas"]), K=tuple(cfg[f"{kind}_K"]),
+                        observer_gains=obs, params=params, Ts=cfg["Ts"],
+                        switching=Switching("sat", cfg["phi"]), q1d_dot=q1d_dot)  # fmt: skip
 
 
 def _plant(case: int, reading: str) -> Params:
@@ -113,28 +119,35 @@ READINGS = {
 }
 
 
-def twin_for(reading: str, twin: Twin | None) -> Twin | None:
-    return Twin.ideal() if reading == "ideal" else twin
+def twin_for(reading: str, twin: Twin | None, Ts: float | None = None) -> Twin | None:
+    """The twin of ``reading``: ideal sensors and actuator for "ideal", else ``twin`` (or,
+    when ``None`` and ``Ts`` is given, the default twin sampled every ``Ts``)."""
+    if reading == "ideal":
+        return Twin.ideal() if Ts is None else Twin.ideal(Ts=Ts)
+    return Twin(Ts=Ts) if twin is None and Ts is not None else twin
 
 
 def run_one(
-    kind: str, case: int, q1d_dot: float, *, reading: str = "spec", duration: float = DURATION,
-    twin: Twin | None = None, seed: int = 0,
+    kind: str, case: int, q1d_dot: float, cfg: Mapping[str, Any], *, reading: str = "spec",
+    duration: float | None = None, twin: Twin | None = None,
 ) -> SimResult:  # fmt: skip
     """One controller on the twin for a case (3 = payload + stick; ``case=-1``: stick on the
-    Case 1 robot) under the damping ``reading`` ("spec" or "alt")."""
+    Case 1 robot) under the damping ``reading`` ("spec", "ideal" or "alt"), with the calling
+    study's settings ``cfg`` (``duration`` default: ``cfg["duration"]``; the stick from
+    ``stick_start``, ``stick_speed`` where ``cfg`` has them)."""
     nominal = robot.nominal()
     if reading == "alt":
         nominal = alt_damping(nominal)
-    ctrl = make_controller(kind, q1d_dot, nominal)
+    ctrl = make_controller(kind, cfg, q1d_dot, nominal)
     plant_case = 1 if case == -1 else case
+    stick = {k: cfg[k] for k in ("stick_speed", "stick_start") if k in cfg}
     return run_on_twin(
         ctrl,
         3 if case in (3, -1) else case,
-        twin=twin_for(reading, twin),
+        twin=twin_for(reading, twin, cfg["Ts"]),
         plant=_plant(plant_case, reading),
-        q0=(0.0, THETA0, 0.0), duration=duration, record_every=RECORD_EVERY, seed=seed,
-        stick_speed=SPEED, stick_start=STICK_START,
+        q0=(0.0, cfg["theta0"], 0.0), record_every=cfg["record_every"], seed=cfg["seed"],
+        duration=cfg["duration"] if duration is None else duration, **stick,
     )  # fmt: skip
 
 
@@ -163,15 +176,19 @@ def _runs_doc(runs: dict[str, SimResult]) -> dict[str, dict[str, Any]]:
     return {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()}
 
 
-def _settings(extra: dict[str, Any], duration: float, window: tuple[float, float]) -> dict:
+def _settings(
+    cfg: Mapping[str, Any], extra: dict[str, Any], duration: float, window: tuple[float, float]
+) -> dict:
     base = {
-        "dt": 0.0005, "Ts": 0.005, "window": list(window), "seed": 0, "duration": duration,
-        "record_period": 0.01, "mode": "sampled on the digital twin (5 ms)",
-        "lambdas": list(LAMBDAS), "gamma": [1.0, 1.0],
-        "K": {k: list(v["K"]) for k, v in TABLE_6_3.items()},
-        "dbar_printed": {k: v["dbar"] for k, v in TABLE_6_3.items()},
-        "switching": f"saturation, phi = {PHI}", "theta0": THETA0,
-        "observers": "DO1: L = 50 I3; DO4: Sec. 3.6.1 gains",
+        "dt": Twin().dt, "Ts": cfg["Ts"], "window": list(window), "seed": cfg["seed"],
+        "duration": duration, "record_every": cfg["record_every"],
+        "record_period": cfg["Ts"] * cfg["record_every"],
+        "mode": f"sampled on the digital twin ({cfg['Ts'] * 1e3:g} ms)",
+        "lambdas": list(cfg["lambdas"]), "gamma": list(GAMMA_PRINTED),
+        "K": {k: list(cfg[f"{k}_K"]) for k in KINDS}, "dbar_printed": dict(DBAR_PRINTED),
+        "switching": f"saturation, phi = {cfg['phi']}", "phi": cfg["phi"],
+        "theta0": cfg["theta0"], "do1_gain": cfg["do1_gain"],
+        "observers": f"DO1: L = {cfg['do1_gain']:g} I3; DO4: Sec. 3.6.1 gains",
         "twin": "complementary fusion (tau 0.5 s), HED-5540 2000 cpr, RE25 + 23:1, 24 V, 4 A",
         "alt": "extra runs: Db, Dw read as linear damping (rotational D r^2) in plant and model",
         "ideal": "extra runs: SPEC plant, ideal sensors and actuator",
@@ -181,12 +198,14 @@ def _settings(extra: dict[str, Any], duration: float, window: tuple[float, float
 
 
 def _rms_experiment(
-    study: str, source: str, q1d_dot: float, published: dict[str, float], out: Path,
-    quick: bool, keys: tuple[str, ...],
+    study: str, source: str, published: dict[str, float], out: Path, quick: bool,
+    keys: tuple[str, ...],
 ) -> dict[str, Any]:  # fmt: skip
     folder = Path(out) / study
-    duration = 4.0 if quick else DURATION
-    window = (2.0, duration) if quick else WINDOW
+    cfg = settings.current(study)
+    q1d_dot = cfg["speed"]
+    duration = min(4.0, cfg["duration"]) if quick else cfg["duration"]
+    window = (2.0, duration) if quick else tuple(cfg["rms_window"])
     readings = ("spec",) if quick else tuple(READINGS)
     runs: dict[str, SimResult] = {}
     metrics: dict[str, float] = {}
@@ -194,7 +213,7 @@ def _rms_experiment(
         pre = READINGS[reading][0]
         for case in (1, 2):
             for kind in KINDS:
-                res = run_one(kind, case, q1d_dot, reading=reading, duration=duration)
+                res = run_one(kind, case, q1d_dot, cfg, reading=reading, duration=duration)
                 name = f"{pre}{kind}.case{case}"
                 runs[name] = res
                 for q, v in _rms_metrics(res, q1d_dot, window).items():
@@ -216,7 +235,7 @@ def _rms_experiment(
                 "keys": [f"{pre}{k}.case{case}.t_end" for k in KINDS],
             })  # fmt: skip
     doc = metrics_document(study, source, metrics, published, claims, _runs_doc(runs),
-                           _settings({"q1d_dot": q1d_dot}, duration, window))  # fmt: skip
+                           _settings(cfg, {"q1d_dot": q1d_dot}, duration, window))  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)
     _figure(runs, q1d_dot, folder / f"{study}.png", study)
     for name, res in runs.items():
@@ -227,18 +246,18 @@ def _rms_experiment(
 
 def run_balance(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """``exp-hodosmc-balance``: Table 6.4 on the twin (Cases 1-2, ``q1d' = 0``)."""
-    return _rms_experiment("exp-hodosmc-balance", SOURCE_BALANCE, 0.0, PUBLISHED_BALANCE, out,
-                           quick, ("rms_theta", "rms_speed_err"))  # fmt: skip
+    return _rms_experiment(NAME_BALANCE, SOURCE_BALANCE, PUBLISHED_BALANCE, out, quick,
+                           ("rms_theta", "rms_speed_err"))  # fmt: skip
 
 
 def run_speed(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """``exp-hodosmc-speed``: Table 6.5 on the twin (Cases 1-2, ``q1d' = -7 rad/s``)."""
-    return _rms_experiment("exp-hodosmc-speed", SOURCE_SPEED, SPEED, PUBLISHED_SPEED, out,
-                           quick, ("rms_speed_err",))  # fmt: skip
+    return _rms_experiment(NAME_SPEED, SOURCE_SPEED, PUBLISHED_SPEED, out, quick,
+                           ("rms_speed_err",))  # fmt: skip
 
 
 def obstacle_settling_time(
-    t: np.ndarray, psi_dot: np.ndarray, start: float = STICK_START,
+    t: np.ndarray, psi_dot: np.ndarray, start: float = 6.0,
     band: tuple[float, float] = BAND,
 ) -> float:  # fmt: skip
     """Time after ``start`` until ``psi'`` enters ``band`` for good (Table 6.6's definition:
@@ -258,9 +277,11 @@ def obstacle_settling_time(
 
 def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """``exp-hodosmc-obstacle``: Table 6.6 on the twin (Case 3: payload + stick at 6 s)."""
-    study = "exp-hodosmc-obstacle"
+    study = NAME_OBSTACLE
     folder = Path(out) / study
-    duration = 7.0 if quick else DURATION
+    cfg = settings.current(study)
+    speed, stick_start = cfg["speed"], cfg["stick_start"]
+    duration = min(7.0, cfg["duration"]) if quick else cfg["duration"]
     readings = ("spec",) if quick else tuple(READINGS)
     variants = ((3, ""),) if quick else ((3, ""), (-1, "case1_stick."))
     runs: dict[str, SimResult] = {}
@@ -269,18 +290,20 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
         pre = READINGS[reading][0]
         for case, tag in variants:
             for kind in KINDS:
-                res = run_one(kind, case, SPEED, reading=reading, duration=duration)
+                res = run_one(kind, case, speed, cfg, reading=reading, duration=duration)
                 name = f"{pre}{tag}{kind}"
                 runs[name] = res
                 ok = res.status[0] == "ok"
                 metrics[f"{name}.settling_time"] = (
-                    obstacle_settling_time(res.t, res.q_dot[:, 0]) if ok else float("nan")
+                    obstacle_settling_time(res.t, res.q_dot[:, 0], stick_start)
+                    if ok
+                    else float("nan")
                 )
                 metrics[f"{name}.rms_speed_err"] = (
-                    float(rms(res.t, res.q_dot[:, 0] - SPEED, (2.0, STICK_START)))
+                    float(rms(res.t, res.q_dot[:, 0] - speed, (cfg["rms_start"], stick_start)))
                     if ok else float("nan")
                 )  # fmt: skip
-                pre_stick = res.t < STICK_START
+                pre_stick = res.t < stick_start
                 metrics[f"{name}.speed_before_stick"] = (
                     float(np.nanmean(res.q_dot[pre_stick, 0][-50:])) if ok else float("nan")
                 )
@@ -299,24 +322,25 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
                 "holds": all(np.isfinite(metrics[f"{pre}{tag}{k}.settling_time"]) for k in KINDS),
                 "keys": [f"{pre}{tag}{k}.settling_time" for k in KINDS],
             })  # fmt: skip
-    stick = _stick_doc()
+    stick = _stick_doc(cfg["stick_speed"], stick_start)
     doc = metrics_document(
         study, SOURCE_OBSTACLE, metrics, PUBLISHED_OBSTACLE, claims, _runs_doc(runs),
-        _settings({"q1d_dot": SPEED, "band": list(BAND), "stick": stick}, duration,
-                  (2.0, STICK_START)),
+        _settings(cfg, {"q1d_dot": speed, "band": list(BAND), "stick": stick,
+                        "stick_speed": cfg["stick_speed"]},
+                  duration, (cfg["rms_start"], stick_start)),
     )  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)
-    _figure(runs, SPEED, folder / f"{study}.png", study, cases=("",))
+    _figure(runs, speed, folder / f"{study}.png", study, cases=("",))
     for name, res in runs.items():
         res.to_npz(folder / f"{name}.npz")
     write_metrics(folder, doc)
     return doc
 
 
-def _stick_doc() -> dict[str, float]:
+def _stick_doc(speed: float, start: float) -> dict[str, float]:
     from mwip.hardware.twin import stick_for
 
-    s = stick_for(case_plant(3, base=robot.plant()), SPEED, STICK_START)
+    s = stick_for(case_plant(3, base=robot.plant()), speed, start)
     return {"height": s.height, "start": s.start, "duration_each": s.duration,
             "torque": s.torque, "mass": s.mass}  # fmt: skip
 

@@ -52,6 +52,10 @@ All runs are one batch on the twin (rows with their own parameters and controlle
 :class:`BatchFuzzyController`), which costs about as much as two single runs. Outputs:
 ``metrics.json``, one ``.npz`` per run, ``exp-it2.png`` (Figs. 6.17-6.19's layout) and, full
 run only, ``exp-it2-alt.png``.
+
+Settings (``scenarios/exp-it2.toml``, :mod:`mwip.studies.settings`): ``theta0``,
+``epsilon``, ``rho``, ``uncertainty``, ``exp2_p_d``, ``exp3_p_d``, ``exp3_alpha_d``,
+``duration``, ``rms_start``, ``Ts``, ``record_every``, ``seed``.
 """
 
 from __future__ import annotations
@@ -73,26 +77,15 @@ from mwip.metrics import rms
 from mwip.params import Params
 from mwip.sim import SimResult
 from mwip.sim.sensors import Measurement
-from mwip.studies import robot
+from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 from mwip.studies.exp_hodosmc import READINGS, alt_damping
-from mwip.studies.it2_balance import RHO, UNCERTAINTY
 
 SOURCE = "Sec. 6.2.3, Figs. 6.17-6.19"
-THETA0 = 0.48
-#: Lemma 5.2's ball: epsilon = ||x0|| (x0 = [0.48, 0, 0, 0])
-EPSILON = THETA0
-DURATION = 15.0
+NAME = "exp-it2"
 QUICK_DURATION = 3.0
-TS = 0.005
-RECORD_EVERY = 2  # 10 ms records
-SEED = 0
-#: experiment -> (p_d [m] or None, alpha_d [rad] or None)
-EXPERIMENTS: dict[int, tuple[float | None, float | None]] = {
-    1: (None, None),
-    2: (0.7, None),
-    3: (1.0, 1.5),
-}
+#: the experiments: 1 balance only, 2 + position, 3 + position and direction
+EXPERIMENTS = (1, 2, 3)
 KINDS = ("it2", "t1")
 OSC_WINDOW = 5.0  # s: osc_amp = peak-to-peak of theta over the last OSC_WINDOW
 OSC_TOL = 0.02  # rad
@@ -111,14 +104,28 @@ CRITERIA = {
 }  # fmt: skip
 
 
-def design(reading: str = "spec") -> PDCDesign:
-    """The PDC gains (Lemma 5.1/5.2 on the nominal model and the +-35 % models, ``epsilon =
-    0.48``, ``rho = 20`` N m) of the robot's nominal model (:func:`mwip.studies.robot.nominal`);
-    ``reading="alt"`` designs on its alternative-damping model."""
+def _cfg(cfg: Mapping[str, Any] | None) -> Mapping[str, Any]:
+    return settings.current(NAME) if cfg is None else cfg
+
+
+def targets(cfg: Mapping[str, Any] | None = None) -> dict[int, tuple[float | None, float | None]]:
+    """Experiment -> ``(p_d [m] or None, alpha_d [rad] or None)`` from the settings ``cfg``
+    (default: the study's current settings)."""
+    c = _cfg(cfg)
+    return {1: (None, None), 2: (c["exp2_p_d"], None), 3: (c["exp3_p_d"], c["exp3_alpha_d"])}
+
+
+def design(reading: str = "spec", cfg: Mapping[str, Any] | None = None) -> PDCDesign:
+    """The PDC gains (Lemma 5.1/5.2 on the nominal model and the ``+-uncertainty`` models,
+    ``epsilon``, ``rho`` of the settings ``cfg``, default: the study's current settings) of
+    the robot's nominal model (:func:`mwip.studies.robot.nominal`); ``reading="alt"`` designs
+    on its alternative-damping model."""
+    c = _cfg(cfg)
     nominal = robot.nominal()
     if reading == "alt":
         nominal = alt_damping(nominal)
-    return design_pdc(uncertainty_models(nominal, UNCERTAINTY), epsilon=EPSILON, rho=RHO)
+    return design_pdc(uncertainty_models(nominal, c["uncertainty"]), epsilon=c["epsilon"],
+                      rho=c["rho"])  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -154,7 +161,7 @@ class BatchFuzzyController:
         alpha_d: Sequence[float | None],
         *,
         params: Params | None = None,
-        Ts: float | None = TS,
+        Ts: float | None = 0.005,
     ) -> None:
         if params is None:  # the robot's nominal model, at call time
             params = robot.nominal()
@@ -225,34 +232,44 @@ def _direction_as_position(c: FuzzyMWIPController) -> tuple[float, float, float]
             d.out.half_range / p.out.half_range)  # fmt: skip
 
 
-def rows_for(readings: Sequence[str] = ("spec",)) -> list[Row]:
-    """The batch: every reading x experiment x kind, named ``{pre}{kind}.exp{e}``."""
+def rows_for(
+    readings: Sequence[str] = ("spec",), cfg: Mapping[str, Any] | None = None
+) -> list[Row]:
+    """The batch: every reading x experiment x kind, named ``{pre}{kind}.exp{e}`` (targets
+    from the settings ``cfg``, default: the study's current settings)."""
     return [
         Row(f"{READINGS[rd][0]}{kind}.exp{e}", kind, pd, ad, rd)
         for rd in readings
-        for e, (pd, ad) in EXPERIMENTS.items()
+        for e, (pd, ad) in targets(cfg).items()
         for kind in KINDS
     ]
 
 
 def run_batch(
-    rows: Sequence[Row], *, duration: float = DURATION, seed: int = SEED,
+    rows: Sequence[Row], *, duration: float | None = None, seed: int | None = None,
     twin: Twin | None = None, designs: Mapping[str, PDCDesign] | None = None,
+    cfg: Mapping[str, Any] | None = None,
 ) -> dict[str, SimResult]:  # fmt: skip
-    """Run ``rows`` as one batch on the twin (Case 1 plant, alt rows with alt damping)."""
+    """Run ``rows`` as one batch on the twin (Case 1 plant, alt rows with alt damping); the
+    initial lean, sampling, records, and the defaults of ``duration`` and ``seed`` from the
+    settings ``cfg`` (default: the study's current settings)."""
+    c = _cfg(cfg)
     des = dict(designs) if designs is not None else {}
     for rd in {r.reading for r in rows} - set(des):
-        des[rd] = design(rd)
+        des[rd] = design(rd, c)
     plant1 = case_plant(1, base=robot.plant())
     per_row = [alt_damping(plant1) if r.reading == "alt" else plant1 for r in rows]
     # only the damping differs between rows; r, b stay scalars (the twin's sensor needs them)
     plant = replace(plant1, Db=np.array([p.Db for p in per_row]),
                     Dw=np.array([p.Dw for p in per_row]))  # fmt: skip
     ctrl = BatchFuzzyController([des[r.reading] for r in rows], [r.kind for r in rows],
-                                [r.p_d for r in rows], [r.alpha_d for r in rows])  # fmt: skip
-    q0 = np.tile([0.0, THETA0, 0.0], (len(rows), 1))
-    res = run_on_twin(ctrl, 1, twin=twin, plant=plant, q0=q0, duration=duration,
-                      record_every=RECORD_EVERY, seed=seed)  # fmt: skip
+                                [r.p_d for r in rows], [r.alpha_d for r in rows],
+                                Ts=c["Ts"])  # fmt: skip
+    q0 = np.tile([0.0, c["theta0"], 0.0], (len(rows), 1))
+    res = run_on_twin(ctrl, 1, twin=Twin(Ts=c["Ts"]) if twin is None else twin, plant=plant,
+                      q0=q0, duration=c["duration"] if duration is None else duration,
+                      record_every=c["record_every"],
+                      seed=c["seed"] if seed is None else seed)  # fmt: skip
     return {r.name: res.plant(i) for i, r in enumerate(rows)}
 
 
@@ -353,15 +370,17 @@ def claims_from(m: Mapping[str, Any], readings: Sequence[str]) -> list[dict[str,
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the experiment into ``out/exp-it2``; returns the metrics document."""
-    study = "exp-it2"
+    study = NAME
     folder = Path(out) / study
-    duration = QUICK_DURATION if quick else DURATION
+    cfg = settings.current(NAME)
+    duration = min(QUICK_DURATION, cfg["duration"]) if quick else cfg["duration"]
     osc_window = duration / 2 if quick else OSC_WINDOW
-    rms_window = (1.0 if quick else 2.0, duration)
+    rms_window = (1.0 if quick else cfg["rms_start"], duration)
     readings = ("spec", "alt")
-    designs = {rd: design(rd) for rd in readings}
-    rows = rows_for(readings)
-    runs = run_batch(rows, duration=duration, designs=designs)
+    designs = {rd: design(rd, cfg) for rd in readings}
+    experiments = targets(cfg)
+    rows = rows_for(readings, cfg)
+    runs = run_batch(rows, duration=duration, designs=designs, cfg=cfg)
     metrics: dict[str, float] = {}
     for row in rows:
         for k, v in run_metrics(runs[row.name], row, osc_window=osc_window,
@@ -376,15 +395,18 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
                 float(np.max(np.abs(a.theta - b.theta))) if same else float("nan")
             )
     claims = claims_from(metrics, readings)
-    settings = {
-        "x0": [THETA0, 0.0, 0.0, 0.0], "x0_reading": "[theta, theta', psi, psi'] (Sec. 5.2)",
-        "duration": duration, "Ts": TS, "dt": 0.0005, "record_period": TS * RECORD_EVERY,
-        "seed": SEED, "plant": "real (Table 6.1, Case 1)", "design": "nominal (Table 6.2)",
-        "mode": "sampled on the digital twin (5 ms)", "batch": [r.name for r in rows],
+    used = {
+        "x0": [cfg["theta0"], 0.0, 0.0, 0.0],
+        "x0_reading": "[theta, theta', psi, psi'] (Sec. 5.2)", "duration": duration,
+        "Ts": cfg["Ts"], "dt": Twin().dt, "record_every": cfg["record_every"],
+        "record_period": cfg["Ts"] * cfg["record_every"], "seed": cfg["seed"],
+        "plant": "real (Table 6.1, Case 1)", "design": "nominal (Table 6.2)",
+        "mode": f"sampled on the digital twin ({cfg['Ts'] * 1e3:g} ms)",
+        "batch": [r.name for r in rows],
         "batch_note": "one batched twin run; each row's sensor noise depends on its row index",
         "experiments": {f"exp{e}": {"p_d": pd, "alpha_d": ad} for e, (pd, ad) in
-                        EXPERIMENTS.items()},
-        "epsilon": EPSILON, "rho": RHO, "uncertainty": UNCERTAINTY,
+                        experiments.items()},
+        "epsilon": cfg["epsilon"], "rho": cfg["rho"], "uncertainty": cfg["uncertainty"],
         "G": {rd: d.G for rd, d in designs.items()},
         "lmi": {rd: check_design(d) for rd, d in designs.items()},
         "position": f"p = r_nom psi (r_nom = {float(robot.nominal().r):g} m); "
@@ -399,15 +421,15 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     doc = metrics_document(
         study, SOURCE, metrics, {}, claims,
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
-        settings,
+        used,
     )  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)
     for rd in readings[:1] if quick else readings:
         pre = READINGS[rd][0]
         _figure(runs, pre, folder / f"{study}{'-' + rd if pre else ''}.png",
-                f"{study}: IT2 vs T1 on the digital twin, x0 = [0.48, 0, 0, 0] "
+                f"{study}: IT2 vs T1 on the digital twin, x0 = [{cfg['theta0']:g}, 0, 0, 0] "
                 f"({'SPEC' if not pre else 'alternative'} damping reading)",
-                5 if not pre else 3)  # fmt: skip
+                experiments, 5 if not pre else 3)  # fmt: skip
     for name, res in runs.items():
         res.to_npz(folder / f"{name}.npz")
     write_metrics(folder, doc)
@@ -415,8 +437,9 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
 
 
 def _figure(
-    runs: Mapping[str, SimResult], pre: str, path: Path, title: str, n_rows: int = 5
-) -> None:
+    runs: Mapping[str, SimResult], pre: str, path: Path, title: str,
+    experiments: Mapping[int, tuple[float | None, float | None]], n_rows: int = 5,
+) -> None:  # fmt: skip
     """Figs. 6.17-6.19's layout, one column per experiment: theta, distance, heading, wheel
     torque (the book plots PWM) and wheel rate against time in s (as the book's axes);
     ``n_rows`` keeps the first rows only (the extra runs' figure: 3)."""
@@ -440,13 +463,13 @@ def _figure(
     )
     style = {"it2": {"color": "tab:blue", "label": "IT2FLC"},
              "t1": {"color": "tab:red", "ls": "--", "label": "T1FLC"}}  # fmt: skip
-    targets = {1: 0, 2: 1}  # panel row -> index of the target in EXPERIMENTS' tuples
-    for j, (e, goal) in enumerate(EXPERIMENTS.items()):
+    goal_index = {1: 0, 2: 1}  # panel row -> index of the target in the experiments' tuples
+    for j, (e, goal) in enumerate(experiments.items()):
         for kind in KINDS:
             res = runs[f"{pre}{kind}.exp{e}"]
             for i, (_, f) in enumerate(panels):
                 axes[i, j].plot(res.t, f(res), lw=0.9, **style[kind])
-        for i, k in targets.items():
+        for i, k in goal_index.items():
             if i < n_rows and goal[k] is not None:
                 axes[i, j].axhline(goal[k], color="k", ls=":", lw=0.8)
         pd, ad = goal

@@ -11,6 +11,11 @@ Diagnostic runs beside the book's two (they explain the gaps, see docs/smc.md):
 mismatch), ``hodosmc_nominal_damping`` (the real plant with only its damping set to the nominal
 values), ``smc_dbar40`` (SMC with switching gains that cover the lumped disturbance of this
 plant) and ``do2smc`` (the same law with the book's fast 2nd-order observer).
+
+Settings (``scenarios/hodosmc-vs-smc.toml``, :mod:`mwip.studies.settings`): ``theta0``,
+``psi_dot_d``, ``duration``, ``rms_window``, ``Ts``, ``dt``, ``disturbance_amplitude``,
+``disturbance_omega``, ``disturbance_phase``, ``lambdas``, ``gamma``, ``dbar_hodosmc``,
+``dbar_smc``, ``dbar_smc_diagnostic``, ``do4_v``, ``do2_v``.
 """
 
 from __future__ import annotations
@@ -24,53 +29,59 @@ from matplotlib.figure import Figure
 
 from mwip.control.smc import make_smc
 from mwip.metrics import rms, total_variation_rate
-from mwip.observers.design import published_gain_sets
-from mwip.sim import BOOK_SINUSOIDS, SimResult, simulate
-from mwip.studies import robot
+from mwip.observers.design import as_gain_matrices
+from mwip.sim import SimResult, simulate
+from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
+from mwip.studies.do_comparison import disturbance
 
 SOURCE = "Fig. 3.3"
-LAMBDAS = (3.0, 0.2, 0.3, 3.0)
-TS = 0.001
-DT = 0.0005
+NAME = "hodosmc-vs-smc"
 BALANCED = 0.05  # rad: RMS pitch below this after the transient counts as balanced
 
 
-def _runs(duration: float) -> dict[str, SimResult]:
-    do2 = published_gain_sets()["do2"].gains
+def _runs(cfg: dict[str, Any], duration: float) -> dict[str, SimResult]:
+    do4 = as_gain_matrices(list(cfg["do4_v"]))
+    do2 = as_gain_matrices(list(cfg["do2_v"]))
     real, nominal = robot.plant(), robot.nominal()
+    dbar_h, dbar_s = tuple(cfg["dbar_hodosmc"]), tuple(cfg["dbar_smc"])
     specs = {
-        "hodosmc": ("hodosmc", (3.0, 3.0, 3.0), None, real),
-        "smc": ("smc", (15.0, 15.0, 15.0), None, real),
-        "hodosmc_nominal_plant": ("hodosmc", (3.0, 3.0, 3.0), None, nominal),
+        "hodosmc": ("hodosmc", dbar_h, do4, real),
+        "smc": ("smc", dbar_s, None, real),
+        "hodosmc_nominal_plant": ("hodosmc", dbar_h, do4, nominal),
         "hodosmc_nominal_damping": (
             "hodosmc",
-            (3.0, 3.0, 3.0),
-            None,
+            dbar_h,
+            do4,
             replace(real, Db=nominal.Db, Dw=nominal.Dw),
         ),
-        "smc_dbar40": ("smc", (40.0, 40.0, 40.0), None, real),
-        "do2smc": ("do4smc", (3.0, 3.0, 3.0), do2, real),
+        "smc_dbar40": ("smc", tuple(cfg["dbar_smc_diagnostic"]), None, real),
+        "do2smc": ("do4smc", dbar_h, do2, real),
     }
+    Ts, dist = cfg["Ts"], disturbance(cfg)
     out = {}
     for name, (kind, dbar, obs_gains, plant) in specs.items():
-        ctrl = make_smc(kind, LAMBDAS, dbar=dbar, Ts=TS, observer_gains=obs_gains, params=nominal)
+        ctrl = make_smc(
+            kind, tuple(cfg["lambdas"]), dbar=dbar, gamma=tuple(cfg["gamma"]), Ts=Ts,
+            observer_gains=obs_gains, params=nominal, q1d_dot=cfg["psi_dot_d"],
+        )  # fmt: skip
         out[name] = simulate(
-            ctrl, plant, q0=(0.0, np.pi / 18, 0.0), duration=duration, Ts=TS, dt=DT,
-            disturbance=BOOK_SINUSOIDS,
+            ctrl, plant, q0=(0.0, cfg["theta0"], 0.0), duration=duration, Ts=Ts, dt=cfg["dt"],
+            disturbance=dist,
         )  # fmt: skip
     return out
 
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/hodosmc-vs-smc``; returns the metrics document."""
-    folder = Path(out) / "hodosmc-vs-smc"
-    duration = 6.0 if quick else 25.0
-    window = (2.0, duration) if quick else (5.0, 25.0)
-    runs = _runs(duration)
+    folder = Path(out) / NAME
+    cfg = settings.current(NAME)
+    duration = min(6.0, cfg["duration"]) if quick else cfg["duration"]
+    window = (2.0, duration) if quick else tuple(cfg["rms_window"])
+    runs = _runs(cfg, duration)
     metrics: dict[str, float] = {}
     for name, res in runs.items():
-        speed_err = res.q_dot[:, 0]  # q1d' = 0
+        speed_err = res.q_dot[:, 0] - cfg["psi_dot_d"]
         metrics[f"{name}.rms_theta"] = float(rms(res.t, res.theta, window))
         metrics[f"{name}.rms_speed_err"] = float(rms(res.t, speed_err, window))
         metrics[f"{name}.rms_theta_full"] = float(rms(res.t, res.theta))
@@ -108,18 +119,25 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
                  "the damping mismatch is what breaks it",
          "holds": balanced("hodosmc_nominal_damping"),
          "keys": up("hodosmc_nominal_damping")},
-        {"text": "SMC balances once dbar covers the lumped disturbance (dbar = 40)",
+        {"text": "SMC balances once dbar covers the lumped disturbance "
+                 f"(dbar = {cfg['dbar_smc_diagnostic'][0]:g})",
          "holds": balanced("smc_dbar40"), "keys": up("smc_dbar40")},
         {"text": "with the book's fast 2nd-order observer the same law balances the real plant",
          "holds": balanced("do2smc"), "keys": up("do2smc")},
     ]  # fmt: skip
     doc = metrics_document(
-        "hodosmc-vs-smc", SOURCE, metrics, {}, claims,
+        NAME, SOURCE, metrics, {}, claims,
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
-        {"dt": DT, "Ts": TS, "window": list(window), "seed": 0, "duration": duration,
-         "mode": "sampled (quasi-continuous, Ts = 1 ms)", "lambdas": list(LAMBDAS),
-         "gamma": [1.0, 1.0], "dbar": {"hodosmc": [3, 3, 3], "smc": [15, 15, 15]},
-         "switching": "sign", "observer": "4th order, book gains (Sec. 3.6.1), exact"},
+        {"dt": cfg["dt"], "Ts": cfg["Ts"], "window": list(window), "seed": 0,
+         "duration": duration, "theta0": cfg["theta0"], "psi_dot_d": cfg["psi_dot_d"],
+         "mode": f"sampled (quasi-continuous, Ts = {cfg['Ts'] * 1e3:g} ms)",
+         "lambdas": cfg["lambdas"], "gamma": cfg["gamma"],
+         "dbar": {"hodosmc": cfg["dbar_hodosmc"], "smc": cfg["dbar_smc"],
+                  "smc_dbar40": cfg["dbar_smc_diagnostic"]},
+         "switching": "sign", "observer": "4th order (do4_v; book gains Sec. 3.6.1), exact",
+         "observer_gains": {"do4": cfg["do4_v"], "do2smc": cfg["do2_v"]},
+         "disturbance": {"amplitude": cfg["disturbance_amplitude"],
+                         "omega": cfg["disturbance_omega"], "phase": cfg["disturbance_phase"]}},
     )  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)
     _figure(runs, folder / "hodosmc-vs-smc.png")

@@ -8,6 +8,9 @@ real-parameter plant from ``theta0 = 0.1745`` rad (10 deg) with
 - the sampled gain with 5 ms zero-order hold (``mode="sampled"``),
 
 plus, to show why the sampled design is needed, the continuous gain applied with 5 ms hold.
+
+Settings (``scenarios/lqr-gain.toml``, :mod:`mwip.studies.settings`): ``theta0``,
+``duration``, ``Ts``, ``dt_continuous``, ``Q_diag``, ``R_diag``.
 """
 
 from __future__ import annotations
@@ -20,28 +23,31 @@ from matplotlib.figure import Figure
 
 from mwip.control.lqr import LQR, design_lqr
 from mwip.sim import simulate
-from mwip.studies import robot
+from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE = "Sec. 4.4.2"
 #: The printed K row (both rows printed equal; yaw entries flip sign between wheels).
 PRINTED_K_ROW = (-207.87, 70.71, -75.62, 15.33, 219.80)
-THETA0 = 0.1745
+NAME = "lqr-gain"
 
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/lqr-gain``; returns the metrics document."""
-    folder = Path(out) / "lqr-gain"
-    duration = 3.0 if quick else 10.0
+    folder = Path(out) / NAME
+    cfg = settings.current(NAME)
+    duration = min(3.0, cfg["duration"]) if quick else cfg["duration"]
+    Ts, q0 = cfg["Ts"], (0.0, cfg["theta0"], 0.0)
+    Q, R = np.diag(cfg["Q_diag"]), np.diag(cfg["R_diag"])
     plant, nominal = robot.plant(), robot.nominal()
-    cont = design_lqr(nominal, Ts=None)
-    samp = design_lqr(nominal, Ts=0.005)
+    cont = design_lqr(nominal, Q, R, Ts=None)
+    samp = design_lqr(nominal, Q, R, Ts=Ts)
     runs = {
-        "continuous": simulate(LQR(cont), plant, q0=(0, THETA0, 0), duration=duration,
-                               Ts=0.005, dt=0.001, mode="continuous"),
-        "sampled": simulate(LQR(samp), plant, q0=(0, THETA0, 0), duration=duration),
+        "continuous": simulate(LQR(cont), plant, q0=q0, duration=duration, Ts=Ts,
+                               dt=cfg["dt_continuous"], mode="continuous"),
+        "sampled": simulate(LQR(samp), plant, q0=q0, duration=duration),
         "continuous_gain_held": simulate(
-            LQR(cont), plant, q0=(0, THETA0, 0), duration=duration, Ts=0.005, mode="sampled"
+            LQR(cont), plant, q0=q0, duration=duration, Ts=Ts, mode="sampled"
         ),
     }  # fmt: skip
     names = ("theta", "alpha", "theta_dot", "v", "alpha_dot")
@@ -77,8 +83,9 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     doc = metrics_document(
         "lqr-gain", SOURCE, metrics, published, claims,
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
-        {"dt": {"continuous": 0.001, "sampled": runs["sampled"].settings["dt"]}, "Ts": 0.005,
-         "duration": duration, "theta0": THETA0, "plant": "real", "design": "nominal"},
+        {"dt": {"continuous": cfg["dt_continuous"], "sampled": runs["sampled"].settings["dt"]},
+         "Ts": Ts, "duration": duration, "theta0": cfg["theta0"], "Q_diag": cfg["Q_diag"],
+         "R_diag": cfg["R_diag"], "plant": "real", "design": "nominal"},
     )  # fmt: skip
     fig = Figure(figsize=(9, 6))
     ax1, ax2 = fig.subplots(2, 1, sharex=True)

@@ -29,7 +29,7 @@ from mwip.params import Params
 from mwip.report.html import write_report
 from mwip.report.results import RUN_RECORD, load_run_record
 from mwip.report.staging import Staging
-from mwip.studies import robot
+from mwip.studies import robot, settings
 
 __all__ = ["StudyOutcome", "run_studies"]
 
@@ -37,13 +37,24 @@ __all__ = ["StudyOutcome", "run_studies"]
 StudyOutcome = tuple[str, dict[str, Any] | None, str | None, float]
 
 
-def _run_one(name: str, out: Path, quick: bool, plant: Params, nominal: Params) -> StudyOutcome:
+def _run_one(
+    name: str,
+    out: Path,
+    quick: bool,
+    plant: Params,
+    nominal: Params,
+    overrides: dict[str, Any] | None = None,
+) -> StudyOutcome:
     """Run one study (in a worker process or here), catching its failure."""
     from mwip.studies import run_study
 
     t0 = time.perf_counter()
     try:
-        with warnings.catch_warnings(), robot.using(plant, nominal):
+        with (
+            warnings.catch_warnings(),
+            robot.using(plant, nominal),
+            settings.using(name, overrides),
+        ):
             warnings.simplefilter("ignore")
             doc = run_study(name, out, quick=quick)
     except Exception as exc:  # noqa: BLE001 - recorded and reported; exit code says so
@@ -70,18 +81,22 @@ def run_studies(
     jobs: int = 1,
     plant: Params | None = None,
     nominal: Params | None = None,
+    overrides: dict[str, dict[str, Any]] | None = None,
     on_done: Callable[[StudyOutcome], None] | None = None,
 ) -> dict[str, Any]:
     """Run ``names`` into ``out``; returns the run record (also written to ``out/run.json``).
 
     ``jobs`` processes (1: in this process). ``plant``/``nominal`` replace the book's robot
-    and design model (:mod:`mwip.studies.robot`). ``on_done`` is called as each study ends.
+    and design model (:mod:`mwip.studies.robot`); ``overrides[name]`` replaces some of study
+    ``name``'s settings (:mod:`mwip.studies.settings`). ``on_done`` is called as each study
+    ends.
     """
     from mwip.studies import STUDIES
 
     for name in names:
         if name not in STUDIES:
             raise ValueError(f"unknown study {name!r}; choose from: {', '.join(STUDIES)}")
+    overrides = {n: settings.validate(n, o) for n, o in (overrides or {}).items()}
     plant = plant if plant is not None else robot.plant()
     nominal = nominal if nominal is not None else robot.nominal()
     started = datetime.now(UTC).isoformat(timespec="seconds")
@@ -97,12 +112,14 @@ def run_studies(
         assert stage.path is not None
         if jobs <= 1 or len(names) == 1:
             for name in names:
-                done(_run_one(name, stage.path, quick, plant, nominal))
+                done(_run_one(name, stage.path, quick, plant, nominal, overrides.get(name)))
         else:
             pool = ProcessPoolExecutor(max_workers=min(jobs, len(names)))
             try:
-                futures = [pool.submit(_run_one, n, stage.path, quick, plant, nominal)
-                           for n in _longest_first(names)]  # fmt: skip
+                futures = [
+                    pool.submit(_run_one, n, stage.path, quick, plant, nominal, overrides.get(n))
+                    for n in _longest_first(names)
+                ]
                 for fut in as_completed(futures):
                     done(fut.result())
             except BaseException:
@@ -113,7 +130,8 @@ def run_studies(
         studies = dict(record.get("studies", {}))
         for name in names:
             _, doc, error, wall = outcomes[name]
-            studies[name] = {"wall_s": round(wall, 3), "error": error}
+            studies[name] = {"wall_s": round(wall, 3), "error": error,
+                             "settings": settings_of(name, overrides.get(name))}  # fmt: skip
         record.update(_environment())
         record.update({
             "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
@@ -137,3 +155,11 @@ _COST = {
 
 def _longest_first(names: list[str]) -> list[str]:
     return sorted(names, key=lambda n: -_COST.get(n, 5))
+
+
+def settings_of(name: str, overrides: dict[str, Any] | None) -> dict[str, Any]:
+    """The settings study ``name`` ran with (defaults and overrides; {} if it has no file)."""
+    try:
+        return {**settings.defaults(name), **(overrides or {})}
+    except ValueError:
+        return dict(overrides or {})

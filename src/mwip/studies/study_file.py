@@ -10,21 +10,27 @@
     params = "heavy_robot.toml"  # the simulated robot: "real", "nominal" or a parameter TOML
     nominal = "nominal"          # the design model: same choices
 
-Paths are relative to the study file. Unknown tables or keys are errors; every error is a
-one-line ``ValueError`` naming the field.
+    [settings]                   # optional: the study's own numbers (:mod:`.settings`)
+    theta0 = -0.2                # e.g. the initial pitch (rad)
+
+Every study ships its file with all its settings (``mwip scenario STUDY`` prints it). Paths are
+relative to the study file. Unknown tables or keys are errors; every error is a one-line
+``ValueError`` naming the field.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from mwip.io import read_toml
 from mwip.params import NOMINAL, REAL, Params, load_params
+from mwip.studies.settings import validate
 
 __all__ = ["StudyFile", "load_study_file"]
 
-_TABLES = {"study": ("name", "quick"), "robot": ("params", "nominal")}
+_TABLES = {"study": ("name", "quick"), "robot": ("params", "nominal"), "settings": ()}
 
 
 @dataclass(frozen=True)
@@ -36,6 +42,7 @@ class StudyFile:
     quick: bool
     plant: Params
     nominal: Params
+    settings: dict[str, Any] = field(default_factory=dict)
 
 
 def _robot(value: object, key: str, base: Params, folder: Path) -> Params:
@@ -59,11 +66,13 @@ def load_study_file(path: str | Path) -> StudyFile:
     data = read_toml(path, "study file")
     for table, body in data.items():
         if table not in _TABLES:
-            raise ValueError(f"{path.name}: unknown table [{table}]; allowed: study, robot")
+            raise ValueError(
+                f"{path.name}: unknown table [{table}]; allowed: study, robot, settings"
+            )
         if not isinstance(body, dict):
             raise ValueError(f"{path.name}: [{table}] must be a table")
         for key in body:
-            if key not in _TABLES[table]:
+            if table != "settings" and key not in _TABLES[table]:
                 allowed = ", ".join(_TABLES[table])
                 raise ValueError(f"[{table}] {key}: unknown key; allowed: {allowed}")
     study = data.get("study", {})
@@ -77,4 +86,6 @@ def load_study_file(path: str | Path) -> StudyFile:
     folder = path.resolve().parent
     plant = _robot(robot.get("params", "real"), "params", REAL, folder)
     nominal = _robot(robot.get("nominal", "nominal"), "nominal", NOMINAL, folder)
-    return StudyFile(path=path, name=name, quick=quick, plant=plant, nominal=nominal)
+    overrides = validate(name, data.get("settings", {}))
+    return StudyFile(path=path, name=name, quick=quick, plant=plant, nominal=nominal,
+                     settings=overrides)  # fmt: skip

@@ -14,6 +14,10 @@ c_2 (alpha - alpha'_d t) - a_2' - c_2 a_2``), and the speed is left to the inter
 averaged over the last quarter of the run (a circle fit is degenerate when the robot
 barely moves). Settling: the controlled errors ``[theta, theta', alpha - alpha*(t),
 alpha' - alpha'_d]`` stay below 2 % of their initial norm.
+
+Settings (``scenarios/tsmc-circle.toml``, :mod:`mwip.studies.settings`): ``theta0``,
+``alpha0``, ``v0``, ``v_d``, ``alpha_dot_d``, ``duration``, ``Ts_record``, ``dt``, ``C``,
+``Gamma``, ``D``, ``Ftilde_ratio``, ``Tf``, ``phi``.
 """
 
 from __future__ import annotations
@@ -23,24 +27,21 @@ from typing import Any
 
 import numpy as np
 
-from mwip.control.switching import Switching
-from mwip.control.tsmc import TSMC, lean_for_speed
+from mwip.control.tsmc import lean_for_speed
 from mwip.metrics import settling_time
-from mwip.studies import robot
+from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, write_metrics
 from mwip.studies.tsmc_equilibrium import (
-    DT,
-    PHI,
-    TS_RECORD,
     replay,
     run_continuous,
     save_npz,
     state_figure,
+    tsmc_doc,
+    tsmc_from,
 )  # fmt: skip
 
 SOURCE = "Figs. 4.16-4.18"
-THETA0, ALPHA0 = 0.1, 0.5
-V_D, ALPHA_DOT_D = 0.2, 0.2
+NAME = "tsmc-circle"
 #: Printed in the text: "the torques converge to -1.2 and 1.2, respectively".
 PUBLISHED = {"tsmc.radius": 1.0, "tsmc.radius_err": 0.0, "tsmc.settling_time": 7.0,
              "tsmc.final_tau_r": -1.2, "tsmc.final_tau_l": 1.2}  # fmt: skip
@@ -48,24 +49,26 @@ PUBLISHED = {"tsmc.radius": 1.0, "tsmc.radius_err": 0.0, "tsmc.settling_time": 7
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/tsmc-circle``; returns the metrics document."""
-    folder = Path(out) / "tsmc-circle"
-    duration = 1.5 if quick else 40.0
+    folder = Path(out) / NAME
+    cfg = settings.current(NAME)
+    duration = min(1.5, cfg["duration"]) if quick else cfg["duration"]
+    v_d, alpha_dot_d, alpha0 = cfg["v_d"], cfg["alpha_dot_d"], cfg["alpha0"]
     real = robot.plant()
-    tsmc = TSMC(
-        robot.nominal(), C=(2.5, 2.5), Gamma=(5.0, 5.0), D=0.4, Ftilde_ratio=0.8, Tf=1.0,
-        switching=Switching("sat", PHI), alpha_dot_ref=ALPHA_DOT_D, v_ref=V_D,
+    tsmc = tsmc_from(cfg, alpha_dot_ref=alpha_dot_d, v_ref=v_d)
+    res = run_continuous(
+        tsmc, duration, Ts=cfg["Ts_record"], dt=cfg["dt"], q0=(0.0, cfg["theta0"], alpha0),
+        qdot0=(cfg["v0"] / real.r, 0.0, 0.0),
     )  # fmt: skip
-    res = run_continuous(tsmc, duration, q0=(0.0, THETA0, ALPHA0), qdot0=(0.0, 0.0, 0.0))
     t = res.t
-    err = np.column_stack([res.theta, res.q_dot[:, 1], res.alpha - ALPHA_DOT_D * t,
-                           res.q_dot[:, 2] - ALPHA_DOT_D])  # fmt: skip
+    err = np.column_stack([res.theta, res.q_dot[:, 1], res.alpha - alpha_dot_d * t,
+                           res.q_dot[:, 2] - alpha_dot_d])  # fmt: skip
     norm = np.linalg.norm(err, axis=1)
     tail = t >= 0.75 * t[-1]
     radius = float(np.mean(np.abs(res.v[tail])) / np.mean(np.abs(res.q_dot[tail, 2])))
     u_tail = res.u[tail]
     metrics: dict[str, float] = {
         "tsmc.radius": radius,
-        "tsmc.radius_err": float(abs(radius - V_D / ALPHA_DOT_D) / (V_D / ALPHA_DOT_D)),
+        "tsmc.radius_err": float(abs(radius - v_d / alpha_dot_d) / (v_d / alpha_dot_d)),
         "tsmc.settling_time": settling_time(t, norm, band=0.02 * norm[0]),
         "tsmc.final_tau_r": float(res.u[-1, 0]),
         "tsmc.final_tau_l": float(res.u[-1, 1]),
@@ -78,17 +81,18 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         # yaw damping torque the wheels must supply at alpha'_d (real plant):
         # (b/r)(u_r - u_l) = (2 b^2/r^2)(Db + Dw) alpha'_d
         "real.yaw_torque_each_wheel": float(real.b / real.r * (real.Db + real.Dw)
-                                            * ALPHA_DOT_D),
+                                            * alpha_dot_d),
     }  # fmt: skip
     settled = metrics["tsmc.tail_tau_spread"] < 0.01 * max(np.max(np.abs(u_tail)), 1e-9)
     metrics["tsmc.tail_max_abs_tau"] = float(np.max(np.abs(u_tail)))
     # sin(theta) that steady motion at v_d, alpha'_d needs (lean_for_speed: nan when |.| > 1)
     metrics["real.sin_theta_needed_for_v_d"] = float(
-        2.0 * real.Dw * V_D / real.r / (real.Gb + (real.m12 + real.Ibl) * ALPHA_DOT_D**2)
+        2.0 * real.Dw * v_d / real.r / (real.Gb + (real.m12 + real.Ibl) * alpha_dot_d**2)
     )
     claims = [
-        {"text": "the path converges to a circle of radius v_d / alpha'_d = 1 m within 2 % "
-                 "(book, Fig. 4.17)", "holds": bool(metrics["tsmc.radius_err"] < 0.02),
+        {"text": "the path converges to a circle of radius v_d / alpha'_d = "
+                 f"{v_d / alpha_dot_d:g} m within 2 % (book, Fig. 4.17)",
+         "holds": bool(metrics["tsmc.radius_err"] < 0.02),
          "keys": ["tsmc.radius_err", "tsmc.radius"]},
         {"text": "the controlled states settle (book: in about 7 s)",
          "holds": bool(np.isfinite(metrics["tsmc.settling_time"])
@@ -99,37 +103,37 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
          "keys": ["tsmc.tail_tau_spread", "tsmc.tail_max_abs_tau", "tsmc.final_tau_r",
                   "tsmc.final_tau_l"]},
         {"text": "the yaw rate tracks alpha'_d within 2 %",
-         "holds": bool(abs(res.q_dot[-1, 2] - ALPHA_DOT_D) < 0.02 * ALPHA_DOT_D),
+         "holds": bool(abs(res.q_dot[-1, 2] - alpha_dot_d) < 0.02 * alpha_dot_d),
          "keys": ["tsmc.final_alpha_dot"]},
-        {"text": "v_d = 0.2 m/s is unreachable on this plant for any controller: steady motion "
-                 "needs 2 Dw psi' = sin(theta)(Gb + ...) with |sin(theta)| <= 1",
-         "holds": bool(np.isnan(lean_for_speed(real, V_D, ALPHA_DOT_D))),
+        {"text": f"v_d = {v_d:g} m/s is unreachable on this plant for any controller: steady "
+                 "motion needs 2 Dw psi' = sin(theta)(Gb + ...) with |sin(theta)| <= 1",
+         "holds": bool(np.isnan(lean_for_speed(real, v_d, alpha_dot_d))),
          "keys": ["real.sin_theta_needed_for_v_d"]},
     ]  # fmt: skip
     doc = metrics_document(
-        "tsmc-circle", SOURCE, metrics, dict(PUBLISHED), claims,
+        NAME, SOURCE, metrics, dict(PUBLISHED), claims,
         {"tsmc": {"status": str(res.status[0]), "t_end": float(res.t_end[0])}},
-        {"dt": DT, "Ts": TS_RECORD, "mode": "continuous (law inside the right-hand side)",
+        {"dt": cfg["dt"], "Ts": cfg["Ts_record"],
+         "mode": "continuous (law inside the right-hand side)",
          "duration": duration, "plant": "real", "design": "nominal", "seed": 0,
-         "initial": {"theta0": THETA0, "alpha0": ALPHA0, "v0": 0.0, "note": "not given by "
-                     "the book for this case; the velocity case's"},
-         "targets": {"v_d": V_D, "alpha_dot_d": ALPHA_DOT_D, "alpha*(t)": "alpha_dot_d t"},
-         "tsmc": {"C": [2.5, 2.5], "Gamma": [5.0, 5.0], "D": 0.4, "Ftilde_ratio": 0.8,
-                  "Tf": 1.0, "switching": f"sat(s/{PHI})"},
+         "initial": {"theta0": cfg["theta0"], "alpha0": alpha0, "v0": cfg["v0"], "note": "not "
+                     "given by the book for this case; the velocity case's"},
+         "targets": {"v_d": v_d, "alpha_dot_d": alpha_dot_d, "alpha*(t)": "alpha_dot_d t"},
+         "tsmc": tsmc_doc(cfg),
          "radius": "mean|v| / mean|alpha'| over the last quarter of the run",
          "published_note": "torques printed as '-1.2 and 1.2, respectively' (wheel order not "
                            "stated); radius 1 m and ~7 s read from Figs. 4.16-4.17"},
     )  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)
     # the target circle through the start point, heading alpha0, turning left
-    centre = (-np.sin(ALPHA0) * V_D / ALPHA_DOT_D, np.cos(ALPHA0) * V_D / ALPHA_DOT_D)
+    centre = (-np.sin(alpha0) * v_d / alpha_dot_d, np.cos(alpha0) * v_d / alpha_dot_d)
     targets = {
         "theta": 0.0,
         "theta_dot": 0.0,
-        "alpha": ALPHA_DOT_D * t,
-        "alpha_dot": ALPHA_DOT_D,
-        "v": V_D,
-        "circle": (*centre, V_D / ALPHA_DOT_D),
+        "alpha": alpha_dot_d * t,
+        "alpha_dot": alpha_dot_d,
+        "v": v_d,
+        "circle": (*centre, v_d / alpha_dot_d),
     }
     state_figure(res, targets, "TSMC, velocity control with yaw motion (Figs. 4.16-4.18)",
                  folder / "tsmc-circle.png", xy=True)  # fmt: skip

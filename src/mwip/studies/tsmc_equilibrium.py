@@ -14,10 +14,16 @@ variables are recomputed from the records with the same law (it is static).
 
 Metrics: ``final_norm`` is ``||[theta, alpha, theta', v, alpha']||`` at the end;
 ``settling_time`` the time after which that norm stays below 2 % of its initial value.
+
+Settings (``scenarios/tsmc-equilibrium.toml``, :mod:`mwip.studies.settings`): ``theta0``,
+``alpha0``, ``v0``, ``duration``, ``Ts_record``, ``dt``, ``C``, ``Gamma``, ``D``,
+``Ftilde_ratio``, ``Tf``, ``phi``, ``Q_diag``, ``R_diag``. The helpers below take what they
+need as arguments, so the other TSMC studies run them with their own settings.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -31,14 +37,11 @@ from mwip.io import write_atomic
 from mwip.metrics import settling_time, total_variation_rate
 from mwip.sim import SimResult, simulate
 from mwip.sim.sensors import Measurement
-from mwip.studies import robot
+from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
 SOURCE = "Figs. 4.8-4.11"
-TS_RECORD = 0.005
-DT = 0.001
-PHI = 0.05
-THETA0, ALPHA0, V0 = 0.1, 0.5, 1.0
+NAME = "tsmc-equilibrium"
 
 
 def state_norm_series(res: SimResult, v_ref: float = 0.0, alpha_dot_ref: float = 0.0) -> Any:
@@ -71,11 +74,27 @@ def replay(ctrl: TSMC, res: SimResult) -> dict[str, np.ndarray]:
     return {name: np.array(v) for name, v in out.items()}
 
 
-def run_continuous(ctrl: Any, duration: float, **kw: Any) -> SimResult:
-    """The study's loop: ``ctrl`` inside the right-hand side of the real plant."""
-    return simulate(
-        ctrl, robot.plant(), duration=duration, Ts=TS_RECORD, dt=DT, mode="continuous", **kw
-    )
+def run_continuous(ctrl: Any, duration: float, *, Ts: float, dt: float, **kw: Any) -> SimResult:
+    """The study's loop: ``ctrl`` inside the right-hand side of the real plant, integration
+    step ``dt``, records (and Jacobian refreshes) every ``Ts``."""
+    return simulate(ctrl, robot.plant(), duration=duration, Ts=Ts, dt=dt, mode="continuous", **kw)
+
+
+def tsmc_from(cfg: Mapping[str, Any], **kw: Any) -> TSMC:
+    """The TSMC with the gains of the settings ``cfg`` (``C``, ``Gamma``, ``D``,
+    ``Ftilde_ratio``, ``Tf``, ``phi``) on the nominal model; ``kw``: its references."""
+    return TSMC(
+        robot.nominal(), C=tuple(cfg["C"]), Gamma=tuple(cfg["Gamma"]), D=cfg["D"],
+        Ftilde_ratio=cfg["Ftilde_ratio"], Tf=cfg["Tf"], switching=Switching("sat", cfg["phi"]),
+        **kw,
+    )  # fmt: skip
+
+
+def tsmc_doc(cfg: Mapping[str, Any]) -> dict[str, Any]:
+    """The TSMC gains of the settings ``cfg`` as recorded in metrics.json."""
+    return {"C": cfg["C"], "Gamma": cfg["Gamma"], "D": cfg["D"],
+            "Ftilde_ratio": cfg["Ftilde_ratio"], "Tf": cfg["Tf"],
+            "switching": f"sat(s/{cfg['phi']})"}  # fmt: skip
 
 
 def state_figure(
@@ -133,15 +152,15 @@ def state_figure(
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/tsmc-equilibrium``; returns the metrics document."""
-    folder = Path(out) / "tsmc-equilibrium"
-    duration = 1.5 if quick else 20.0
-    nominal = robot.nominal()
-    init = {"q0": (0.0, THETA0, ALPHA0), "qdot0": (V0 / robot.plant().r, 0.0, 0.0)}
-    tsmc = TSMC(
-        nominal, C=(2.5, 2.5), Gamma=(10.0, 10.0), D=0.4, Ftilde_ratio=0.8, Tf=1.0,
-        switching=Switching("sat", PHI),
-    )  # fmt: skip
-    lqr = LQR(design_lqr(nominal, Ts=None))
+    folder = Path(out) / NAME
+    cfg = settings.current(NAME)
+    duration = min(1.5, cfg["duration"]) if quick else cfg["duration"]
+    Tf = cfg["Tf"]
+    init = {"q0": (0.0, cfg["theta0"], cfg["alpha0"]),
+            "qdot0": (cfg["v0"] / robot.plant().r, 0.0, 0.0),
+            "Ts": cfg["Ts_record"], "dt": cfg["dt"]}  # fmt: skip
+    tsmc = tsmc_from(cfg)
+    lqr = LQR(design_lqr(robot.nominal(), np.diag(cfg["Q_diag"]), np.diag(cfg["R_diag"]), Ts=None))
     runs = {
         "tsmc": run_continuous(tsmc, duration, **init),
         "lqr": run_continuous(lqr, duration, **init),
@@ -156,12 +175,14 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         metrics[f"{name}.max_abs_u"] = float(np.nanmax(np.abs(res.u)))
         metrics[f"{name}.u_tv"] = float(np.sum(total_variation_rate(res.t, res.u.T)))
         metrics[f"{name}.final_abs_u"] = float(np.max(np.abs(res.u[-1])))
-        i_tf = int(np.searchsorted(res.t, 1.0))
+        i_tf = min(int(np.searchsorted(res.t, Tf)), len(res.t) - 1)  # a run shorter than T_f: end
         metrics[f"{name}.abs_theta_at_Tf"] = float(abs(res.theta[i_tf]))
         metrics[f"{name}.abs_alpha_at_Tf"] = float(abs(res.alpha[i_tf]))
         metrics[f"{name}.t_end"] = float(res.t_end[0])
-    tail = runs["tsmc"].t >= 1.0
-    metrics["tsmc.max_abs_s_after_Tf"] = float(np.nanmax(np.abs(logs["s"][tail])))
+    tail = runs["tsmc"].t >= Tf
+    metrics["tsmc.max_abs_s_after_Tf"] = (
+        float(np.nanmax(np.abs(logs["s"][tail]))) if tail.any() else float("nan")
+    )
     metrics["tsmc.abs_s0"] = float(np.max(np.abs(logs["s"][0])))
     tol = 0.01  # of a norm that starts at 1.12
     claims = [
@@ -175,21 +196,21 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
          "holds": bool(metrics["tsmc.final_abs_u"] < 0.01), "keys": ["tsmc.final_abs_u"]},
         {"text": "augmented surface is zero at t = 0 (cubic initial conditions (4.43))",
          "holds": bool(metrics["tsmc.abs_s0"] < 1e-9), "keys": ["tsmc.abs_s0"]},
-        {"text": "TSMC: theta and alpha within 0.01 rad of their targets at T_f = 1 s",
+        {"text": f"TSMC: theta and alpha within 0.01 rad of their targets at T_f = {Tf:g} s",
          "holds": bool(metrics["tsmc.abs_theta_at_Tf"] < 0.01
                        and metrics["tsmc.abs_alpha_at_Tf"] < 0.01),
          "keys": ["tsmc.abs_theta_at_Tf", "tsmc.abs_alpha_at_Tf"]},
     ]  # fmt: skip
     doc = metrics_document(
-        "tsmc-equilibrium", SOURCE, metrics, {}, claims,
+        NAME, SOURCE, metrics, {}, claims,
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
-        {"dt": DT, "Ts": TS_RECORD, "mode": "continuous (law inside the right-hand side, "
-         "ROS2 with closed-loop Jacobian); Ts is the record/Jacobian-refresh period",
+        {"dt": cfg["dt"], "Ts": cfg["Ts_record"], "mode": "continuous (law inside the "
+         "right-hand side, ROS2 with closed-loop Jacobian); Ts is the record/Jacobian-refresh "
+         "period",
          "duration": duration, "plant": "real", "design": "nominal", "seed": 0,
-         "initial": {"theta0": THETA0, "alpha0": ALPHA0, "v0": V0},
-         "tsmc": {"C": [2.5, 2.5], "Gamma": [10.0, 10.0], "D": 0.4, "Ftilde_ratio": 0.8,
-                  "Tf": 1.0, "switching": f"sat(s/{PHI})"},
-         "lqr": "book Q, R, continuous design",
+         "initial": {"theta0": cfg["theta0"], "alpha0": cfg["alpha0"], "v0": cfg["v0"]},
+         "tsmc": tsmc_doc(cfg), "lqr": "Q_diag, R_diag, continuous design",
+         "Q_diag": cfg["Q_diag"], "R_diag": cfg["R_diag"],
          "settling": "||x|| stays below 2 % of ||x(0)||",
          "published_note": "the book prints no numbers for this case (figures only)"},
     )  # fmt: skip

@@ -15,6 +15,10 @@ of (2.33) requires ``2 Dw psi' = Gb sin theta`` (no yaw), so ``theta -> 0`` forc
 To show what the velocity result (4.40) does give, an extra run ``tsmc_lean`` asks for a
 feasible speed with the pitch target set to the lean of (4.40)'s equilibrium
 (:func:`mwip.control.tsmc.lean_for_speed`, nominal parameters, clipped to 0.5 rad).
+
+Settings (``scenarios/tsmc-velocity.toml``, :mod:`mwip.studies.settings`): ``theta0``,
+``alpha0``, ``v0``, ``v_d``, ``v_feasible``, ``theta_max``, ``duration``, ``Ts_record``,
+``dt``, ``C``, ``Gamma``, ``D``, ``Ftilde_ratio``, ``Tf``, ``phi``, ``Q_diag``, ``R_diag``.
 """
 
 from __future__ import annotations
@@ -25,25 +29,20 @@ from typing import Any
 import numpy as np
 
 from mwip.control.lqr import LQR, design_lqr
-from mwip.control.switching import Switching
-from mwip.control.tsmc import TSMC, lean_for_speed
-from mwip.studies import robot
+from mwip.control.tsmc import lean_for_speed
+from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, write_metrics
 from mwip.studies.tsmc_equilibrium import (
-    DT,
-    PHI,
-    TS_RECORD,
     replay,
     run_continuous,
     save_npz,
     state_figure,
+    tsmc_doc,
+    tsmc_from,
 )  # fmt: skip
 
 SOURCE = "Figs. 4.12-4.15"
-THETA0, ALPHA0 = 0.1, 0.5
-V_D = 1.0
-#: A speed the real plant can hold (lean ~0.53 rad on the real parameters).
-V_FEASIBLE = 0.02
+NAME = "tsmc-velocity"
 
 
 def max_steady_speed(p: Any) -> float:
@@ -53,21 +52,23 @@ def max_steady_speed(p: Any) -> float:
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/tsmc-velocity``; returns the metrics document."""
-    folder = Path(out) / "tsmc-velocity"
-    duration = 1.5 if quick else 20.0
+    folder = Path(out) / NAME
+    cfg = settings.current(NAME)
+    duration = min(1.5, cfg["duration"]) if quick else cfg["duration"]
+    v_d, v_feasible = cfg["v_d"], cfg["v_feasible"]
     real, nominal = robot.plant(), robot.nominal()
-    init = {"q0": (0.0, THETA0, ALPHA0), "qdot0": (0.0, 0.0, 0.0)}
-    gains = {"C": (2.5, 0.5), "Gamma": (5.0, 20.0), "D": 0.4, "Ftilde_ratio": 0.9, "Tf": 1.0,
-             "switching": Switching("sat", PHI)}  # fmt: skip
-    tsmc = TSMC(nominal, v_ref=V_D, **gains)  # type: ignore[arg-type]
-    lean = TSMC(nominal, v_ref=V_FEASIBLE, speed="lean", **gains)  # type: ignore[arg-type]
-    lqr = LQR(design_lqr(nominal, Ts=None), reference=(0.0, 0.0, 0.0, V_D, 0.0))
+    init = {"q0": (0.0, cfg["theta0"], cfg["alpha0"]), "qdot0": (cfg["v0"] / real.r, 0.0, 0.0),
+            "Ts": cfg["Ts_record"], "dt": cfg["dt"]}  # fmt: skip
+    tsmc = tsmc_from(cfg, v_ref=v_d)
+    lean = tsmc_from(cfg, v_ref=v_feasible, speed="lean", theta_max=cfg["theta_max"])
+    Q, R = np.diag(cfg["Q_diag"]), np.diag(cfg["R_diag"])
+    lqr = LQR(design_lqr(nominal, Q, R, Ts=None), reference=(0.0, 0.0, 0.0, v_d, 0.0))
     runs = {
         "tsmc": run_continuous(tsmc, duration, **init),
         "lqr": run_continuous(lqr, duration, **init),
         "tsmc_lean": run_continuous(lean, duration, **init),
     }
-    targets_v = {"tsmc": V_D, "lqr": V_D, "tsmc_lean": V_FEASIBLE}
+    targets_v = {"tsmc": v_d, "lqr": v_d, "tsmc_lean": v_feasible}
     metrics: dict[str, float] = {}
     for name, res in runs.items():
         metrics[f"{name}.final_v_err"] = float(abs(res.v[-1] - targets_v[name]))
@@ -81,15 +82,15 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
             2.0 * real.Dw * psid - real.Gb * np.sin(res.theta[-1])
         )
     metrics["tsmc_lean.theta_target"] = lean.theta_ref
-    metrics["tsmc_lean.v_target"] = V_FEASIBLE
+    metrics["tsmc_lean.v_target"] = v_feasible
     metrics["real.max_steady_speed"] = max_steady_speed(real)
-    metrics["real.sin_theta_needed_for_v_d"] = float(2 * real.Dw * V_D / (real.r * real.Gb))
+    metrics["real.sin_theta_needed_for_v_d"] = float(2 * real.Dw * v_d / (real.r * real.Gb))
     published = {"tsmc.final_v_err": 0.0, "tsmc.final_theta": 0.0}
     small = 0.02
-    t_ok = metrics["tsmc.final_v_err"] < small * V_D and abs(metrics["tsmc.final_theta"]) < small
-    l_ok = metrics["lqr.final_v_err"] < small * V_D and abs(metrics["lqr.final_theta"]) < small
+    t_ok = metrics["tsmc.final_v_err"] < small * v_d and abs(metrics["tsmc.final_theta"]) < small
+    l_ok = metrics["lqr.final_v_err"] < small * v_d and abs(metrics["lqr.final_theta"]) < small
     claims = [
-        {"text": "TSMC reaches v_d = 1 m/s with theta -> 0 (book, Fig. 4.12): v within 2 % "
+        {"text": f"TSMC reaches v_d = {v_d:g} m/s with theta -> 0 (book, Fig. 4.12): v within 2 % "
                  "of v_d and |theta| < 0.02 rad at the end", "holds": bool(t_ok),
          "keys": ["tsmc.final_v_err", "tsmc.final_theta"]},
         {"text": "LQR cannot bring both v to v_d and theta to 0 (book, Fig. 4.14)",
@@ -98,39 +99,41 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
          "holds": bool(abs(metrics["tsmc.final_theta"]) < small
                        and abs(metrics["tsmc.final_alpha"]) < small),
          "keys": ["tsmc.final_theta", "tsmc.final_alpha"]},
-        {"text": "no controller can hold v_d = 1 m/s on this plant: a steady speed needs "
+        {"text": f"no controller can hold v_d = {v_d:g} m/s on this plant: a steady speed needs "
                  "2 Dw psi' = Gb sin(theta), i.e. sin(theta) = "
                  f"{metrics['real.sin_theta_needed_for_v_d']:.1f} > 1 (SPEC section 2 damping)",
-         "holds": bool(np.isnan(lean_for_speed(real, V_D))),
+         "holds": bool(np.isnan(lean_for_speed(real, v_d))),
          "keys": ["real.sin_theta_needed_for_v_d", "real.max_steady_speed"]},
         {"text": f"with the pitch target from (4.40)'s equilibrium, TSMC holds the feasible "
-                 f"speed {V_FEASIBLE} m/s within 20 % (nominal-model lean, no speed feedback)",
-         "holds": bool(metrics["tsmc_lean.final_v_err"] < 0.2 * V_FEASIBLE),
+                 f"speed {v_feasible} m/s within 20 % (nominal-model lean, no speed feedback)",
+         "holds": bool(metrics["tsmc_lean.final_v_err"] < 0.2 * v_feasible),
          "keys": ["tsmc_lean.final_v_err", "tsmc_lean.v_target"]},
     ]  # fmt: skip
     doc = metrics_document(
-        "tsmc-velocity", SOURCE, metrics, published, claims,
+        NAME, SOURCE, metrics, published, claims,
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
-        {"dt": DT, "Ts": TS_RECORD, "mode": "continuous (law inside the right-hand side)",
-         "duration": duration, "plant": "real", "design": "nominal", "seed": 0, "v_d": V_D,
-         "initial": {"theta0": THETA0, "alpha0": ALPHA0, "v0": 0.0},
-         "tsmc": {"C": [2.5, 0.5], "Gamma": [5.0, 20.0], "D": 0.4, "Ftilde_ratio": 0.9,
-                  "Tf": 1.0, "switching": f"sat(s/{PHI})", "speed": "none (book)"},
-         "tsmc_lean": {"v_ref": V_FEASIBLE, "theta_target": lean.theta_ref},
-         "lqr": "book Q, R, continuous design, reference [0, 0, 0, v_d, 0]",
+        {"dt": cfg["dt"], "Ts": cfg["Ts_record"], "mode": "continuous (law inside the "
+         "right-hand side)", "duration": duration, "plant": "real", "design": "nominal",
+         "seed": 0, "v_d": v_d,
+         "initial": {"theta0": cfg["theta0"], "alpha0": cfg["alpha0"], "v0": cfg["v0"]},
+         "tsmc": {**tsmc_doc(cfg), "speed": "none (book)"},
+         "tsmc_lean": {"v_ref": v_feasible, "theta_target": lean.theta_ref,
+                       "theta_max": cfg["theta_max"]},
+         "lqr": "Q_diag, R_diag, continuous design, reference [0, 0, 0, v_d, 0]",
+         "Q_diag": cfg["Q_diag"], "R_diag": cfg["R_diag"],
          "published_note": "published values read from Fig. 4.12 (v -> v_d, theta -> 0); "
                            "the book prints no numbers"},
     )  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)
     base = {"theta": 0.0, "theta_dot": 0.0, "alpha": 0.0, "alpha_dot": 0.0}
-    state_figure(runs["tsmc"], {**base, "v": V_D},
+    state_figure(runs["tsmc"], {**base, "v": v_d},
                  "TSMC, velocity control without yaw (Figs. 4.12-4.13)",
                  folder / "tsmc-velocity_tsmc.png")  # fmt: skip
-    state_figure(runs["lqr"], {**base, "v": V_D},
+    state_figure(runs["lqr"], {**base, "v": v_d},
                  "LQR, velocity control without yaw (Figs. 4.14-4.15)",
                  folder / "tsmc-velocity_lqr.png")  # fmt: skip
-    state_figure(runs["tsmc_lean"], {**base, "theta": lean.theta_ref, "v": V_FEASIBLE},
-                 f"TSMC with the lean of (4.40) for v = {V_FEASIBLE} m/s (extra)",
+    state_figure(runs["tsmc_lean"], {**base, "theta": lean.theta_ref, "v": v_feasible},
+                 f"TSMC with the lean of (4.40) for v = {v_feasible} m/s (extra)",
                  folder / "tsmc-velocity_tsmc_lean.png")  # fmt: skip
     for name, res in runs.items():
         res.to_npz(folder / f"{name}.npz")

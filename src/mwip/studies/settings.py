@@ -1,0 +1,102 @@
+"""Study settings as data: each study's numbers (initial state, gains, durations, ...) live in
+its study file ``mwip/studies/scenarios/<study>.toml``, table ``[settings]``.
+
+A study reads them at run time with :func:`current` (the packaged defaults, overridden by the
+``[settings]`` of a user's study file inside :func:`using`). A user copies a study file
+(``mwip scenario STUDY --out FILE.toml``), edits it and runs it with
+``mwip run --scenario FILE.toml``. Overrides are validated against the defaults: unknown keys
+and values of another type or length are one-line ``ValueError`` naming the field.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from functools import cache
+from importlib import resources
+from typing import Any
+
+__all__ = ["current", "defaults", "packaged_text", "using", "validate"]
+
+_overrides: dict[str, dict[str, Any]] = {}
+
+
+def packaged_text(name: str) -> str:
+    """The text of the study file shipped for study ``name``."""
+    path = resources.files("mwip.studies").joinpath("scenarios", f"{name}.toml")
+    try:
+        return path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ValueError(f"study {name!r} has no study file") from None
+
+
+@cache
+def _defaults(name: str) -> dict[str, Any]:
+    data = tomllib.loads(packaged_text(name))
+    return dict(data.get("settings", {}))
+
+
+def defaults(name: str) -> dict[str, Any]:
+    """The packaged ``[settings]`` of study ``name`` (a copy)."""
+    return {k: list(v) if isinstance(v, list) else v for k, v in _defaults(name).items()}
+
+
+def _check(name: str, key: str, default: Any, value: Any) -> Any:
+    where = f"[settings] {key}"
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise ValueError(f"{where} must be true or false, got {value!r}")
+        return value
+    if isinstance(default, int | float):
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f"{where} must be a number, got {value!r}")
+        if not math.isfinite(value):
+            raise ValueError(f"{where} must be finite, got {value!r}")
+        if isinstance(default, int) and not isinstance(value, int):
+            raise ValueError(f"{where} must be an integer, got {value!r}")
+        return value
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ValueError(f"{where} must be a string, got {value!r}")
+        return value
+    if isinstance(default, list):
+        if not isinstance(value, list) or len(value) != len(default):
+            raise ValueError(f"{where} must be a list of {len(default)} values, got {value!r}")
+        pairs = enumerate(zip(default, value, strict=True))
+        return [_check(name, f"{key}[{i}]", d, v) for i, (d, v) in pairs]
+    raise ValueError(f"{where}: unsupported default type in the study file of {name!r}")
+
+
+def validate(name: str, overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """Check ``overrides`` against the defaults of study ``name``; returns them cleaned."""
+    if not overrides:
+        return {}
+    base = _defaults(name)
+    out = {}
+    for key, value in overrides.items():
+        if key not in base:
+            allowed = ", ".join(sorted(base)) or "none"
+            raise ValueError(f"[settings] {key}: unknown for study {name!r}; allowed: {allowed}")
+        out[key] = _check(name, key, base[key], value)
+    return out
+
+
+def current(name: str) -> dict[str, Any]:
+    """The settings study ``name`` runs with now: defaults, then the active overrides."""
+    return {**defaults(name), **_overrides.get(name, {})}
+
+
+@contextmanager
+def using(name: str, overrides: Mapping[str, Any] | None) -> Iterator[None]:
+    """Run study ``name`` inside the block with ``overrides`` (validated) of its settings."""
+    saved = _overrides.get(name)
+    _overrides[name] = validate(name, overrides or {})
+    try:
+        yield
+    finally:
+        if saved is None:
+            _overrides.pop(name, None)
+        else:
+            _overrides[name] = saved

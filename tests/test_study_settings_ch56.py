@@ -1,0 +1,112 @@
+"""Settings as data for the Chapter 5-6 studies (it2-balance, exp-hodosmc-*, exp-asta,
+exp-it2): an override of one setting reaches the run (a metric or the recorded settings),
+and bad overrides are one-line ``ValueError`` naming the key. Quick mode throughout."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from mwip.studies import run_study, settings
+
+STUDIES = (
+    "it2-balance",
+    "exp-hodosmc-balance",
+    "exp-hodosmc-speed",
+    "exp-hodosmc-obstacle",
+    "exp-asta",
+    "exp-it2",
+)
+#: study -> a number-valued setting of it (for the wrong-type check)
+NUMBER_KEY = {
+    "it2-balance": "rho",
+    "exp-hodosmc-balance": "phi",
+    "exp-hodosmc-speed": "speed",
+    "exp-hodosmc-obstacle": "stick_start",
+    "exp-asta": "eps",
+    "exp-it2": "exp2_p_d",
+}
+
+
+def _run(name: str, out: Path, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The metrics document of a quick run of ``name`` with ``overrides`` of its settings."""
+    with settings.using(name, overrides):
+        return run_study(name, out, quick=True)
+
+
+def _same(x: Any, y: Any) -> bool:
+    if x is None or y is None:
+        return x is y
+    return bool(x == y or (math.isnan(x) and math.isnan(y)))
+
+
+@pytest.mark.parametrize("name", STUDIES)
+def test_packaged_defaults_are_scalars_or_flat_lists(name: str) -> None:
+    cfg = settings.defaults(name)
+    assert cfg
+    for key, value in cfg.items():
+        items = value if isinstance(value, list) else [value]
+        assert all(isinstance(v, bool | int | float | str) for v in items), key
+
+
+@pytest.mark.parametrize(
+    ("name", "overrides", "metric", "recorded"),
+    [
+        # the robust PDC design changes with the input bound
+        ("it2-balance", {"rho": 15.0}, "it2.G1.theta", ("rho", 15.0)),
+        # a larger DO4SMC switching gain changes its torque
+        ("exp-hodosmc-balance", {"do4smc_K": [8.0, 4.0]}, "do4smc.case1.u_tv",
+         ("K", {"smc": [25.0, 21.0], "do1smc": [17.3, 14.0], "do4smc": [8.0, 4.0]})),
+        # a larger super-twisting gain changes the ASTA torque
+        ("exp-asta", {"K": [12.0, 10.0]}, "asta.case1.u_tv", ("K", [12.0, 10.0])),
+    ],
+)  # fmt: skip
+def test_override_changes_a_metric(
+    name: str, overrides: dict[str, Any], metric: str, recorded: tuple[str, Any], tmp_path: Path
+) -> None:
+    base = _run(name, tmp_path / "base")
+    new = _run(name, tmp_path / "new", overrides)
+    assert not _same(base["metrics"][metric], new["metrics"][metric])
+    key, value = recorded
+    assert new["settings"][key] == value and base["settings"][key] != value
+    assert settings.current(name) == settings.defaults(name)  # the override ends with the block
+
+
+def test_override_recorded_hodosmc_speed_obstacle(tmp_path: Path) -> None:
+    doc = _run("exp-hodosmc-speed", tmp_path, {"duration": 2.5, "speed": -5.0, "seed": 3})
+    assert doc["settings"]["q1d_dot"] == -5.0 and doc["settings"]["seed"] == 3
+    assert doc["settings"]["duration"] == 2.5 and doc["settings"]["window"] == [2.0, 2.5]
+    assert all(r["t_end"] <= 2.5 + 1e-9 for r in doc["runs"].values())
+    over = {"stick_start": 5.0, "stick_speed": -6.0, "lambdas": [3.0, 0.02, 0.1, 3.0]}
+    s = _run("exp-hodosmc-obstacle", tmp_path, over)["settings"]
+    assert s["stick"]["start"] == 5.0 and s["stick_speed"] == -6.0
+    assert s["window"] == [2.0, 5.0] and s["lambdas"] == [3.0, 0.02, 0.1, 3.0]
+
+
+def test_override_recorded_exp_it2(tmp_path: Path) -> None:
+    over = {"duration": 1.0, "exp2_p_d": 0.5, "theta0": 0.3, "epsilon": 0.3}
+    s = _run("exp-it2", tmp_path, over)["settings"]
+    assert s["duration"] == 1.0 and s["x0"] == [0.3, 0.0, 0.0, 0.0] and s["epsilon"] == 0.3
+    assert s["experiments"]["exp2"] == {"p_d": 0.5, "alpha_d": None}
+
+
+@pytest.mark.parametrize("name", STUDIES)
+def test_unknown_key_is_named(name: str) -> None:
+    with pytest.raises(ValueError, match=r"\[settings\] no_such_key: unknown"):
+        with settings.using(name, {"no_such_key": 1.0}):
+            pass
+
+
+@pytest.mark.parametrize("name", STUDIES)
+def test_wrong_type_is_named(name: str) -> None:
+    key = NUMBER_KEY[name]
+    with pytest.raises(ValueError, match=rf"\[settings\] {key} must be a number"):
+        with settings.using(name, {key: "fast"}):
+            pass
+    if "record_every" in settings.defaults(name):  # the twin studies
+        with pytest.raises(ValueError, match=r"\[settings\] record_every must be an integer"):
+            with settings.using(name, {"record_every": 2.5}):
+                pass
