@@ -51,7 +51,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.models.reduced import f_g
+from mwip.models.reduced import coefficients, f_g
 from mwip.params import NOMINAL, Params
 from mwip.sim.sensors import Measurement
 
@@ -190,6 +190,9 @@ class _AdaptiveSliding:
         self.Ts: float | None = float(Ts)
         self.Gamma = np.zeros((1, 2))
         self.w = np.zeros((1, 2))
+        self._coef = np.ascontiguousarray(coefficients(params).reshape(-1), dtype=float)
+        if self._coef.shape != (10,):
+            raise ValueError("the controller's nominal params must be one robot, not a batch")
         self._log: dict[str, NDArray[np.float64]] = {}
 
     def reset(self, meas: Measurement) -> None:
@@ -212,8 +215,13 @@ class _AdaptiveSliding:
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         if self.Gamma.shape[0] != meas.y.shape[0]:
             self.reset(meas)
-        s = self.sigma(meas)
-        a, b = surface_dynamics(self.params, meas.q, meas.qdot, self.lam)
+        from mwip.control._asta_kernel import asta_terms
+
+        n = meas.y.shape[0]
+        s, a, b = np.empty((n, 2)), np.empty((n, 2)), np.empty((n, 2))
+        # (4.1) and (4.10)-(4.11) in one compiled loop (= asta_surface, surface_dynamics)
+        asta_terms(self._coef, np.ascontiguousarray(meas.q), np.ascontiguousarray(meas.qdot),
+                   self.lam, self.ref, s, a, b)  # fmt: skip
         u = self._control(a, b, s)
         self._log = {"sigma": s, "Gamma": self.Gamma.copy(), "w": self.w.copy()}
         self._advance(s)

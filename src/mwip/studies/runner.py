@@ -148,8 +148,9 @@ def run_studies(
 # Rough cost of each study (s on one core, full runs): the longest start first so that the
 # processes finish together.
 _COST = {
-    "hodosmc-vs-smc": 20, "tsmc-velocity": 20, "tsmc-circle": 20, "tsmc-equilibrium": 15,
-    "asta-velocity": 14, "asta-balance": 12, "it2-balance": 13, "exp-it2": 9,
+    "it2-balance": 15, "hodosmc-vs-smc": 10, "tsmc-velocity": 8, "exp-hodosmc-balance": 7,
+    "exp-it2": 7, "exp-hodosmc-obstacle": 6, "exp-hodosmc-speed": 6, "asta-balance": 5,
+    "asta-velocity": 5, "exp-asta": 5, "tsmc-equilibrium": 4, "tsmc-circle": 4,
 }  # fmt: skip
 
 

@@ -1,0 +1,33 @@
+"""Compiled sample-time terms of the adaptive super-twisting family: the sliding variables
+(4.1) and ``sigma' = a + b [u_A, u_B]`` (4.10)-(4.11) on the nominal model, for a batch.
+
+The same equations as :func:`mwip.control.asta.asta_surface` and
+:func:`mwip.control.asta.surface_dynamics`, with ``F, G`` from the closed forms of (2.36)
+(:func:`mwip.models.reduced.f_g_terms`), in one loop. Equality is tested (tests/test_asta.py).
+"""
+
+from __future__ import annotations
+
+import numba
+
+from mwip.models.reduced import f_g_terms
+
+_terms = numba.njit(cache=True, inline="always")(f_g_terms)
+
+
+@numba.njit(cache=True)
+def asta_terms(c, q, qd, lam, ref, s, a, b):  # noqa: ANN001, ANN201 - compiled kernel
+    """Fill ``s``, ``a``, ``b`` (N, 2); ``c`` (10,) coefficients, ``q, qd`` (N, 3),
+    ``lam = (l1, l2, l3)``, ``ref = (psi'_d, theta_d, alpha_d, alpha'_d)``."""
+    l1, l2, l3 = lam[0], lam[1], lam[2]
+    for i in range(q.shape[0]):
+        f1, f2, f3, g1, g2, g3 = _terms(
+            c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9],
+            q[i, 1], qd[i, 0], qd[i, 1], qd[i, 2],
+        )  # fmt: skip
+        s[i, 0] = qd[i, 1] + l1 * (q[i, 1] - ref[1]) + l2 * (qd[i, 0] - ref[0])
+        s[i, 1] = (qd[i, 2] - ref[3]) + l3 * (q[i, 2] - ref[2])
+        a[i, 0] = f2 + l2 * f1 + l1 * qd[i, 1]
+        a[i, 1] = f3 + l3 * qd[i, 2]
+        b[i, 0] = g2 + l2 * g1
+        b[i, 1] = g3
