@@ -186,3 +186,19 @@ def test_report_renders_in_headless_chromium(quick_reproduction):
         browser.close()
     assert errors == []
     assert (ARTIFACTS / "report.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_runner_reports_each_simulation_run(tmp_path, jobs):
+    """The per-run progress: every simulate() of a study is reported, in-process or from a
+    worker process, and the engine's hook list is left as it was."""
+    from mwip.sim.engine import RUN_END_HOOKS
+    from mwip.studies.runner import run_studies
+
+    before = list(RUN_END_HOOKS)
+    seen: list[str] = []
+    run_studies(["lqr-gain", "do-comparison"], tmp_path / "out", quick=True, jobs=jobs,
+                on_run=seen.append)  # fmt: skip
+    assert seen.count("lqr-gain") == 3  # continuous, sampled, continuous gain held
+    assert seen.count("do-comparison") >= 1
+    assert RUN_END_HOOKS == before

@@ -565,6 +565,7 @@ def _execute(
     from mwip.studies.runner import run_studies
 
     failed: list[str] = []
+    runs = [0]
     with click.progressbar(length=len(names), label="studies", file=sys.stderr,
                            show_pos=True, item_show_func=lambda x: x) as bar:  # fmt: skip
 
@@ -573,10 +574,14 @@ def _execute(
             if error is not None:
                 failed.append(name)
                 click.echo(f"\n{name}: FAILED after {wall:.1f} s: {error}", err=True)
-            bar.update(1, f"{name} ({wall:.1f} s)")
+            bar.update(1, f"runs done {runs[0]}; {name} finished ({wall:.1f} s)")
+
+        def run_done(study: str) -> None:
+            runs[0] += 1
+            bar.update(0, f"runs done {runs[0]}; last: {study}")
 
         record = run_studies(names, out, quick=quick, jobs=jobs, plant=plant, nominal=design,
-                             overrides=overrides, on_done=done)  # fmt: skip
+                             overrides=overrides, on_done=done, on_run=run_done)  # fmt: skip
     import shutil
 
     width = max(100, shutil.get_terminal_size((120, 40)).columns)

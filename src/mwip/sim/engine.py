@@ -91,6 +91,11 @@ def _batch_size(plant: Params, arrays: list[ArrayLike]) -> tuple[int, bool]:
     return (sizes.pop(), True) if sizes else (1, False)
 
 
+#: Called with every finished run's :class:`SimResult` (e.g. by ``mwip reproduce`` to count
+#: runs for its progress display); empty by default.
+RUN_END_HOOKS: list[Callable[[SimResult], None]] = []
+
+
 def _steps(Ts: float, dt: float) -> int:
     if not (np.isfinite(Ts) and Ts > 0):
         raise ValueError(f"Ts must be finite and in (0, inf), got {Ts!r}")
@@ -291,6 +296,8 @@ def _finish(
     if not batched:
         keep = res.valid()[0]
         res = res.plant(0) if not keep.all() else res
+    for hook in RUN_END_HOOKS:
+        hook(res)
     return res
 
 

@@ -10,12 +10,14 @@ Ctrl-C discards the staging folder and leaves ``out`` as it was.
 
 from __future__ import annotations
 
+import multiprocessing
 import platform
+import queue as queue_module
 import sys
 import time
 import warnings
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from datetime import UTC, datetime
 from importlib.metadata import version
 from pathlib import Path
@@ -29,6 +31,7 @@ from mwip.params import Params
 from mwip.report.html import write_report
 from mwip.report.results import RUN_RECORD, load_run_record
 from mwip.report.staging import Staging
+from mwip.sim.engine import RUN_END_HOOKS
 from mwip.studies import robot, settings
 
 __all__ = ["StudyOutcome", "run_studies"]
@@ -48,6 +51,7 @@ def _run_one(
     """Run one study (in a worker process or here), catching its failure."""
     from mwip.studies import run_study
 
+    _current_study[0] = name
     t0 = time.perf_counter()
     try:
         with (
@@ -60,6 +64,35 @@ def _run_one(
     except Exception as exc:  # noqa: BLE001 - recorded and reported; exit code says so
         return name, None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
     return name, doc, None, time.perf_counter() - t0
+
+
+_current_study: list[str] = [""]
+
+
+def _init_worker(q: Any) -> None:
+    """Worker start-up: report each finished simulation run of the current study on ``q``."""
+    RUN_END_HOOKS.append(lambda _res: q.put(_current_study[0]))
+
+
+def _counting_hook(name: str, on_run: Callable[[str], None] | None) -> Any:
+    if on_run is None:
+        return None
+
+    def hook(_res: Any) -> None:
+        on_run(name)
+
+    RUN_END_HOOKS.append(hook)
+    return hook
+
+
+def _drain(q: Any, on_run: Callable[[str], None] | None) -> None:
+    while True:
+        try:
+            study = q.get_nowait()
+        except queue_module.Empty:
+            return
+        if on_run is not None:
+            on_run(study)
 
 
 def _environment() -> dict[str, Any]:
@@ -83,13 +116,14 @@ def run_studies(
     nominal: Params | None = None,
     overrides: dict[str, dict[str, Any]] | None = None,
     on_done: Callable[[StudyOutcome], None] | None = None,
+    on_run: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Run ``names`` into ``out``; returns the run record (also written to ``out/run.json``).
 
     ``jobs`` processes (1: in this process). ``plant``/``nominal`` replace the book's robot
     and design model (:mod:`mwip.studies.robot`); ``overrides[name]`` replaces some of study
     ``name``'s settings (:mod:`mwip.studies.settings`). ``on_done`` is called as each study
-    ends.
+    ends, ``on_run(study)`` as each of its simulation runs ends (for a progress display).
     """
     from mwip.studies import STUDIES
 
@@ -112,16 +146,28 @@ def run_studies(
         assert stage.path is not None
         if jobs <= 1 or len(names) == 1:
             for name in names:
-                done(_run_one(name, stage.path, quick, plant, nominal, overrides.get(name)))
+                hook = _counting_hook(name, on_run)
+                try:
+                    done(_run_one(name, stage.path, quick, plant, nominal, overrides.get(name)))
+                finally:
+                    if hook is not None:
+                        RUN_END_HOOKS.remove(hook)
         else:
-            pool = ProcessPoolExecutor(max_workers=min(jobs, len(names)))
+            queue: Any = multiprocessing.get_context().Queue()
+            pool = ProcessPoolExecutor(
+                max_workers=min(jobs, len(names)), initializer=_init_worker, initargs=(queue,)
+            )
             try:
-                futures = [
+                pending = {
                     pool.submit(_run_one, n, stage.path, quick, plant, nominal, overrides.get(n))
                     for n in _longest_first(names)
-                ]
-                for fut in as_completed(futures):
-                    done(fut.result())
+                }
+                while pending:
+                    finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+                    _drain(queue, on_run)
+                    for fut in finished:
+                        done(fut.result())
+                _drain(queue, on_run)
             except BaseException:
                 pool.shutdown(wait=False, cancel_futures=True)
                 raise
