@@ -32,7 +32,8 @@ margin:1.2rem 0}
 table{border-collapse:collapse;font-size:.9rem;margin:.3rem 0}
 th,td{border-bottom:1px solid #e4e8ec;padding:.25rem .6rem;text-align:left;vertical-align:top}
 th{background:#eef1f4}td.num{text-align:right;font-variant-numeric:tabular-nums}
-.ok{color:#116b2b;font-weight:600}.no{color:#a3231a;font-weight:600}
+.ok{color:#116b2b;font-weight:600;white-space:nowrap}
+.no{color:#a3231a;font-weight:600;white-space:nowrap}
 .badge{display:inline-block;border-radius:10px;padding:0 .55rem;font-size:.82rem;
 background:#e8edf2}
 .fail{background:#fbe3e1;border:1px solid #e9b3ad;padding:.5rem .8rem;border-radius:6px}

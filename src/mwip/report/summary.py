@@ -12,9 +12,10 @@ __all__ = ["format_number", "summary_lines"]
 
 
 def format_number(x: Any) -> str:
-    """Compact number for tables: 4 significant digits, ``-`` for missing."""
+    """Compact number for tables: 4 significant digits; ``n/a`` for a missing value (stored as
+    null in metrics.json: not finite, e.g. a settling time of a run that fell)."""
     if x is None:
-        return "-"
+        return "n/a"
     if isinstance(x, bool):
         return str(x).lower()
     if isinstance(x, int):
