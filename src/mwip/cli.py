@@ -23,7 +23,9 @@ from mwip.params import NOMINAL, REAL, Params, load_params
 __all__ = ["main", "cli", "entry"]
 
 
-def _params(value: str, what: str) -> Params:
+def _params(value: str, what: str, base: Params | None = None) -> Params:
+    """``real``, ``nominal`` or a parameter TOML (missing fields from ``base``: by default
+    REAL for ``--plant``, NOMINAL otherwise); errors name the option ``what``."""
     key = value.lower()
     if key == "real":
         return REAL
@@ -34,7 +36,9 @@ def _params(value: str, what: str) -> Params:
         raise click.BadParameter(
             f"must be 'real', 'nominal' or an existing TOML file, got {value!r}", param_hint=what
         )
-    return load_params(path, base=REAL if what == "--plant" else NOMINAL)
+    if base is None:
+        base = REAL if what == "--plant" else NOMINAL
+    return load_params(path, base=base)
 
 
 def _in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = True) -> float:
@@ -543,7 +547,7 @@ _JOBS = click.option(
 
 
 def _robot(params_file: str | None, nominal_file: str | None) -> tuple[Params, Params]:
-    plant = REAL if params_file is None else _params(params_file, "--plant")
+    plant = REAL if params_file is None else _params(params_file, "--params", REAL)
     design = NOMINAL if nominal_file is None else _params(nominal_file, "--nominal")
     return plant, design
 
@@ -602,7 +606,7 @@ def _run_scenarios(
 
     parsed = [load_study_file(f) for f in files]  # validate all before running any
     for sf in parsed:
-        plant = sf.plant if params_file is None else _params(params_file, "--plant")
+        plant = sf.plant if params_file is None else _params(params_file, "--params", REAL)
         design = sf.nominal if nominal_file is None else _params(nominal_file, "--nominal")
         click.echo(f"{sf.path}: {sf.name}", err=True)
         _execute([sf.name], out, quick or sf.quick, 1, plant, design, verbose,

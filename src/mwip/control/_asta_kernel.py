@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import numba
 
-from mwip.models.reduced import f_g_terms
-
-_terms = numba.njit(cache=True, inline="always")(f_g_terms)
+from mwip.models._compiled import f_g_scalar
 
 
 @numba.njit(cache=True)
@@ -21,7 +19,7 @@ def asta_terms(c, q, qd, lam, ref, s, a, b):  # noqa: ANN001, ANN201 - compiled 
     ``lam = (l1, l2, l3)``, ``ref = (psi'_d, theta_d, alpha_d, alpha'_d)``."""
     l1, l2, l3 = lam[0], lam[1], lam[2]
     for i in range(q.shape[0]):
-        f1, f2, f3, g1, g2, g3 = _terms(
+        f1, f2, f3, g1, g2, g3 = f_g_scalar(
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9],
             q[i, 1], qd[i, 0], qd[i, 1], qd[i, 2],
         )  # fmt: skip

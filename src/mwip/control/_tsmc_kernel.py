@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import numba
 
-from mwip.models.reduced import f_g_terms
-
-_terms = numba.njit(cache=True, inline="always")(f_g_terms)
+from mwip.models._compiled import f_g_scalar
 
 
 @numba.njit(cache=True)
@@ -27,7 +25,7 @@ def tsmc_step(c, q, qd, t, tau, coeffs, Tf, C, ratio, D, IDinv, Gam, sat, phi,  
     (2, 2) with ``IDinv = (I - D)^-1``; ``refs = [theta*, alpha*(0), alpha'*]``.
     """
     for i in range(q.shape[0]):
-        f1, f2, f3, g1, g2, g3 = _terms(
+        f1, f2, f3, g1, g2, g3 = f_g_scalar(
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9],
             q[i, 1], qd[i, 0], qd[i, 1], qd[i, 2],
         )  # fmt: skip
@@ -55,9 +53,10 @@ def tsmc_step(c, q, qd, t, tau, coeffs, Tf, C, ratio, D, IDinv, Gam, sat, phi,  
                 sw[j] = (s > 0.0) - (s < 0.0)
             nt[j] = F[j] + C[j] * ed[j] - add - C[j] * ad
             w[j] = -F[j] - C[j] * ed[j] + add + C[j] * ad
-        for j in range(2):  # k = (F~ + D |nominal term| + Gamma), then (I - D)^-1
-            rhs0 = ratio * abs(F[0]) + D[0, 0] * abs(nt[0]) + D[0, 1] * abs(nt[1]) + Gam[0]
-            rhs1 = ratio * abs(F[1]) + D[1, 0] * abs(nt[0]) + D[1, 1] * abs(nt[1]) + Gam[1]
+        # k = (I - D)^-1 (F~ + D |nominal term| + Gamma)
+        rhs0 = ratio * abs(F[0]) + D[0, 0] * abs(nt[0]) + D[0, 1] * abs(nt[1]) + Gam[0]
+        rhs1 = ratio * abs(F[1]) + D[1, 0] * abs(nt[0]) + D[1, 1] * abs(nt[1]) + Gam[1]
+        for j in range(2):
             k_out[i, j] = IDinv[j, 0] * rhs0 + IDinv[j, 1] * rhs1
         w0 = w[0] - k_out[i, 0] * sw[0]
         w1 = w[1] - k_out[i, 1] * sw[1]

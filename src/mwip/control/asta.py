@@ -51,6 +51,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.control._asta_kernel import asta_terms
 from mwip.models.reduced import coefficients, f_g
 from mwip.params import NOMINAL, Params
 from mwip.sim.sensors import Measurement
@@ -215,8 +216,6 @@ class _AdaptiveSliding:
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         if self.Gamma.shape[0] != meas.y.shape[0]:
             self.reset(meas)
-        from mwip.control._asta_kernel import asta_terms
-
         n = meas.y.shape[0]
         s, a, b = np.empty((n, 2)), np.empty((n, 2)), np.empty((n, 2))
         # (4.1) and (4.10)-(4.11) in one compiled loop (= asta_surface, surface_dynamics)

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.control._smc_kernel import smc_step
 from mwip.control.switching import Switching
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
@@ -210,8 +211,6 @@ class SlidingModeController:
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         """(3.49)-(3.50) at a sample, in one compiled loop (:mod:`mwip.control._smc_kernel`;
         the same equations as :func:`sliding_surface` and :func:`smc_law`)."""
-        from mwip.control._smc_kernel import smc_step
-
         q = np.ascontiguousarray(meas.q)
         qd = np.ascontiguousarray(meas.qdot)
         tau_hat = np.ascontiguousarray(self.disturbance_estimate(t, meas), dtype=float)

@@ -50,6 +50,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.switching import Switching
 from mwip.models.reduced import coefficients, f_g
 from mwip.params import NOMINAL, Params
@@ -313,8 +314,6 @@ class TSMC:
         """(4.30)-(4.32) at ``(t, meas)`` in one compiled loop (:mod:`mwip.control._tsmc_kernel`;
         the same equations as :func:`subsystem`, :func:`augmenting`, :func:`tsmc_surface`,
         :func:`tsmc_gain` and :func:`tsmc_law`)."""
-        from mwip.control._tsmc_kernel import tsmc_step
-
         if self._coeffs is None:
             self.reset(meas)
         assert self._coeffs is not None

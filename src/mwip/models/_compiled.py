@@ -6,7 +6,8 @@ import numba
 
 from mwip.models.reduced import f_g_terms
 
-_terms = numba.njit(cache=True, inline="always")(f_g_terms)
+#: The closed forms of (2.36) compiled (inlined into every kernel that needs ``F, G``).
+f_g_scalar = numba.njit(cache=True, inline="always")(f_g_terms)
 
 
 @numba.njit(cache=True)
@@ -14,7 +15,7 @@ def f_g_batch(c, q, qd, F, G):  # noqa: ANN001, ANN201 - compiled kernel
     """Fill ``F`` (N, 3) and the nonzero entries of ``G`` (N, 3, 2) of (2.36) for one robot's
     coefficients ``c`` (10,) at the states ``q, qd`` (N, 3)."""
     for i in range(q.shape[0]):
-        f1, f2, f3, g1, g2, g3 = _terms(
+        f1, f2, f3, g1, g2, g3 = f_g_scalar(
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9],
             q[i, 1], qd[i, 0], qd[i, 1], qd[i, 2],
         )  # fmt: skip
@@ -32,7 +33,7 @@ def f_plus_g_u(c, q, qd, uAB, out):  # noqa: ANN001, ANN201 - compiled kernel
     at ``q, qd`` (N, 3) with ``uAB`` (N, 2): the nominal acceleration a sample-time observer
     subtracts from the measured one."""
     for i in range(q.shape[0]):
-        f1, f2, f3, g1, g2, g3 = _terms(
+        f1, f2, f3, g1, g2, g3 = f_g_scalar(
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9],
             q[i, 1], qd[i, 0], qd[i, 1], qd[i, 2],
         )  # fmt: skip

@@ -68,6 +68,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.models._compiled import f_plus_g_u
 from mwip.observers.design import GainsLike, as_gain_matrices, error_dynamics, stacked_gain
 from mwip.params import Params
 
@@ -275,8 +276,6 @@ class HighOrderDO:
     ) -> NDArray[np.float64]:
         """``F + G [u_A, u_B]`` of (2.36) on the nominal parameters."""
         if self._coef is not None:  # the default model: one compiled loop
-            from mwip.models._compiled import f_plus_g_u
-
             return f_plus_g_u(self._coef, np.ascontiguousarray(q), np.ascontiguousarray(qdot),
                               np.ascontiguousarray(uAB), np.empty((q.shape[0], 3)))  # fmt: skip
         F, G = self._f_g(self.params, q, qdot)  # (2.36)

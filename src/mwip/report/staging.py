@@ -16,8 +16,6 @@ import tempfile
 from pathlib import Path
 from types import TracebackType
 
-from mwip.io import _umask
-
 __all__ = ["Staging"]
 
 
@@ -40,7 +38,6 @@ class Staging:
             raise ValueError(f"--out: {self.out} exists and is not a folder")
         parent.mkdir(parents=True, exist_ok=True)
         self.path = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-", dir=parent))
-        self.path.chmod(0o777 & ~_umask())  # staged study folders are created inside it
         return self
 
     def commit(self, names: list[str] | None = None) -> list[Path]:
