@@ -162,8 +162,15 @@ def test_reproduce_reports_a_failing_study_and_runs_the_others(tmp_path, capsys,
     from mwip.studies.common import metrics_document, write_metrics
 
     def good(out, quick=False):
-        doc = metrics_document("good", "test", {"a.x": 1.0}, {}, [
-            {"text": "x", "holds": True, "keys": ["a.x"]}], {"a": {"status": "ok"}}, {})
+        doc = metrics_document(
+            "good",
+            "test",
+            {"a.x": 1.0},
+            {},
+            [{"text": "x", "holds": True, "keys": ["a.x"]}],
+            {"a": {"status": "ok"}},
+            {},
+        )
         write_metrics(out / "good", doc)
         return doc
 

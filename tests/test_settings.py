@@ -56,8 +56,10 @@ def test_scenario_command_and_a_study_file_with_settings(tmp_path, capsys):
     assert capsys.readouterr().out == settings.packaged_text("lqr-gain")
     path = tmp_path / "mine.toml"
     assert main(["scenario", "lqr-gain", "--out", str(path)]) == 0
-    text = path.read_text().replace("theta0 = 0.1745", "theta0 = -0.05").replace(
-        "quick = false", "quick = true"
+    text = (
+        path.read_text()
+        .replace("theta0 = 0.1745", "theta0 = -0.05")
+        .replace("quick = false", "quick = true")
     )
     path.write_text(text)
     out = tmp_path / "out"

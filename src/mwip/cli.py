@@ -18,27 +18,37 @@ from typing import Any
 import click
 import numpy as np
 
-from mwip.params import NOMINAL, REAL, Params, load_params
+from mwip.params import DAMPING_READINGS, Params, book_params, load_params
 
 __all__ = ["main", "cli", "entry"]
 
 
-def _params(value: str, what: str, base: Params | None = None) -> Params:
-    """``real``, ``nominal`` or a parameter TOML (missing fields from ``base``: by default
-    REAL for ``--plant``, NOMINAL otherwise); errors name the option ``what``."""
+def _params(value: str, what: str, base: str | None = None, damping: str = "units") -> Params:
+    """``real``, ``nominal`` (the book's sets under the ``damping`` reading) or a parameter
+    TOML (its Db, Dw are rotational, N m s/rad; missing fields from the book's set ``base``:
+    by default real for ``--plant``/``--params``, nominal otherwise); errors name ``what``."""
     key = value.lower()
-    if key == "real":
-        return REAL
-    if key == "nominal":
-        return NOMINAL
+    if key in ("real", "nominal"):
+        return book_params(key, damping)
     path = Path(value)
     if not path.exists():
         raise click.BadParameter(
             f"must be 'real', 'nominal' or an existing TOML file, got {value!r}", param_hint=what
         )
     if base is None:
-        base = REAL if what == "--plant" else NOMINAL
-    return load_params(path, base=base)
+        base = "real" if what in ("--plant", "--params") else "nominal"
+    return load_params(path, base=book_params(base, damping))
+
+
+_DAMPING = click.option(
+    "--damping",
+    type=click.Choice(DAMPING_READINGS),
+    default="units",
+    show_default=True,
+    help="How the book's tables' Db, Dw (printed in N s/m) enter (2.32): units = D r^2 "
+    "(SPEC.md section 2), literal = the printed numbers in N m s/rad. Applies to the book's "
+    "sets (real, nominal); a parameter file gives rotational coefficients directly.",
+)
 
 
 def _in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = True) -> float:
@@ -128,6 +138,7 @@ def cli() -> None:
     help="Folder for timeseries.csv, timeseries.npz and summary.json.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@_DAMPING
 @click.option(
     "--scenario",
     "scenario_file",
@@ -139,7 +150,8 @@ def cli() -> None:
 def simulate(
     ctx: click.Context, controller: str, theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
-    disturbance: str, out: Path | None, as_json: bool, scenario_file: Path | None,
+    disturbance: str, out: Path | None, as_json: bool, damping: str,
+    scenario_file: Path | None,
 ) -> None:  # fmt: skip
     """Simulate a closed loop and print status, settling time and max |u|."""
     from mwip.scenario import Scenario, load_scenario
@@ -178,10 +190,10 @@ def simulate(
     ):
         if given(opt):
             changes[key] = val
-    if given("plant"):
-        changes["plant"] = _params(plant, "--plant")
-    if given("design_params"):
-        changes["design"] = _params(design_params, "--design-params")
+    if given("plant") or given("damping"):
+        changes["plant"] = _params(plant, "--plant", damping=damping)
+    if given("design_params") or given("damping"):
+        changes["design"] = _params(design_params, "--design-params", damping=damping)
     if given("disturbance"):
         changes["disturbance"] = BOOK_SINUSOIDS if disturbance == "book" else None
     initial = dict(sc.initial)
@@ -430,7 +442,8 @@ def _floats(text: str, hint: str) -> tuple[float, ...]:
     help="Operating range |theta| <= THETA_MAX (rad) over which to check.",
 )
 @click.option(
-    "--damping/--no-damping",
+    "--wheel-damping/--no-wheel-damping",
+    "damping",
     default=False,
     show_default=True,
     help="Include the wheel damping Dw that the book's (3.58) omits.",
@@ -481,25 +494,49 @@ def params() -> None:
 @params.command("show")
 @click.argument("which", default="real")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def params_show(which: str, as_json: bool) -> None:
-    """Show parameters (real, nominal or a TOML file) and the derived coefficients of (2.32)."""
-    p = _params(which, "WHICH")
+@_DAMPING
+def params_show(which: str, as_json: bool, damping: str) -> None:
+    """Show parameters (real, nominal or a TOML file) and the derived coefficients of (2.32).
+
+    Db, Dw are shown as the equations use them: rotational damping in N m s/rad.
+    """
+    from mwip.params import UNITS, steady_speed_cap
+
+    p = _params(which, "WHICH", damping=damping)
     derived = {k: float(getattr(p, k)) for k in ("m11", "m12", "m22", "m33", "Ibl", "Gb")}
+    derived["steady_speed_cap"] = float(steady_speed_cap(p))
+    book = which.lower() in ("real", "nominal")
     if as_json:
-        click.echo(json.dumps({"params": p.to_dict(), "derived": derived}, indent=2))
+        doc = {"params": p.to_dict(), "units": UNITS, "derived": derived,
+               "damping": damping if book else "file (rotational coefficients)"}  # fmt: skip
+        click.echo(json.dumps(doc, indent=2))
         return
+    units = {**UNITS, "m11": "kg m^2", "m12": "kg m^2", "m22": "kg m^2", "m33": "kg m^2",
+             "Ibl": "kg m^2", "Gb": "N m", "steady_speed_cap": "rad/s (Gb / (2 Dw))"}  # fmt: skip
     for k, v in {**p.to_dict(), **derived}.items():
-        click.echo(f"{k:>4} = {v:.6g}")
+        click.echo(f"{k:>16} = {v:<12.6g} {units.get(k, '')}")
+    if book:
+        click.echo(
+            f"damping reading: {damping} (the table's Db, Dw in N s/m "
+            + ("times r^2" if damping == "units" else "taken as N m s/rad")
+            + ")"
+        )
+    else:
+        click.echo("Db, Dw as in the file: rotational coefficients of (2.32), N m s/rad")
 
 
 @params.command("save")
 @click.argument("which")
 @click.argument("path", type=click.Path(dir_okay=False, path_type=Path))
-def params_save(which: str, path: Path) -> None:
-    """Write parameters (real or nominal) to a TOML file to edit for your own robot."""
+@_DAMPING
+def params_save(which: str, path: Path, damping: str) -> None:
+    """Write parameters (real or nominal) to a TOML file to edit for your own robot.
+
+    The file holds Db, Dw as rotational coefficients (N m s/rad), as the equations use them.
+    """
     from mwip.params import save_params
 
-    save_params(_params(which, "WHICH"), path)
+    save_params(_params(which, "WHICH", damping=damping), path)
     click.echo(f"wrote {path}")
 
 
@@ -546,9 +583,11 @@ _JOBS = click.option(
 )
 
 
-def _robot(params_file: str | None, nominal_file: str | None) -> tuple[Params, Params]:
-    plant = REAL if params_file is None else _params(params_file, "--params", REAL)
-    design = NOMINAL if nominal_file is None else _params(nominal_file, "--nominal")
+def _robot(
+    params_file: str | None, nominal_file: str | None, damping: str = "units"
+) -> tuple[Params, Params]:
+    plant = _params(params_file or "real", "--params", damping=damping)
+    design = _params(nominal_file or "nominal", "--nominal", damping=damping)
     return plant, design
 
 
@@ -563,6 +602,7 @@ def _jobs(jobs: int) -> int:
 def _execute(
     names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params,
     verbose: bool = False, overrides: dict[str, dict[str, Any]] | None = None,
+    damping: str = "units",
 ) -> None:  # fmt: skip
     """Run ``names`` with a progress bar, then print the one-screen summary."""
     from mwip.report import load_results, summary_lines
@@ -585,7 +625,8 @@ def _execute(
             bar.update(0, f"runs done {runs[0]}; last: {study}")
 
         record = run_studies(names, out, quick=quick, jobs=jobs, plant=plant, nominal=design,
-                             overrides=overrides, on_done=done, on_run=run_done)  # fmt: skip
+                             overrides=overrides, on_done=done, on_run=run_done,
+                             damping=damping)  # fmt: skip
     import shutil
 
     width = max(100, shutil.get_terminal_size((120, 40)).columns)
@@ -599,18 +640,22 @@ def _execute(
 
 def _run_scenarios(
     files: tuple[Path, ...], out: Path, quick: bool, params_file: str | None,
-    nominal_file: str | None, verbose: bool,
+    nominal_file: str | None, verbose: bool, damping: str | None,
 ) -> None:  # fmt: skip
-    """Run each study file (its robot unless --params/--nominal override it)."""
+    """Run each study file (its robot unless --params/--nominal override it; ``damping``,
+    when given on the command line, replaces the files' [robot] damping)."""
     from mwip.studies.study_file import load_study_file
 
-    parsed = [load_study_file(f) for f in files]  # validate all before running any
+    parsed = [load_study_file(f, damping) for f in files]  # validate all before running any
     for sf in parsed:
-        plant = sf.plant if params_file is None else _params(params_file, "--params", REAL)
-        design = sf.nominal if nominal_file is None else _params(nominal_file, "--nominal")
+        reading = damping or "units"
+        plant = sf.plant if params_file is None else _params(params_file, "--params",
+                                                             damping=reading)  # fmt: skip
+        design = sf.nominal if nominal_file is None else _params(nominal_file, "--nominal",
+                                                                 damping=reading)  # fmt: skip
         click.echo(f"{sf.path}: {sf.name}", err=True)
         _execute([sf.name], out, quick or sf.quick, 1, plant, design, verbose,
-                 {sf.name: sf.settings})  # fmt: skip
+                 {sf.name: sf.settings}, damping=reading)  # fmt: skip
 
 
 @cli.command("run")
@@ -626,15 +671,19 @@ def _run_scenarios(
 @_QUICK
 @_PLANT
 @_NOMINAL
+@_DAMPING
 @_JOBS
 @_VERBOSE
+@click.pass_context
 def run_cmd(
+    ctx: click.Context,
     studies: tuple[str, ...],
     scenarios: tuple[Path, ...],
     out: Path,
     quick: bool,
     params_file: str | None,
     nominal_file: str | None,
+    damping: str,
     jobs: int,
     verbose: bool,
 ) -> None:
@@ -648,11 +697,14 @@ def run_cmd(
             )
     if not studies and not scenarios:
         raise click.UsageError("give at least one STUDY or --scenario FILE")
-    plant, design = _robot(params_file, nominal_file)
+    plant, design = _robot(params_file, nominal_file, damping)
     if scenarios:
-        _run_scenarios(scenarios, out, quick, params_file, nominal_file, verbose)
+        given = ctx.get_parameter_source("damping") is not click.core.ParameterSource.DEFAULT
+        _run_scenarios(scenarios, out, quick, params_file, nominal_file, verbose,
+                       damping if given else None)  # fmt: skip
     if studies:
-        _execute(list(dict.fromkeys(studies)), out, quick, _jobs(jobs), plant, design, verbose)
+        _execute(list(dict.fromkeys(studies)), out, quick, _jobs(jobs), plant, design, verbose,
+                 damping=damping)  # fmt: skip
 
 
 @cli.command()
@@ -660,6 +712,7 @@ def run_cmd(
 @_QUICK
 @_PLANT
 @_NOMINAL
+@_DAMPING
 @_JOBS
 @_VERBOSE
 @click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
@@ -668,6 +721,7 @@ def reproduce(
     quick: bool,
     params_file: str | None,
     nominal_file: str | None,
+    damping: str,
     jobs: int,
     verbose: bool,
     list_only: bool,
@@ -684,8 +738,8 @@ def reproduce(
         for name, (_, source) in STUDIES.items():
             click.echo(f"{name:24s} {source}")
         return
-    plant, design = _robot(params_file, nominal_file)
-    _execute(list(STUDIES), out, quick, _jobs(jobs), plant, design, verbose)
+    plant, design = _robot(params_file, nominal_file, damping)
+    _execute(list(STUDIES), out, quick, _jobs(jobs), plant, design, verbose, damping=damping)
 
 
 @cli.command()

@@ -19,8 +19,17 @@ symbol      meaning                                                     unit
 ``g``       gravitational acceleration                                  m/s^2
 ==========  ==========================================================  ========
 
-The book prints ``Db, Dw`` with unit N s/m but uses them as rotational damping in (2.32);
-we do the same (SPEC.md section 2).
+Damping. In a :class:`Params`, ``Db`` and ``Dw`` are the *rotational* coefficients that (2.32)
+multiplies with angular rates, in N m s/rad; a user's own parameter file gives them so. The
+book's tables print them in N s/m (viscous friction at the wheel rim), so for the book's sets
+the equations need ``D r^2``, each set with its own ``r`` (SPEC.md section 2, "Damping"):
+
+- ``"units"`` (default): ``Db = Db_table r^2``, ``Dw = Dw_table r^2`` -- what the printed units
+  say; real ``8.0e-4, 1.28e-3``, nominal ``3.6e-4, 5.4e-4`` N m s/rad.
+- ``"literal"``: the printed numbers used as rotational coefficients (``Db = 0.5`` N m s/rad...),
+  the project's earlier reading. It caps the steady wheel speed at ``Gb / (2 Dw) = 0.98``
+  rad/s (4 cm/s, real parameters), so every speed run of the book is impossible under it; it
+  is kept by name for comparison (:func:`book_params`, ``--damping literal`` on the CLI).
 
 Fields may be floats (one robot) or NumPy arrays of a common shape (a batch of robots, e.g.
 for Monte Carlo); every derived coefficient and every model function broadcasts over them.
@@ -51,6 +60,12 @@ __all__ = [
     "load_params",
     "save_params",
     "stack_params",
+    "DAMPING_READINGS",
+    "BOOK_TABLES",
+    "book_params",
+    "REAL_LITERAL",
+    "NOMINAL_LITERAL",
+    "steady_speed_cap",
 ]
 
 GRAVITY = 9.81
@@ -244,17 +259,69 @@ class Params:
 
 PARAM_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Params))
 
-#: Real parameters of the robot: Table 3.1 (= Table 6.1). The plant.
-REAL = Params(
-    mb=2.58, mw=0.14, Iby=1.77e-3, Ibz=1.77e-3, Iwa=1.4e-4, Iwd=8.4e-4,
-    l=0.0622, b=0.15, r=0.04, Db=0.5, Dw=0.8, g=GRAVITY,
-)  # fmt: skip
+#: The damping readings of the book's tables (SPEC.md section 2): see the module docstring.
+DAMPING_READINGS: tuple[str, ...] = ("units", "literal")
 
-#: Nominal (estimated) parameters: Table 3.2 (= Table 6.2). What designs use.
-NOMINAL = Params(
-    mb=2.50, mw=0.12, Iby=1.57e-3, Ibz=1.57e-3, Iwa=1.2e-4, Iwd=8.1e-4,
-    l=0.0582, b=0.14, r=0.03, Db=0.4, Dw=0.6, g=GRAVITY,
-)  # fmt: skip
+#: The book's parameter tables as printed (Db, Dw in the tables' N s/m): Table 3.1 (= 6.1,
+#: the real robot, the plant) and Table 3.2 (= 6.2, the nominal model designs use).
+BOOK_TABLES: dict[str, dict[str, float]] = {
+    "real": dict(mb=2.58, mw=0.14, Iby=1.77e-3, Ibz=1.77e-3, Iwa=1.4e-4, Iwd=8.4e-4,
+                 l=0.0622, b=0.15, r=0.04, Db=0.5, Dw=0.8, g=GRAVITY),
+    "nominal": dict(mb=2.50, mw=0.12, Iby=1.57e-3, Ibz=1.57e-3, Iwa=1.2e-4, Iwd=8.1e-4,
+                    l=0.0582, b=0.14, r=0.03, Db=0.4, Dw=0.6, g=GRAVITY),
+}  # fmt: skip
+
+
+def book_params(which: str, damping: str = "units") -> Params:
+    """The book's parameter set ``which`` (``"real"``: Table 3.1, ``"nominal"``: Table 3.2)
+    under the damping reading ``damping`` (SPEC.md section 2).
+
+    ``"units"``: the tables' ``Db, Dw`` in N s/m enter (2.32) as ``D r^2`` (N m s/rad), with
+    the set's own ``r``; ``"literal"``: the printed numbers as rotational coefficients.
+
+    >>> book_params("real").Db            # 0.5 N s/m * (0.04 m)^2
+    0.0008
+    >>> book_params("nominal", "literal").Dw
+    0.6
+    """
+    key = str(which).lower()
+    if key not in BOOK_TABLES:
+        raise ValueError(f"book parameter set must be one of 'real', 'nominal', got {which!r}")
+    if damping not in DAMPING_READINGS:
+        raise ValueError(
+            f"damping reading must be one of {', '.join(DAMPING_READINGS)}, got {damping!r}"
+        )
+    table = dict(BOOK_TABLES[key])
+    if damping == "units":
+        r2 = table["r"] ** 2
+        table["Db"], table["Dw"] = table["Db"] * r2, table["Dw"] * r2
+    return Params(**table)
+
+
+#: Real parameters of the robot: Table 3.1 (= Table 6.1), damping read as ``D r^2``. The plant.
+REAL = book_params("real")
+
+#: Nominal (estimated) parameters: Table 3.2 (= Table 6.2), damping ``D r^2``. What designs use.
+NOMINAL = book_params("nominal")
+
+#: Table 3.1 under the literal damping reading (``Db = 0.5``, ``Dw = 0.8`` N m s/rad).
+REAL_LITERAL = book_params("real", "literal")
+
+#: Table 3.2 under the literal damping reading (``Db = 0.4``, ``Dw = 0.6`` N m s/rad).
+NOMINAL_LITERAL = book_params("nominal", "literal")
+
+
+def steady_speed_cap(p: Params) -> Any:
+    """Highest steady wheel speed the robot can hold, in rad/s: ``Gb / (2 Dw)``.
+
+    In steady rolling (``theta' = 0, psi'' = 0``) the first row of (2.32) plus the second
+    give ``Gb sin(theta) = 2 Dw psi'`` (gravity on the lean pays the wheel-ground damping), so
+    ``|psi'| <= Gb / (2 Dw)``, reached only lying flat.
+
+    >>> round(steady_speed_cap(REAL_LITERAL), 3), round(steady_speed_cap(REAL), 1)
+    (0.984, 614.8)
+    """
+    return p.Gb / (2.0 * p.Dw)
 
 
 def stack_params(items: Iterable[Params]) -> Params:
@@ -301,7 +368,25 @@ def load_params(path: str | os.PathLike[str], *, base: Params | None = None) -> 
     return Params.from_dict(body, base=base)
 
 
+#: Units of the fields, for files and ``mwip params show``.
+UNITS: dict[str, str] = {
+    "mb": "kg", "mw": "kg", "Iby": "kg m^2", "Ibz": "kg m^2", "Iwa": "kg m^2", "Iwd": "kg m^2",
+    "l": "m", "b": "m", "r": "m", "Db": "N m s/rad", "Dw": "N m s/rad", "g": "m/s^2",
+}  # fmt: skip
+
+FILE_HEADER = (
+    "# MWIP parameters (mwip.params): SI units; mb, mw kg; Iby, Ibz, Iwa, Iwd kg m^2;\n"
+    "# l, b, r m; g m/s^2. Db (body-wheel) and Dw (wheel-ground) are the ROTATIONAL damping\n"
+    "# coefficients of (2.32) in N m s/rad. The book's tables print N s/m: for them this file\n"
+    "# holds D r^2 (the 'units' reading, SPEC.md section 2).\n"
+)
+
+
 def save_params(params: Params, path: str | os.PathLike[str]) -> None:
-    """Write parameters to a TOML file (atomically: a temporary file, then rename)."""
-    text = tomli_w.dumps({"params": params.to_dict()})
+    """Write parameters to a TOML file (atomically: a temporary file, then rename).
+
+    The file starts with a comment giving every field's unit; ``Db, Dw`` are written as the
+    rotational coefficients of (2.32) in N m s/rad, which is how :func:`load_params` reads them.
+    """
+    text = FILE_HEADER + tomli_w.dumps({"params": params.to_dict()})
     write_text_atomic(Path(path), text)

@@ -120,8 +120,11 @@ def _study_section(res: StudyResult) -> str:
     parts = [f'<section class="study" id="{_e(res.name)}">']
     held, n = res.held
     parts.append(f"<h2>{_e(res.name)}: {_e(title)}</h2>")
-    parts.append(f'<p class="muted">Book source: {_e(src)} &middot; claims holding: {held}/{n}'
-                 + (f" &middot; wall time {res.wall_s:.1f} s" if res.wall_s else "") + "</p>")
+    parts.append(
+        f'<p class="muted">Book source: {_e(src)} &middot; claims holding: {held}/{n}'
+        + (f" &middot; wall time {res.wall_s:.1f} s" if res.wall_s else "")
+        + "</p>"
+    )
     if res.error:
         extra = " Results below are from an earlier run." if res.doc else ""
         parts.append(f'<p class="fail">This study failed: {_e(res.error)}.{extra}</p>')

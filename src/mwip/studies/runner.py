@@ -117,13 +117,16 @@ def run_studies(
     overrides: dict[str, dict[str, Any]] | None = None,
     on_done: Callable[[StudyOutcome], None] | None = None,
     on_run: Callable[[str], None] | None = None,
+    damping: str = "units",
 ) -> dict[str, Any]:
     """Run ``names`` into ``out``; returns the run record (also written to ``out/run.json``).
 
     ``jobs`` processes (1: in this process). ``plant``/``nominal`` replace the book's robot
     and design model (:mod:`mwip.studies.robot`); ``overrides[name]`` replaces some of study
-    ``name``'s settings (:mod:`mwip.studies.settings`). ``on_done`` is called as each study
-    ends, ``on_run(study)`` as each of its simulation runs ends (for a progress display).
+    ``name``'s settings (:mod:`mwip.studies.settings`). ``damping`` names the reading of
+    the book's tables the robot was built with (recorded in ``run.json``). ``on_done`` is
+    called as each study ends, ``on_run(study)`` as each of its simulation runs ends (for a
+    progress display).
     """
     from mwip.studies import STUDIES
 
@@ -183,6 +186,7 @@ def run_studies(
             "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
             "quick": quick, "studies": {n: studies[n] for n in STUDIES if n in studies},
             "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
+            "damping": damping,
         })  # fmt: skip
         write_json_atomic(stage.path / RUN_RECORD, record)
         ok = [n for n in names if outcomes[n][1] is not None]

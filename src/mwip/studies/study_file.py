@@ -9,6 +9,8 @@
     [robot]                      # optional; default: the book's robot and design model
     params = "heavy_robot.toml"  # the simulated robot: "real", "nominal" or a parameter TOML
     nominal = "nominal"          # the design model: same choices
+    damping = "units"            # optional: how "real"/"nominal" read the tables' Db, Dw
+                                 # ("units": D r^2, or "literal"; SPEC.md section 2)
 
     [settings]                   # optional: the study's own numbers (:mod:`.settings`)
     theta0 = -0.2                # e.g. the initial pitch (rad)
@@ -25,12 +27,12 @@ from pathlib import Path
 from typing import Any
 
 from mwip.io import read_toml
-from mwip.params import NOMINAL, REAL, Params, load_params
+from mwip.params import DAMPING_READINGS, Params, book_params, load_params
 from mwip.studies.settings import validate
 
 __all__ = ["StudyFile", "load_study_file"]
 
-_TABLES = {"study": ("name", "quick"), "robot": ("params", "nominal"), "settings": ()}
+_TABLES = {"study": ("name", "quick"), "robot": ("params", "nominal", "damping"), "settings": ()}
 
 
 @dataclass(frozen=True)
@@ -45,21 +47,22 @@ class StudyFile:
     settings: dict[str, Any] = field(default_factory=dict)
 
 
-def _robot(value: object, key: str, base: Params, folder: Path) -> Params:
+def _robot(value: object, key: str, base: Params, folder: Path, damping: str) -> Params:
     if not isinstance(value, str) or not value:
         raise ValueError(f"[robot] {key} must be 'real', 'nominal' or a TOML path, got {value!r}")
-    if value.lower() == "real":
-        return REAL
-    if value.lower() == "nominal":
-        return NOMINAL
+    if value.lower() in ("real", "nominal"):
+        return book_params(value.lower(), damping)
     path = (folder / value).resolve()
     if not path.is_file():
         raise ValueError(f"[robot] {key}: no such parameter file {str(path)!r}")
     return load_params(path, base=base)
 
 
-def load_study_file(path: str | Path) -> StudyFile:
-    """Read and validate a study file (see the module docstring)."""
+def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
+    """Read and validate a study file (see the module docstring).
+
+    ``damping`` (the CLI's ``--damping``), when given, replaces the file's ``[robot] damping``.
+    """
     from mwip.studies import STUDIES
 
     path = Path(path)
@@ -84,8 +87,15 @@ def load_study_file(path: str | Path) -> StudyFile:
         raise ValueError(f"[study] quick must be true or false, got {quick!r}")
     robot = data.get("robot", {})
     folder = path.resolve().parent
-    plant = _robot(robot.get("params", "real"), "params", REAL, folder)
-    nominal = _robot(robot.get("nominal", "nominal"), "nominal", NOMINAL, folder)
+    reading = damping if damping is not None else robot.get("damping", "units")
+    if reading not in DAMPING_READINGS:
+        raise ValueError(
+            f"[robot] damping must be one of {', '.join(DAMPING_READINGS)}, got {reading!r}"
+        )
+    plant = _robot(robot.get("params", "real"), "params", book_params("real", reading),
+                   folder, reading)  # fmt: skip
+    nominal = _robot(robot.get("nominal", "nominal"), "nominal",
+                     book_params("nominal", reading), folder, reading)  # fmt: skip
     overrides = validate(name, data.get("settings", {}))
     return StudyFile(path=path, name=name, quick=quick, plant=plant, nominal=nominal,
                      settings=overrides)  # fmt: skip
