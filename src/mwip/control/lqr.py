@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from mwip.linearize import linearize
 from mwip.params import NOMINAL, Params
 from mwip.sim.sensors import Measurement
+from mwip.validate import finite_array, real
 
 __all__ = [
     "BOOK_Q", "BOOK_R", "lqr", "dlqr", "zoh", "LQRDesign", "design_lqr", "LQR",
@@ -106,9 +107,18 @@ def design_lqr(
     R: ArrayLike = BOOK_R,
     Ts: float | None = 0.005,
 ) -> LQRDesign:
-    """Design the LQR on ``params`` (nominal by default); ``Ts=None`` gives the continuous gain."""
+    """Design the LQR on ``params`` (nominal by default); ``Ts=None`` gives the continuous gain.
+
+    Bad arguments raise ``TypeError``/``ValueError`` naming the argument.
+    """
+    if not isinstance(params, Params):
+        raise TypeError(f"params must be a mwip.params.Params, got {type(params).__name__}")
+    if params.batch_shape != ():
+        raise ValueError(f"params must be one robot, got a batch of shape {params.batch_shape}")
+    if Ts is not None:
+        Ts = real("Ts", Ts, 0.0, 1e3)
+    Qa, Ra = finite_array("Q", Q), finite_array("R", R)
     A, B = linearize(params)
-    Qa, Ra = np.asarray(Q, dtype=float), np.asarray(R, dtype=float)
     K, _, poles = lqr(A, B, Qa, Ra) if Ts is None else dlqr(A, B, Qa, Ra, Ts)
     return LQRDesign(K=K, Ts=Ts, Q=Qa, R=Ra, poles=poles, params=params)
 
@@ -127,10 +137,12 @@ class LQR:
         design: LQRDesign,
         reference: ArrayLike = (0.0, 0.0, 0.0, 0.0, 0.0),
     ) -> None:
+        if not isinstance(design, LQRDesign):
+            raise TypeError(f"design must be an LQRDesign, got {type(design).__name__}")
         self.K = np.asarray(design.K, dtype=float)
         self.Ts = design.Ts
         self.r_nominal = float(design.params.r)
-        self.reference = np.asarray(reference, dtype=float)
+        self.reference = finite_array("reference", reference)
         if self.reference.shape != (5,):
             raise ValueError(f"reference must have 5 entries, got shape {self.reference.shape}")
         # x = y[:, :6] @ sel with v = r_nom psi': fold the selection into the gain once

@@ -28,6 +28,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.budget import DEFAULT as DEFAULT_BUDGET
+from mwip.budget import Budget, estimate
 from mwip.models.reduced import coefficients
 from mwip.params import REAL, Params
 from mwip.sim.disturbance import Disturbance
@@ -42,6 +44,7 @@ from mwip.sim.kernel import (
 )
 from mwip.sim.result import SimResult
 from mwip.sim.sensors import Actuator, IdealSensor, Sensor
+from mwip.validate import finite_array, integer, real
 
 if TYPE_CHECKING:
     from mwip.control.base import Controller
@@ -68,7 +71,7 @@ def initial_state(
         (slice(3, 6), qdot0, "qdot0", 3),
         (slice(6, 8), pos0, "pos0", 2),
     ):
-        a = np.asarray(val, dtype=float)
+        a = finite_array(name, val)
         if a.shape[-1:] != (width,) or a.ndim > 2:
             raise ValueError(f"{name} must have shape ({width},) or (N, {width}), got {a.shape}")
         if not np.all(np.isfinite(a)):
@@ -139,6 +142,7 @@ def simulate(
     record_every: int = 1,
     seed: int | None = 0,
     progress: Callable[[int], None] | None = None,
+    budget: Budget = DEFAULT_BUDGET,
 ) -> SimResult:
     """Simulate the closed loop of ``controller`` on ``plant`` (default: the real robot).
 
@@ -173,9 +177,34 @@ def simulate(
         Seed handed to the sensor (noise) so results are reproducible.
     progress : callable, optional
         Called with the number of samples done since the previous call.
+    budget : Budget
+        Bounds on the run's cost (:mod:`mwip.budget`), checked before it starts; a run above
+        them raises :class:`mwip.budget.BudgetError` (a ``ValueError``).
+
+    Bad arguments raise ``TypeError`` (wrong kind) or ``ValueError`` (out of range) naming
+    the argument, before any work is done.
     """
     if mode not in ("sampled", "continuous"):
         raise ValueError(f"mode must be 'sampled' or 'continuous', got {mode!r}")
+    if not isinstance(plant, Params):
+        raise TypeError(f"plant must be a mwip.params.Params, got {type(plant).__name__}")
+    if not callable(controller) or not hasattr(controller, "reset"):
+        raise TypeError(
+            f"controller must be a mwip controller (callable with reset()), got "
+            f"{type(controller).__name__}"
+        )
+    if not isinstance(budget, Budget):
+        raise TypeError(f"budget must be a mwip.budget.Budget, got {type(budget).__name__}")
+    duration = real("duration", duration, 0.0)
+    if Ts is not None:
+        Ts = real("Ts", Ts, 0.0)
+    if dt is not None:
+        dt = real("dt", dt, 0.0)
+    record_every = integer("record_every", record_every, 1, 2**62)
+    if seed is not None:
+        seed = integer("seed", seed, 0, 2**63 - 1)
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be callable, got {type(progress).__name__}")
     ctrl_ts = getattr(controller, "Ts", None)
     if Ts is None:
         Ts = ctrl_ts if ctrl_ts is not None else DEFAULT_TS
@@ -192,10 +221,13 @@ def simulate(
         raise ValueError(f"duration must be finite and in (0, inf), got {duration!r}")
     if int(record_every) != record_every or record_every < 1:
         raise ValueError(f"record_every must be an integer >= 1, got {record_every!r}")
+    q0, qdot0, pos0 = (finite_array(k, v) for k, v in (("q0", q0), ("qdot0", qdot0),
+                                                         ("pos0", pos0)))  # fmt: skip
+    n, batched = _batch_size(plant, [q0, qdot0, pos0])
+    budget.check(estimate(duration, Ts, dt, n, record_every), "simulate")
     n_samples = max(int(round(duration / Ts)), 1)
     duration = n_samples * Ts
 
-    n, batched = _batch_size(plant, [q0, qdot0, pos0])
     y = initial_state(n, q0, qdot0, pos0)
     coef = np.ascontiguousarray(coefficients(plant).reshape(-1, 10))
     r = np.broadcast_to(np.asarray(plant.r, dtype=float), (n,)).copy()
