@@ -31,6 +31,7 @@ def test_simulate_writes_outputs(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "status: ok" in text and "settling time" in text and "max |u|" in text
     assert sorted(p.name for p in out.iterdir()) == [
+        ".mwip-output",  # the marker: mwip's own folder (mwip.outdir)
         "summary.json",
         "timeseries.csv",
         "timeseries.npz",
@@ -180,6 +181,7 @@ def test_reproduce_reports_a_failing_study_and_runs_the_others(tmp_path, capsys,
     old = tmp_path / "bad"
     old.mkdir()
     (old / "metrics.json").write_text("{}")  # an earlier result of the failing study is kept
+    (tmp_path / ".mwip-output").write_text("")  # ... in an earlier mwip output folder
     monkeypatch.setattr(studies, "STUDIES", {"bad": (bad, "x"), "good": (good, "y")})
     assert main(["reproduce", "--out", str(tmp_path), "--quick", "-j", "1", "-v"]) == 1
     cap = capsys.readouterr()

@@ -7,6 +7,7 @@ written atomically.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import sys
@@ -31,13 +32,31 @@ def _params(value: str, what: str, base: str | None = None, damping: str = "unit
     if key in ("real", "nominal"):
         return book_params(key, damping)
     path = Path(value)
-    if not path.exists():
+    if not value.strip() or not path.exists():
         raise click.BadParameter(
             f"must be 'real', 'nominal' or an existing TOML file, got {value!r}", param_hint=what
         )
     if base is None:
         base = "real" if what in ("--plant", "--params") else "nominal"
     return load_params(path, base=book_params(base, damping))
+
+
+_FORCE = click.option(
+    "--force",
+    is_flag=True,
+    help="Write into OUT even if it is a non-empty folder that mwip did not create "
+    "(entries of the same names are replaced).",
+)
+
+
+def _out_ok(out: Path, force: bool) -> Path:
+    """OUT if mwip may write there (:mod:`mwip.outdir`), else exit 2 naming --out."""
+    from mwip.outdir import check
+
+    try:
+        return check(out, force)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
 
 
 _DAMPING = click.option(
@@ -139,6 +158,19 @@ def cli() -> None:
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @_DAMPING
+@_FORCE
+@click.option(
+    "--max-steps",
+    type=float,
+    default=None,
+    help="Refuse runs needing more integration steps than this (default 2e9, mwip.budget).",
+)
+@click.option(
+    "--max-memory",
+    type=float,
+    default=None,
+    help="Refuse runs needing more memory for their records than this, in GiB (default 4).",
+)
 @click.option(
     "--scenario",
     "scenario_file",
@@ -150,8 +182,8 @@ def cli() -> None:
 def simulate(
     ctx: click.Context, controller: str, theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
-    disturbance: str, out: Path | None, as_json: bool, damping: str,
-    scenario_file: Path | None,
+    disturbance: str, out: Path | None, as_json: bool, damping: str, force: bool,
+    max_steps: float | None, max_memory: float | None, scenario_file: Path | None,
 ) -> None:  # fmt: skip
     """Simulate a closed loop and print status, settling time and max |u|."""
     from mwip.scenario import Scenario, load_scenario
@@ -171,10 +203,18 @@ def simulate(
     for name, val in (("--alpha0", alpha0), ("--v0", v0)):
         if not (math.isfinite(val) and abs(val) <= 1e3):
             raise click.BadParameter(f"must be in [-1000, 1000], got {val!r}", param_hint=name)
-    if out is not None and out.exists() and not out.is_dir():
-        raise click.BadParameter(f"{str(out)!r} exists and is not a folder", param_hint="--out")
+    from mwip.budget import DEFAULT, Budget, estimate
+
+    budget = Budget(
+        max_steps=DEFAULT.max_steps if max_steps is None
+        else _in_range("--max-steps", max_steps, 0.0, 1e18),
+        max_bytes=DEFAULT.max_bytes if max_memory is None
+        else _in_range("--max-memory", max_memory, 0.0, 1e6) * 2**30,
+    )  # fmt: skip
+    if out is not None:
+        _out_ok(out, force)
     if scenario_file is not None:
-        if not scenario_file.exists():
+        if not str(scenario_file).strip() or not scenario_file.exists():
             raise click.BadParameter(f"{str(scenario_file)!r} does not exist",
                                      param_hint="--scenario")  # fmt: skip
         sc = load_scenario(scenario_file)
@@ -202,9 +242,13 @@ def simulate(
         if given(opt):
             initial[key] = val
     sc = sc.with_overrides(initial=initial, **changes)
+    cost = estimate(sc.duration, sc.Ts, sc.dt if sc.dt is not None else min(sc.Ts, 5e-4))
+    budget.check(cost, "this simulation")
+    if cost.steps > 2e7:
+        click.echo(f"mwip: {cost.text()}; this may take a while", err=True)
     n = max(int(round(sc.duration / sc.Ts)), 1)
     with _progress(n, "simulating") as prog:
-        res = sc.run(progress=prog)
+        res = sc.run(progress=prog, budget=budget)
     mode, Ts = sc.mode, sc.Ts
     summary: dict[str, Any] = dict(res.summary())
     summary.update(
@@ -218,7 +262,9 @@ def simulate(
                for k, v in summary.items()}  # fmt: skip
     if out is not None:
         from mwip.io import write_json_atomic
+        from mwip.outdir import claim
 
+        claim(out)
         res.to_csv(out / "timeseries.csv")
         res.to_npz(out / "timeseries.npz")
         write_json_atomic(out / "summary.json", summary)
@@ -423,8 +469,12 @@ def check() -> None:
 
 
 def _floats(text: str, hint: str) -> tuple[float, ...]:
+    items = text.replace(" ", "").split(",")
+    if any(not x for x in items):
+        raise click.BadParameter(f"must be comma-separated numbers with none left empty, "
+                                 f"got {text!r}", param_hint=hint)  # fmt: skip
     try:
-        return tuple(float(x) for x in text.replace(" ", "").split(",") if x)
+        return tuple(float(x) for x in items)
     except ValueError:
         raise click.BadParameter(f"must be comma-separated numbers, got {text!r}",
                                  param_hint=hint) from None  # fmt: skip
@@ -674,6 +724,7 @@ def _run_scenarios(
 @_DAMPING
 @_JOBS
 @_VERBOSE
+@_FORCE
 @click.pass_context
 def run_cmd(
     ctx: click.Context,
@@ -686,6 +737,7 @@ def run_cmd(
     damping: str,
     jobs: int,
     verbose: bool,
+    force: bool,
 ) -> None:
     """Run one or more studies (see `mwip list`) and update OUT/index.html."""
     from mwip.studies import STUDIES
@@ -697,6 +749,7 @@ def run_cmd(
             )
     if not studies and not scenarios:
         raise click.UsageError("give at least one STUDY or --scenario FILE")
+    _out_ok(out, force)
     plant, design = _robot(params_file, nominal_file, damping)
     if scenarios:
         given = ctx.get_parameter_source("damping") is not click.core.ParameterSource.DEFAULT
@@ -715,6 +768,7 @@ def run_cmd(
 @_DAMPING
 @_JOBS
 @_VERBOSE
+@_FORCE
 @click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
 def reproduce(
     out: Path,
@@ -724,6 +778,7 @@ def reproduce(
     damping: str,
     jobs: int,
     verbose: bool,
+    force: bool,
     list_only: bool,
 ) -> None:
     """Run every study on built-in defaults; write OUT/<study>/, OUT/index.html, OUT/run.json.
@@ -738,6 +793,7 @@ def reproduce(
         for name, (_, source) in STUDIES.items():
             click.echo(f"{name:24s} {source}")
         return
+    _out_ok(out, force)
     plant, design = _robot(params_file, nominal_file, damping)
     _execute(list(STUDIES), out, quick, _jobs(jobs), plant, design, verbose, damping=damping)
 
@@ -789,13 +845,35 @@ def report(out: Path, verbose: bool) -> None:
     if not names:
         raise click.UsageError(f"--out: no study results in {out}")
     path = write_report(out, names)
-    for line in summary_lines(load_results(out, names), verbose=verbose):
+    results = load_results(out, names)
+    for line in summary_lines(results, verbose=verbose):
         click.echo(line)
     click.echo(f"report: {path}")
+    bad = [r.error for r in results if r.doc is None and r.error and "metrics.json" in r.error]
+    for message in bad:
+        click.echo(f"mwip: error: {message}", err=True)
+    if bad:
+        sys.exit(1)
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point: run the CLI, turning input errors into one-line messages (exit code 2)."""
+    """Entry point: run the CLI, turning input errors into one-line messages (exit code 2).
+
+    Never a traceback: bad input is exit 2, Ctrl-C exit 130 (a second Ctrl-C while the first
+    is being handled ends the process at once), any other failure one line and exit 1
+    (``MWIP_TRACEBACK=1`` shows the traceback).
+    """
+    with _interrupts():
+        try:
+            return _main(argv)
+        except KeyboardInterrupt:  # raised outside click's own handling (start-up, clean-up)
+            click.echo("mwip: interrupted; earlier results are left as they were", err=True)
+            return 130
+
+
+def _main(argv: list[str] | None) -> int:
+    import os
+
     try:
         cli.main(args=argv, prog_name="mwip", standalone_mode=False)
     except click.exceptions.Exit as exc:
@@ -809,12 +887,67 @@ def main(argv: list[str] | None = None) -> int:
     except click.Abort:
         click.echo("mwip: interrupted; earlier results are left as they were", err=True)
         return 130
-    except (ValueError, FileNotFoundError) as exc:
-        click.echo(f"mwip: error: {exc}", err=True)
+    except (ValueError, TypeError, FileNotFoundError) as exc:
+        click.echo(f"mwip: error: {_one_line(exc)}", err=True)
         return 2
+    except BrokenPipeError:  # the reader went away (`mwip list | head -1`)
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except OSError as exc:  # the file system said no (permissions, full disk, ...)
+        where = f" {exc.filename!r}" if exc.filename else ""
+        click.echo(f"mwip: error:{where} {exc.strerror or exc}", err=True)
+        return 2 if isinstance(exc, PermissionError | IsADirectoryError) else 1
     except SystemExit as exc:
-        return int(exc.code or 0)
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    except (MemoryError, RecursionError) as exc:
+        click.echo(f"mwip: error: {type(exc).__name__}: the input asks for more than this "
+                   "machine can give; reduce the sizes or durations", err=True)  # fmt: skip
+        return 1
+    except Exception as exc:  # noqa: BLE001 - a bug: one line, the traceback on request
+        if os.environ.get("MWIP_TRACEBACK"):
+            raise
+        click.echo(f"mwip: internal error: {type(exc).__name__}: {_one_line(exc)} "
+                   "(set MWIP_TRACEBACK=1 to see where)", err=True)  # fmt: skip
+        return 1
     return 0
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+@contextmanager
+def _interrupts() -> Iterator[None]:
+    """SIGINT: the first raises ``KeyboardInterrupt`` (clean-up runs); a second one while
+    that is under way ends the process at once with exit code 130, without a traceback."""
+    import os
+    import signal
+    import threading
+
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is signal.SIG_IGN):  # fmt: skip
+        yield
+        return
+    seen = [False]
+
+    def handler(signum: int, frame: Any) -> None:
+        if seen[0]:
+            with contextlib.suppress(OSError):
+                os.write(2, b"\nmwip: interrupted again; stopping now\n")
+            os._exit(130)
+        seen[0] = True
+        raise KeyboardInterrupt
+
+    try:
+        old = signal.signal(signal.SIGINT, handler)
+    except ValueError:  # not the main interpreter
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -83,9 +83,15 @@ def load_run_record(out: Path) -> dict[str, Any]:
     """``OUT/run.json`` as written by ``mwip reproduce`` ({} if absent or unreadable)."""
     path = Path(out) / RUN_RECORD
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError):
         return {}
+    if not isinstance(doc, dict):
+        return {}
+    if not isinstance(doc.get("studies", {}), dict):
+        doc["studies"] = {}
+    return {**doc, "studies": {k: v for k, v in doc.get("studies", {}).items()
+                               if isinstance(v, dict)}}  # fmt: skip
 
 
 def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]:
@@ -108,15 +114,25 @@ def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]
         folder = out / name
         rec = per_study.get(name, {})
         doc: dict[str, Any] | None
+        path = folder / "metrics.json"
+        bad = None
         try:
-            doc = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
             doc = None
-        error = rec.get("error") or (None if doc is not None else "not run")
+        except (OSError, ValueError, RecursionError) as exc:
+            doc, bad = None, " ".join(str(exc).split()) or type(exc).__name__
+        if doc is not None and not isinstance(doc, dict):
+            doc, bad = None, f"a JSON {type(doc).__name__}, not an object"
+        if bad is not None:
+            error = f"{path} is unreadable: {bad}"
+        else:
+            error = rec.get("error") or (None if doc is not None else "not run")
         figures = tuple(sorted(folder.glob("*.png"))) if folder.is_dir() else ()
         results.append(
             StudyResult(name=name, folder=folder, doc=doc, figures=figures, error=error,
                         wall_s=rec.get("wall_s"), info=catalog.get(name, {}),
-                        settings=dict(rec.get("settings") or {}))
+                        settings=dict(rec.get("settings") or {}) if isinstance(
+                            rec.get("settings"), dict) else {})
         )  # fmt: skip
     return results

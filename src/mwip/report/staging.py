@@ -6,17 +6,81 @@ An existing output folder is therefore never half-overwritten: if a run is inter
 were. Each staged entry (a study's folder, ``index.html``, ``run.json``) replaces its old
 version by renames on the same file system; entries of the output folder that the run did
 not produce are left alone.
+
+A run killed outright (SIGKILL, power loss) cannot clean up: its staging folder
+(``.<out>.partial-<pid>-*`` beside the output folder) and the trash of an interrupted commit
+(``<out>/.replaced-<pid>-*``) are removed by the next run on the same folder, once the
+process that made them is gone. The commit itself runs with SIGINT and SIGTERM held back, so
+Ctrl-C arrives after it, not half-way through it.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import shutil
+import signal
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from types import TracebackType
 
-__all__ = ["Staging"]
+__all__ = ["Staging", "remove_stale", "signals_held"]
+
+_PID = re.compile(r"-(\d+)-")
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
+def remove_stale(out: Path) -> list[Path]:
+    """Remove staging and trash folders of ``out`` left by runs that no longer exist."""
+    out = Path(out)
+    removed = []
+    candidates: list[tuple[Path, str]] = []
+    parent = out.absolute().parent
+    if parent.is_dir():
+        candidates += [(parent, f".{out.name}.partial-")]
+    if out.is_dir() and not out.is_symlink():
+        candidates += [(out, ".replaced-")]
+    for folder, prefix in candidates:
+        try:
+            names = [n for n in os.listdir(folder) if n.startswith(prefix)]
+        except OSError:
+            continue
+        for name in names:
+            path = folder / name
+            m = _PID.match(name[len(prefix) - 1 :])
+            if m is None or path.is_symlink() or not path.is_dir() or _alive(int(m.group(1))):
+                continue
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path)
+    return removed
+
+
+@contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold back SIGINT and SIGTERM inside the block (delivered when it ends)."""
+    held = {signal.SIGINT, signal.SIGTERM}
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    except (AttributeError, OSError, ValueError):  # not on this platform
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 class Staging:
@@ -37,17 +101,28 @@ class Staging:
         if self.out.exists() and not self.out.is_dir():
             raise ValueError(f"--out: {self.out} exists and is not a folder")
         parent.mkdir(parents=True, exist_ok=True)
-        self.path = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-", dir=parent))
+        remove_stale(self.out)
+        self.path = Path(
+            tempfile.mkdtemp(prefix=f".{self.out.name}.partial-{os.getpid()}-", dir=parent)
+        )
         return self
 
-    def commit(self, names: list[str] | None = None) -> list[Path]:
-        """Move the staged entries ``names`` (default: all) into the output folder."""
+    def commit(self, names: list[str] | None = None, retire: tuple[str, ...] = ()) -> list[Path]:
+        """Move the staged entries ``names`` (default: all) into the output folder.
+
+        Entries ``retire`` of the output folder (e.g. a report that the new entries make
+        stale) are moved away first, so a crash half-way leaves no stale copy of them.
+        """
         assert self.path is not None, "use Staging as a context manager"
         self.out.mkdir(parents=True, exist_ok=True)
         names = sorted(p.name for p in self.path.iterdir()) if names is None else names
-        trash = Path(tempfile.mkdtemp(prefix=".replaced-", dir=self.out))
+        trash = Path(tempfile.mkdtemp(prefix=f".replaced-{os.getpid()}-", dir=self.out))
         moved = []
         try:
+            for name in retire:
+                dst = self.out / name
+                if dst.is_file() and not dst.is_symlink():
+                    os.replace(dst, trash / name)
             for name in names:
                 src, dst = self.path / name, self.out / name
                 if not src.exists():

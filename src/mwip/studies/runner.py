@@ -10,9 +10,11 @@ Ctrl-C discards the staging folder and leaves ``out`` as it was.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import platform
 import queue as queue_module
+import signal
 import sys
 import time
 import warnings
@@ -26,11 +28,12 @@ from typing import Any
 import numpy as np
 import scipy
 
-from mwip.io import write_json_atomic
+from mwip.io import write_json_atomic, write_text_atomic
+from mwip.outdir import MARKER, MARKER_TEXT
 from mwip.params import Params
 from mwip.report.html import write_report
 from mwip.report.results import RUN_RECORD, load_run_record
-from mwip.report.staging import Staging
+from mwip.report.staging import Staging, signals_held
 from mwip.sim.engine import RUN_END_HOOKS
 from mwip.studies import robot, settings
 
@@ -70,8 +73,26 @@ _current_study: list[str] = [""]
 
 
 def _init_worker(q: Any) -> None:
-    """Worker start-up: report each finished simulation run of the current study on ``q``."""
+    """Worker start-up: report each finished simulation run of the current study on ``q``.
+
+    Workers ignore SIGINT: Ctrl-C reaches the whole process group, and the parent, not each
+    worker, decides what happens (it stops them, :func:`_stop_pool`).
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     RUN_END_HOOKS.append(lambda _res: q.put(_current_study[0]))
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop ``pool`` at once: kill its workers (their studies are abandoned), then reap them,
+    so that nothing is left for the interpreter to join at exit."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.kill()
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(timeout=1.0)
 
 
 def _counting_hook(name: str, on_run: Callable[[str], None] | None) -> Any:
@@ -172,7 +193,7 @@ def run_studies(
                         done(fut.result())
                 _drain(queue, on_run)
             except BaseException:
-                pool.shutdown(wait=False, cancel_futures=True)
+                _stop_pool(pool)
                 raise
             pool.shutdown()
         record = load_run_record(out) if len(names) < len(STUDIES) else {}
@@ -189,9 +210,13 @@ def run_studies(
             "damping": damping,
         })  # fmt: skip
         write_json_atomic(stage.path / RUN_RECORD, record)
+        write_text_atomic(stage.path / MARKER, MARKER_TEXT)
         ok = [n for n in names if outcomes[n][1] is not None]
-        stage.commit([*ok, RUN_RECORD])
-    write_report(out)
+        # the old report goes first and the new one is written before Ctrl-C is let through:
+        # OUT's index.html is absent or matches OUT's run.json, never stale
+        with signals_held():
+            stage.commit([*ok, RUN_RECORD, MARKER], retire=("index.html",))
+            write_report(out)
     return record
 
 
