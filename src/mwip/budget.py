@@ -61,8 +61,8 @@ class Budget:
             if isinstance(v, bool) or not isinstance(v, int | float) or not v > 0:
                 raise ValueError(f"Budget {name} must be a number > 0, got {v!r}")
 
-    def check(self, cost: Cost, what: str = "this run") -> None:
-        """Raise :class:`BudgetError` when ``cost`` exceeds a bound."""
+    def check(self, cost: Cost, what: str = "this run", hint: str | None = None) -> None:
+        """Raise :class:`BudgetError` when ``cost`` exceeds a bound (``hint``: what to do)."""
         over = []
         if cost.steps > self.max_steps:
             over.append(f"{cost.steps:.3g} integration steps (budget {self.max_steps:.3g})")
@@ -73,10 +73,11 @@ class Budget:
                 f"{cost.bytes / 2**30:.3g} GiB of memory (budget {self.max_bytes / 2**30:.3g} GiB)"
             )
         if over:
-            raise BudgetError(
-                f"{what} would need {' and '.join(over)}; shorten the duration, lengthen Ts or "
-                "dt, or raise the budget (CLI: --max-steps, --max-memory; API: budget=Budget(...))"
+            hint = hint or (
+                "shorten the duration, lengthen Ts or dt, or raise the budget "
+                "(CLI: --max-steps, --max-memory; API: budget=Budget(...))"
             )
+            raise BudgetError(f"{what} would need {' and '.join(over)}; {hint}")
 
 
 DEFAULT = Budget()

@@ -32,7 +32,8 @@ from mwip.studies.settings import validate
 
 __all__ = ["StudyFile", "load_study_file"]
 
-_TABLES = {"study": ("name", "quick"), "robot": ("params", "nominal", "damping"), "settings": ()}
+_TABLES = {"study": ("name", "quick"), "robot": ("params", "nominal", "damping"), "settings": (),
+           "ranges": ()}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -62,25 +63,32 @@ def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
     """Read and validate a study file (see the module docstring).
 
     ``damping`` (the CLI's ``--damping``), when given, replaces the file's ``[robot] damping``.
+    Every error is a one-line ``ValueError`` starting with the file's name.
     """
-    from mwip.studies import STUDIES
-
     path = Path(path)
     data = read_toml(path, "study file")
+    try:
+        return _parse(path, data, damping)
+    except ValueError as exc:
+        raise ValueError(f"study file {str(path)!r}: {exc}") from None
+
+
+def _parse(path: Path, data: dict[str, Any], damping: str | None) -> StudyFile:
+    from mwip.studies import STUDIES
+    from mwip.studies.settings import packaged_ranges_text
+
     for table, body in data.items():
         if table not in _TABLES:
-            raise ValueError(
-                f"{path.name}: unknown table [{table}]; allowed: study, robot, settings"
-            )
+            raise ValueError(f"unknown table [{table}]; allowed: {', '.join(_TABLES)}")
         if not isinstance(body, dict):
             raise ValueError(f"{path.name}: [{table}] must be a table")
         for key in body:
-            if table != "settings" and key not in _TABLES[table]:
+            if table not in ("settings", "ranges") and key not in _TABLES[table]:
                 allowed = ", ".join(_TABLES[table])
                 raise ValueError(f"[{table}] {key}: unknown key; allowed: {allowed}")
     study = data.get("study", {})
     name = study.get("name")
-    if name not in STUDIES:
+    if not isinstance(name, str) or name not in STUDIES:
         raise ValueError(f"[study] name must be one of {', '.join(STUDIES)}; got {name!r}")
     quick = study.get("quick", False)
     if not isinstance(quick, bool):
@@ -96,6 +104,11 @@ def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
                    folder, reading)  # fmt: skip
     nominal = _robot(robot.get("nominal", "nominal"), "nominal",
                      book_params("nominal", reading), folder, reading)  # fmt: skip
+    if "ranges" in data and data["ranges"] != packaged_ranges_text(name):
+        raise ValueError(
+            f"[ranges] is the study's own table of allowed values and cannot be changed; "
+            f"remove it or copy it unchanged from `mwip scenario {name}`"
+        )
     overrides = validate(name, data.get("settings", {}))
     return StudyFile(path=path, name=name, quick=quick, plant=plant, nominal=nominal,
                      settings=overrides)  # fmt: skip
