@@ -107,22 +107,14 @@ class Staging:
         )
         return self
 
-    def commit(self, names: list[str] | None = None, retire: tuple[str, ...] = ()) -> list[Path]:
-        """Move the staged entries ``names`` (default: all) into the output folder.
-
-        Entries ``retire`` of the output folder (e.g. a report that the new entries make
-        stale) are moved away first, so a crash half-way leaves no stale copy of them.
-        """
+    def commit(self, names: list[str] | None = None) -> list[Path]:
+        """Move the staged entries ``names`` (default: all) into the output folder."""
         assert self.path is not None, "use Staging as a context manager"
         self.out.mkdir(parents=True, exist_ok=True)
         names = sorted(p.name for p in self.path.iterdir()) if names is None else names
         trash = Path(tempfile.mkdtemp(prefix=f".replaced-{os.getpid()}-", dir=self.out))
         moved = []
         try:
-            for name in retire:
-                dst = self.out / name
-                if dst.is_file() and not dst.is_symlink():
-                    os.replace(dst, trash / name)
             for name in names:
                 src, dst = self.path / name, self.out / name
                 if not src.exists():

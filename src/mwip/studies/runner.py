@@ -212,12 +212,38 @@ def run_studies(
         write_json_atomic(stage.path / RUN_RECORD, record)
         write_text_atomic(stage.path / MARKER, MARKER_TEXT)
         ok = [n for n in names if outcomes[n][1] is not None]
-        # the old report goes first and the new one is written before Ctrl-C is let through:
-        # OUT's index.html is absent or matches OUT's run.json, never stale
+        _stage_report(stage.path, out, ok)
+        # the report is committed with the run record it was made from (Ctrl-C held back)
         with signals_held():
-            stage.commit([*ok, RUN_RECORD, MARKER], retire=("index.html",))
-            write_report(out)
+            stage.commit([*ok, RUN_RECORD, REPORT, MARKER])
     return record
+
+
+REPORT = "index.html"
+
+
+def _stage_report(stage: Path, out: Path, ok: list[str]) -> None:
+    """Write the report of OUT as it will be after the commit into the staging folder: the
+    studies of ``ok`` from the staging folder, every other study from OUT (linked in while
+    the report is rendered)."""
+    import shutil
+
+    from mwip.studies import STUDIES
+
+    links = []
+    try:
+        for name in STUDIES:
+            if name in ok:
+                continue
+            shutil.rmtree(stage / name, ignore_errors=True)  # a failed study's partial output
+            old = out / name
+            if old.is_dir() and not old.is_symlink():
+                (stage / name).symlink_to(old.resolve(), target_is_directory=True)
+                links.append(stage / name)
+        write_report(stage)
+    finally:
+        for link in links:
+            link.unlink(missing_ok=True)
 
 
 # Rough cost of each study (s on one core, full runs): the longest start first so that the
