@@ -955,5 +955,28 @@ if __name__ == "__main__":  # pragma: no cover
 
 
 def entry() -> None:
-    """Console-script entry point (exits with :func:`main`'s code)."""
-    sys.exit(main())
+    """Console-script entry point (exits with :func:`main`'s code).
+
+    After Ctrl-C the process ends at once (``os._exit`` once the output is flushed): the
+    clean-up that matters (the staging folder, the worker processes) is done by then, and
+    the interpreter's own exit handlers (joining pools and queues) would only add delay, or
+    another Ctrl-C and a traceback.
+    """
+    import os
+    import signal
+
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        signal.signal(signal.SIGINT, _exit_130)  # outside main(): stop at once, quietly
+    code = main()
+    if code == 130:
+        with contextlib.suppress(Exception):
+            sys.stdout.flush()
+            sys.stderr.flush()
+        os._exit(130)
+    sys.exit(code)
+
+
+def _exit_130(signum: int, frame: Any) -> None:
+    import os
+
+    os._exit(130)

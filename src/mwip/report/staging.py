@@ -10,12 +10,14 @@ not produce are left alone.
 A run killed outright (SIGKILL, power loss) cannot clean up: its staging folder
 (``.<out>.partial-<pid>-*`` beside the output folder) and the trash of an interrupted commit
 (``<out>/.replaced-<pid>-*``) are removed by the next run on the same folder, once the
-process that made them is gone. The commit itself runs with SIGINT and SIGTERM held back, so
+process that made them is gone; old entries in such trash whose replacement never arrived
+are put back first. The commit itself runs with SIGINT and SIGTERM held back, so
 Ctrl-C arrives after it, not half-way through it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import shutil
@@ -63,9 +65,28 @@ def remove_stale(out: Path) -> list[Path]:
             m = _PID.match(name[len(prefix) - 1 :])
             if m is None or path.is_symlink() or not path.is_dir() or _alive(int(m.group(1))):
                 continue
+            if prefix == ".replaced-":  # a killed commit: its old entries not yet replaced
+                _restore(path, out)
             shutil.rmtree(path, ignore_errors=True)
             removed.append(path)
     return removed
+
+
+_RETIRED = ".retired-"
+
+
+def _restore(trash: Path, out: Path) -> None:
+    """Put the entries of an interrupted commit's ``trash`` back where ``out`` lacks them."""
+    try:
+        names = os.listdir(trash)
+    except OSError:
+        return
+    for name in names:
+        if name.startswith(_RETIRED):
+            continue
+        if not (out / name).exists() and not (out / name).is_symlink():
+            with contextlib.suppress(OSError):
+                os.replace(trash / name, out / name)
 
 
 @contextmanager
@@ -107,14 +128,23 @@ class Staging:
         )
         return self
 
-    def commit(self, names: list[str] | None = None) -> list[Path]:
-        """Move the staged entries ``names`` (default: all) into the output folder."""
+    def commit(self, names: list[str] | None = None, retire: tuple[str, ...] = ()) -> list[Path]:
+        """Move the staged entries ``names`` (default: all) into the output folder, in order.
+
+        Entries ``retire`` of the output folder (a report that the new entries make stale)
+        are moved away first, so that a commit cut short leaves no stale copy of them. If a
+        move fails, the old entries whose replacements did not arrive are put back.
+        """
         assert self.path is not None, "use Staging as a context manager"
         self.out.mkdir(parents=True, exist_ok=True)
         names = sorted(p.name for p in self.path.iterdir()) if names is None else names
         trash = Path(tempfile.mkdtemp(prefix=f".replaced-{os.getpid()}-", dir=self.out))
         moved = []
         try:
+            for name in retire:
+                old = self.out / name
+                if (self.path / name).exists() and (old.exists() or old.is_symlink()):
+                    os.replace(old, trash / f"{_RETIRED}{name}")  # never put back
             for name in names:
                 src, dst = self.path / name, self.out / name
                 if not src.exists():
@@ -123,6 +153,9 @@ class Staging:
                     os.replace(dst, trash / name)
                 os.replace(src, dst)
                 moved.append(dst)
+        except BaseException:
+            _restore(trash, self.out)
+            raise
         finally:
             shutil.rmtree(trash, ignore_errors=True)
         self.committed = True

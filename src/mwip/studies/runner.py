@@ -213,9 +213,11 @@ def run_studies(
         write_text_atomic(stage.path / MARKER, MARKER_TEXT)
         ok = [n for n in names if outcomes[n][1] is not None]
         _stage_report(stage.path, out, ok)
-        # the report is committed with the run record it was made from (Ctrl-C held back)
+        # the old report goes first, the new one last, after the run record it was made
+        # from: at any moment OUT's index.html is absent or matches OUT's run.json (and
+        # Ctrl-C is held back until the commit is done)
         with signals_held():
-            stage.commit([*ok, RUN_RECORD, REPORT, MARKER])
+            stage.commit([*ok, MARKER, RUN_RECORD, REPORT], retire=(REPORT,))
     return record
 
 
