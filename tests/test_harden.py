@@ -460,3 +460,30 @@ def test_arrays_from_params_files_are_not_batches(tmp_path):
     from mwip.params import REAL, stack_params
 
     assert stack_params([REAL, REAL]).batch_shape == (2,)  # batches stay an API feature
+
+
+def test_concurrent_runs_into_one_folder_leave_it_consistent(tmp_path, fake_studies):
+    import threading
+
+    from mwip.studies.runner import run_studies
+
+    out = tmp_path / "out"
+    errors: list[BaseException] = []
+
+    def one(name: str) -> None:
+        try:
+            for _ in range(3):
+                run_studies([name], out, jobs=1)
+        except BaseException as exc:  # pragma: no cover - the failure being tested
+            errors.append(exc)
+
+    threads = [threading.Thread(target=one, args=(n,)) for n in ("good", "other")]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert (out / "index.html").read_text() == render_html(out)
+    assert sorted(p.name for p in out.iterdir()) == [".mwip-output", "good", "index.html",
+                                                     "other", "run.json"]  # fmt: skip
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]

@@ -106,7 +106,7 @@ def test_each_study_reads_its_own_settings(tmp_path):
         doc = _run(tmp_path, "asta-velocity", {"duration": 0.3})
     assert doc["settings"]["K"] == settings.defaults("asta-velocity")["K"]
     assert doc["settings"]["dt"] == 0.0005
-    with settings.using("tsmc-equilibrium", {"phi": 0.1, "dt": 0.002}):
+    with settings.using("tsmc-equilibrium", {"phi": 0.1, "dt": 0.0025}):
         doc = _run(tmp_path, "tsmc-circle", {"duration": 0.3, "Ts_record": 0.01})
     assert doc["settings"]["tsmc"]["switching"] == "sat(s/0.05)"
     assert doc["settings"]["dt"] == 0.001 and doc["settings"]["Ts"] == 0.01

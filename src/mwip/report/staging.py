@@ -72,6 +72,23 @@ def remove_stale(out: Path) -> list[Path]:
     return removed
 
 
+@contextmanager
+def _locked(folder: Path) -> Iterator[None]:
+    """An exclusive advisory lock on ``folder`` itself (no lock file; POSIX only)."""
+    try:
+        import fcntl
+
+        fd = os.open(folder, os.O_RDONLY)
+    except (ImportError, OSError):
+        yield
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
+
+
 _RETIRED = ".retired-"
 
 
@@ -116,6 +133,7 @@ class Staging:
         self.out = Path(out)
         self.path: Path | None = None
         self.committed = False
+        self._held = False
 
     def __enter__(self) -> Staging:
         parent = self.out.resolve().parent
@@ -137,6 +155,25 @@ class Staging:
         """
         assert self.path is not None, "use Staging as a context manager"
         self.out.mkdir(parents=True, exist_ok=True)
+        with self.lock():  # two runs into one OUT commit one after the other
+            return self._commit(names, retire)
+
+    @contextmanager
+    def lock(self) -> Iterator[None]:
+        """Hold OUT's lock in the block (reentrant): what is read from OUT to build the
+        staged run record and report stays true until the commit."""
+        if self._held:
+            yield
+            return
+        with _locked(self.out.absolute().parent):  # OUT itself may not exist yet
+            self._held = True
+            try:
+                yield
+            finally:
+                self._held = False
+
+    def _commit(self, names: list[str] | None, retire: tuple[str, ...]) -> list[Path]:
+        assert self.path is not None
         names = sorted(p.name for p in self.path.iterdir()) if names is None else names
         trash = Path(tempfile.mkdtemp(prefix=f".replaced-{os.getpid()}-", dir=self.out))
         moved = []

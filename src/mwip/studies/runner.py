@@ -196,28 +196,29 @@ def run_studies(
                 _stop_pool(pool)
                 raise
             pool.shutdown()
-        record = load_run_record(out) if len(names) < len(STUDIES) else {}
-        studies = dict(record.get("studies", {}))
-        for name in names:
-            _, doc, error, wall = outcomes[name]
-            studies[name] = {"wall_s": round(wall, 3), "error": error,
-                             "settings": settings_of(name, overrides.get(name))}  # fmt: skip
-        record.update(_environment())
-        record.update({
-            "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
-            "quick": quick, "studies": {n: studies[n] for n in STUDIES if n in studies},
-            "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
-            "damping": damping,
-        })  # fmt: skip
-        write_json_atomic(stage.path / RUN_RECORD, record)
-        write_text_atomic(stage.path / MARKER, MARKER_TEXT)
-        ok = [n for n in names if outcomes[n][1] is not None]
-        _stage_report(stage.path, out, ok)
-        # the old report goes first, the new one last, after the run record it was made
-        # from: at any moment OUT's index.html is absent or matches OUT's run.json (and
-        # Ctrl-C is held back until the commit is done)
-        with signals_held():
-            stage.commit([*ok, MARKER, RUN_RECORD, REPORT], retire=(REPORT,))
+        with stage.lock():  # OUT's record and report are read and replaced as one
+            record = load_run_record(out) if len(names) < len(STUDIES) else {}
+            studies = dict(record.get("studies", {}))
+            for name in names:
+                _, doc, error, wall = outcomes[name]
+                studies[name] = {"wall_s": round(wall, 3), "error": error,
+                                 "settings": settings_of(name, overrides.get(name))}  # fmt: skip
+            record.update(_environment())
+            record.update({
+                "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
+                "quick": quick, "studies": {n: studies[n] for n in STUDIES if n in studies},
+                "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
+                "damping": damping,
+            })  # fmt: skip
+            write_json_atomic(stage.path / RUN_RECORD, record)
+            write_text_atomic(stage.path / MARKER, MARKER_TEXT)
+            ok = [n for n in names if outcomes[n][1] is not None]
+            _stage_report(stage.path, out, ok)
+            # the old report goes first, the new one last, after the run record it was made
+            # from: at any moment OUT's index.html is absent or matches OUT's run.json (and
+            # Ctrl-C is held back until the commit is done)
+            with signals_held():
+                stage.commit([*ok, MARKER, RUN_RECORD, REPORT], retire=(REPORT,))
     return record
 
 
