@@ -41,6 +41,15 @@ def _params(value: str, what: str, base: str | None = None, damping: str = "unit
     return load_params(path, base=book_params(base, damping))
 
 
+class _Path(click.Path):
+    """``click.Path`` that refuses an empty name (``Path("")`` would be the current folder)."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str) and not value.strip():
+            self.fail("the name is empty; give a path", param, ctx)
+        return super().convert(value, param, ctx)
+
+
 _FORCE = click.option(
     "--force",
     is_flag=True,
@@ -152,7 +161,7 @@ def cli() -> None:
 )
 @click.option(
     "--out",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=_Path(file_okay=False, path_type=Path),
     default=None,
     help="Folder for timeseries.csv, timeseries.npz and summary.json.",
 )
@@ -174,7 +183,7 @@ def cli() -> None:
 @click.option(
     "--scenario",
     "scenario_file",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=_Path(dir_okay=False, path_type=Path),
     default=None,
     help="A scenario TOML (see examples/); options given on the command line override it.",
 )
@@ -577,7 +586,7 @@ def params_show(which: str, as_json: bool, damping: str) -> None:
 
 @params.command("save")
 @click.argument("which")
-@click.argument("path", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("path", type=_Path(dir_okay=False, path_type=Path))
 @_DAMPING
 def params_save(which: str, path: Path, damping: str) -> None:
     """Write parameters (real or nominal) to a TOML file to edit for your own robot.
@@ -602,7 +611,7 @@ def list_cmd() -> None:
 
 _OUT = click.option(
     "--out",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=_Path(file_okay=False, path_type=Path),
     default=Path("out"),
     show_default=True,
     help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json.",
@@ -714,7 +723,7 @@ def _run_scenarios(
     "--scenario",
     "scenarios",
     multiple=True,
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=_Path(dir_okay=False, path_type=Path),
     help="A study file (TOML; `mwip scenario STUDY` prints one to copy); repeatable.",
 )
 @_OUT
@@ -802,7 +811,7 @@ def reproduce(
 @click.argument("study")
 @click.option(
     "--out",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=_Path(dir_okay=False, path_type=Path),
     default=None,
     help="Write the study file here (default: print it).",
 )
@@ -830,7 +839,7 @@ def scenario(study: str, out: Path | None) -> None:
 @cli.command()
 @click.option(
     "--out",
-    type=click.Path(file_okay=False, exists=True, path_type=Path),
+    type=_Path(file_okay=False, exists=True, path_type=Path),
     default=Path("out"),
     show_default=True,
     help="Results folder to report on.",

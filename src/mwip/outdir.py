@@ -51,10 +51,14 @@ def check(out: Path | str, force: bool = False, option: str = "--out") -> Path:
             if parent.exists():
                 if not parent.is_dir():
                     raise ValueError(f"{option}: {str(parent)!r} is not a folder")
+                if not os.access(parent, os.W_OK | os.X_OK):
+                    raise ValueError(f"{option}: cannot create a folder in {str(parent)!r}")
                 break
         return path
     if not path.is_dir():
         raise ValueError(f"{option}: {text!r} exists and is not a folder")
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise ValueError(f"{option}: {text!r} is not writable")
     if force or is_owned(path):
         return path
     try:
@@ -73,7 +77,10 @@ def check(out: Path | str, force: bool = False, option: str = "--out") -> Path:
 def claim(out: Path) -> Path:
     """Create ``out`` (if needed) and its marker file; call after :func:`check`."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    if not is_owned(out):
-        write_text_atomic(out / MARKER, MARKER_TEXT)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        if not is_owned(out):
+            write_text_atomic(out / MARKER, MARKER_TEXT)
+    except OSError as exc:
+        raise ValueError(f"--out: cannot write into {str(out)!r}: {exc.strerror or exc}") from None
     return out

@@ -55,14 +55,13 @@ _INITIAL = ("theta", "alpha", "v", "theta_dot", "alpha_dot", "psi", "x", "y")
 def _number(
     table: str, key: str, value: Any, lo: float, hi: float, *, lo_open: bool = True
 ) -> float:
+    allowed = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"[{table}] {key} must be a number, got {value!r}")
+        raise ValueError(f"[{table}] {key} must be a number in {allowed}, got {value!r}")
     x = float(value)
     ok = math.isfinite(x) and (x > lo if lo_open else x >= lo) and x <= hi
     if not ok:
-        raise ValueError(
-            f"[{table}] {key} must be in {'(' if lo_open else '['}{lo:g}, {hi:g}], got {value!r}"
-        )
+        raise ValueError(f"[{table}] {key} must be in {allowed}, got {value!r}")
     return x
 
 
