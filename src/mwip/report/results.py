@@ -125,7 +125,7 @@ def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]
         if doc is not None and not isinstance(doc, dict):
             doc, bad = None, f"a JSON {type(doc).__name__}, not an object"
         if bad is not None:
-            error = f"{path} is unreadable: {bad}"
+            error: str | None = f"{path} is unreadable: {bad}"
         else:
             error = rec.get("error") or (None if doc is not None else "not run")
         figures = tuple(sorted(folder.glob("*.png"))) if folder.is_dir() else ()
