@@ -94,6 +94,19 @@ def load_run_record(out: Path) -> dict[str, Any]:
                                if isinstance(v, dict)}}  # fmt: skip
 
 
+def _shape_problem(doc: Any) -> str | None:
+    """What makes ``doc`` unusable as a metrics document (SPEC.md section 6), if anything."""
+    if not isinstance(doc, dict):
+        return f"a JSON {type(doc).__name__}, not an object"
+    for key in ("metrics", "published", "runs", "settings"):
+        if key in doc and not isinstance(doc[key], dict):
+            return f"'{key}' must be an object, got a {type(doc[key]).__name__}"
+    claims = doc.get("claims", [])
+    if not isinstance(claims, list) or not all(isinstance(c, dict) for c in claims):
+        return "'claims' must be a list of objects"
+    return None
+
+
 def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]:
     """The studies in ``out``, in ``names`` order (default: every registered study that has
     results there or is in the run record).
@@ -122,8 +135,10 @@ def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]
             doc = None
         except (OSError, ValueError, RecursionError) as exc:
             doc, bad = None, " ".join(str(exc).split()) or type(exc).__name__
-        if doc is not None and not isinstance(doc, dict):
-            doc, bad = None, f"a JSON {type(doc).__name__}, not an object"
+        if doc is not None:
+            problem = _shape_problem(doc)
+            if problem is not None:
+                doc, bad = None, problem
         if bad is not None:
             error: str | None = f"{path} is unreadable: {bad}"
         else:
