@@ -405,7 +405,9 @@ def test_simulate_budget_error_names_the_cost():
         simulate(ctrl, REAL, duration=0.01, Ts=1e-5, budget=Budget(max_steps=10))
 
 
-@pytest.mark.parametrize("content", ["{not json", "[1, 2]", "", '"text"'])
+@pytest.mark.parametrize(
+    "content", ["{not json", "[1, 2]", "", '"text"', '{"claims": 3}', '{"metrics": [1]}']
+)
 def test_report_names_a_corrupt_metrics_file(content, tmp_path, capsys, fake_studies):
     out = tmp_path / "out"
     assert main(["reproduce", "--out", str(out), "-j", "1"]) == 0
