@@ -172,7 +172,8 @@ def cli() -> None:
     "--max-steps",
     type=float,
     default=None,
-    help="Refuse runs needing more integration steps than this (default 2e9, mwip.budget).",
+    help="Refuse runs needing more integration steps (or sample periods) than this "
+    "(default 2e9 steps, 2e7 sample periods; mwip.budget).",
 )
 @click.option(
     "--max-memory",
@@ -214,9 +215,12 @@ def simulate(
             raise click.BadParameter(f"must be in [-1000, 1000], got {val!r}", param_hint=name)
     from mwip.budget import DEFAULT, Budget, estimate
 
+    from mwip.sim.engine import DEFAULT_DT
+
+    steps = None if max_steps is None else _in_range("--max-steps", max_steps, 0.0, 1e18)
     budget = Budget(
-        max_steps=DEFAULT.max_steps if max_steps is None
-        else _in_range("--max-steps", max_steps, 0.0, 1e18),
+        max_steps=DEFAULT.max_steps if steps is None else steps,
+        max_samples=DEFAULT.max_samples if steps is None else steps,  # a sample is >= 1 step
         max_bytes=DEFAULT.max_bytes if max_memory is None
         else _in_range("--max-memory", max_memory, 0.0, 1e6) * 2**30,
     )  # fmt: skip
@@ -251,7 +255,7 @@ def simulate(
         if given(opt):
             initial[key] = val
     sc = sc.with_overrides(initial=initial, **changes)
-    cost = estimate(sc.duration, sc.Ts, sc.dt if sc.dt is not None else min(sc.Ts, 5e-4))
+    cost = estimate(sc.duration, sc.Ts, sc.dt if sc.dt is not None else min(sc.Ts, DEFAULT_DT))
     budget.check(cost, "this simulation")
     if cost.steps > 2e7:
         click.echo(f"mwip: {cost.text()}; this may take a while", err=True)
