@@ -214,7 +214,6 @@ def simulate(
         if not (math.isfinite(val) and abs(val) <= 1e3):
             raise click.BadParameter(f"must be in [-1000, 1000], got {val!r}", param_hint=name)
     from mwip.budget import DEFAULT, Budget, estimate
-
     from mwip.sim.engine import DEFAULT_DT
 
     steps = None if max_steps is None else _in_range("--max-steps", max_steps, 0.0, 1e18)
