@@ -212,6 +212,41 @@ def test_ctrl_c_stops_reproduce_at_once(tmp_path, twice):
     assert sorted(p.name for p in tmp_path.iterdir()) == []  # no OUT, no staging folder
 
 
+def test_a_killed_reproduce_leaves_no_workers_and_its_leftovers_go(tmp_path):
+    from mwip.report.staging import remove_stale
+
+    out = tmp_path / "out"
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mwip", "reproduce", "--quick", "--out", str(out), "-j", "2"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, start_new_session=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + 60
+    while not [p for p in tmp_path.iterdir() if ".partial-" in p.name]:
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    time.sleep(1.0)
+    kids = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True)
+    workers = [int(k) for k in kids.stdout.split()]
+    assert workers
+    proc.kill()  # SIGKILL: no clean-up at all
+    proc.wait()
+    deadline = time.monotonic() + 5
+    while [w for w in workers if Path(f"/proc/{w}").exists() and not _zombie(w)]:
+        assert time.monotonic() < deadline, "worker processes outlived their parent"
+        time.sleep(0.1)
+    assert [p for p in tmp_path.iterdir() if ".partial-" in p.name]  # left behind by the kill
+    remove_stale(out)  # what the next run on OUT does first
+    assert list(tmp_path.iterdir()) == []
+
+
+def _zombie(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] == "Z"
+    except OSError:
+        return True
+
+
 # ---- 3. bounded work ----------------------------------------------------------------------------
 @pytest.mark.parametrize(
     "argv",

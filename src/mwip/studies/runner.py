@@ -12,10 +12,12 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
+import os
 import platform
 import queue as queue_module
 import signal
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -80,6 +82,15 @@ def _init_worker(q: Any) -> None:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     RUN_END_HOOKS.append(lambda _res: q.put(_current_study[0]))
+    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+
+
+def _exit_with_parent(parent: int) -> None:
+    """A worker whose parent is gone (killed outright, SIGKILL or SIGTERM) stops too,
+    instead of finishing its study for nobody."""
+    while os.getppid() == parent:
+        time.sleep(0.5)
+    os._exit(1)
 
 
 def _stop_pool(pool: ProcessPoolExecutor) -> None:
