@@ -271,6 +271,18 @@ def test_the_budget_can_be_raised_and_lowered(capsys):
     assert main(["simulate", "--duration", "0.2", "--max-memory", "0.001"]) == 0
 
 
+def test_long_simulations_show_progress_without_a_terminal(monkeypatch, capsys):
+    import mwip.budget as budget
+
+    assert main(["simulate", "--duration", "0.1"]) == 0
+    assert capsys.readouterr().err == ""  # short: quiet
+    monkeypatch.setattr(budget, "SAMPLE_S", 1.0)  # as if each sample took a second
+    assert main(["simulate", "--duration", "0.1"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert "about 20 s" in err[0]
+    assert err[1:] == [f"simulating: {10 * k}% ({2 * k}/20)" for k in range(1, 11)]
+
+
 def test_study_step_settings_are_bounded(tmp_path, capsys):
     study = tmp_path / "s.toml"
     text = (ROOT / "src/mwip/studies/scenarios/lqr-gain.toml").read_text()

@@ -27,6 +27,11 @@ __all__ = ["Budget", "BudgetError", "DEFAULT", "Cost", "estimate"]
 ROW_BYTES = 8 * 10 * 3
 
 
+#: rough speeds for :meth:`Cost.seconds`: kernel steps per second, Python time per sample
+STEPS_PER_S = 1e7
+SAMPLE_S = 2e-5
+
+
 class BudgetError(ValueError):
     """A run would exceed its budget (a ``ValueError``: the input asks for too much)."""
 
@@ -38,6 +43,11 @@ class Cost:
     steps: float
     samples: float
     bytes: float
+
+    def seconds(self) -> float:
+        """A rough wall time on one core: ``steps / 1e7 + samples * 2e-5`` s (the compiled
+        kernel's rate and the per-sample Python work of a simple controller)."""
+        return self.steps / STEPS_PER_S + self.samples * SAMPLE_S
 
     def text(self) -> str:
         return (

@@ -89,10 +89,23 @@ def _in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = 
 
 
 @contextmanager
-def _progress(n: int, label: str) -> Iterator[Callable[[int], None] | None]:
-    """A click progress bar on stderr when it is a terminal; nothing otherwise."""
+def _progress(n: int, label: str, long: bool = False) -> Iterator[Callable[[int], None] | None]:
+    """A click progress bar on stderr when it is a terminal; otherwise, for a ``long`` run,
+    a line at every tenth of the way; nothing for a short one."""
     if not sys.stderr.isatty():
-        yield None
+        if not long:
+            yield None
+            return
+        done = [0, 0]
+
+        def lines(k: int) -> None:
+            done[0] += k
+            tenth = 10 * done[0] // max(n, 1)
+            if tenth > done[1]:
+                done[1] = tenth
+                click.echo(f"{label}: {10 * tenth}% ({done[0]}/{n})", err=True)
+
+        yield lines
         return
     with click.progressbar(length=n, label=label, file=sys.stderr) as bar:
         yield bar.update
@@ -256,10 +269,11 @@ def simulate(
     sc = sc.with_overrides(initial=initial, **changes)
     cost = estimate(sc.duration, sc.Ts, sc.dt if sc.dt is not None else min(sc.Ts, DEFAULT_DT))
     budget.check(cost, "this simulation")
-    if cost.steps > 2e7:
-        click.echo(f"mwip: {cost.text()}; this may take a while", err=True)
+    long = cost.seconds() > 5.0
+    if long:
+        click.echo(f"mwip: {cost.text()}, about {cost.seconds():.0f} s", err=True)
     n = max(int(round(sc.duration / sc.Ts)), 1)
-    with _progress(n, "simulating") as prog:
+    with _progress(n, "simulating", long) as prog:
         res = sc.run(progress=prog, budget=budget)
     mode, Ts = sc.mode, sc.Ts
     summary: dict[str, Any] = dict(res.summary())
