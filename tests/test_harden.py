@@ -409,6 +409,8 @@ def test_check_smc_refuses_empty_lambdas(lambdas, capsys):
 def _api_cases():
     from mwip import NOMINAL, REAL
     from mwip.control import LQR, design_lqr
+    from mwip.control.smc_design import check_smc_design
+    from mwip.linearize import linearize
     from mwip.params import Params
     from mwip.sim import simulate
 
@@ -426,6 +428,8 @@ def _api_cases():
         "Q": lambda: design_lqr(NOMINAL, Q="diag"),
         "'r'": lambda: replace(REAL, r=1e-300),
         "dt": lambda: simulate(ctrl, REAL, duration=1.0, dt=math.inf),
+        "lambdas": lambda: check_smc_design("3,0.2,0.3", NOMINAL, 0.3),
+        "mwip.params.Params": lambda: linearize("real"),
     }
 
 

@@ -29,6 +29,8 @@ def linearize(p: Params) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     Batched parameters give a leading batch axis. Checked against finite differences of
     :func:`mwip.models.reduced.accelerations` in the tests.
     """
+    if not isinstance(p, Params):
+        raise TypeError(f"p must be a mwip.params.Params, got {type(p).__name__}")
     shape = p.batch_shape
     one = np.ones(shape)
     m11, m12, m22, m33 = p.m11 * one, p.m12 * one, p.m22 * one, p.m33 * one
