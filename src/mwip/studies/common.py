@@ -10,7 +10,20 @@ from matplotlib.figure import Figure
 
 from mwip.io import write_atomic, write_json_atomic
 
-__all__ = ["metrics_document", "save_figure", "to_jsonable"]
+__all__ = ["CAUSES", "metrics_document", "save_figure", "to_jsonable", "validate_claim"]
+
+#: Why a book claim does not hold (issue 12; SPEC.md section 3). Every book claim that fails
+#: names one of these as ``"cause"``, with ``"evidence"``: one or two sentences whose numbers
+#: are computed by the study's own runs.
+CAUSES: dict[str, str] = {
+    "implementation": "a limitation or defect of this implementation",
+    "damping-reading": "decided by how the tables' Db, Dw are read (SPEC.md section 2)",
+    "book-inconsistency": "the book's printed numbers contradict the claim (SPEC.md section 3)",
+    "unprinted-setting": "depends on a setting the book does not print",
+    "twin-model": "the digital twin differs from the real robot in what decides it",
+    "claim-definition": "the claim as worded cannot hold for this plant; its reachable form is "
+    "judged beside it",
+}
 
 
 def to_jsonable(x: Any) -> Any:
@@ -39,15 +52,19 @@ def metrics_document(
 ) -> dict[str, Any]:
     """The metrics.json document of SPEC.md section 6.
 
-    A claim is ``{"text": str, "holds": bool}`` and may name the metric keys it is decided
-    on, ``"keys": [...]``; their values are copied into the claim as ``"values"`` so the
-    summary and the report show the deciding numbers. A key that is not in ``metrics`` is a
-    programming error (``KeyError``).
+    A claim is data (:func:`validate_claim`): ``{"id": str, "text": str, "holds": bool,
+    "book": bool}``, plus ``"cause"`` and ``"evidence"`` for a book claim that does not hold,
+    and it may name the metric keys it is decided on, ``"keys": [...]``; their values are
+    copied into the claim as ``"values"`` so the summary and the report show the deciding
+    numbers. A key that is not in ``metrics`` is a programming error (``KeyError``).
     """
     resolved = []
+    seen: set[str] = set()
     for c in claims:
-        c = dict(c)
-        c["holds"] = bool(c["holds"])
+        c = validate_claim(c)
+        if c["id"] in seen:
+            raise ValueError(f"{study}: claim id {c['id']!r} is used twice")
+        seen.add(c["id"])
         keys = c.get("keys")
         if keys:
             missing = [k for k in keys if k not in metrics]
@@ -67,6 +84,38 @@ def metrics_document(
             "settings": settings,
         }
     )
+
+
+def validate_claim(claim: dict[str, Any]) -> dict[str, Any]:
+    """Check one claim's fields and return a normalised copy.
+
+    Required: ``id`` (stable within the study, e.g. ``"order.d1"``: how runs under other
+    settings or readings are matched), ``text``, ``holds``, ``book`` (``True``: the book makes
+    this claim; ``False``: an extra reading of ours). A book claim that does not hold also
+    needs ``cause`` (a key of :data:`CAUSES`) and ``evidence`` (non-empty text with the deciding
+    numbers, computed in the study). Raises ``ValueError`` naming the field.
+    """
+    c = dict(claim)
+    text = c.get("text")
+    if not isinstance(text, str) or not text:
+        raise ValueError(f"claim {claim!r}: 'text' must be a non-empty string")
+    cid = c.get("id")
+    if not isinstance(cid, str) or not cid:
+        raise ValueError(f"claim {text!r}: 'id' must be a non-empty string")
+    if "holds" not in c:
+        raise ValueError(f"claim {cid!r}: 'holds' is missing")
+    c["holds"] = bool(c["holds"])
+    if not isinstance(c.get("book"), bool):
+        raise ValueError(f"claim {cid!r}: 'book' must be true or false")
+    if c["book"] and not c["holds"]:
+        if c.get("cause") not in CAUSES:
+            raise ValueError(
+                f"claim {cid!r}: a failing book claim needs 'cause', one of {', '.join(CAUSES)}"
+                f"; got {c.get('cause')!r}"
+            )
+        if not isinstance(c.get("evidence"), str) or not c["evidence"].strip():
+            raise ValueError(f"claim {cid!r}: a failing book claim needs non-empty 'evidence'")
+    return c
 
 
 def write_metrics(folder: Path, doc: dict[str, Any]) -> Path:
