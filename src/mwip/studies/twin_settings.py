@@ -17,8 +17,9 @@ from mwip.hardware.encoder import EncoderSpec
 from mwip.hardware.imu import FusionSpec, ImuNoise
 from mwip.hardware.motor import DriveSpec
 from mwip.hardware.twin import Twin
+from mwip.params import Params
 
-__all__ = ["TWIN_KEYS", "twin_doc", "twin_from"]
+__all__ = ["TWIN_KEYS", "robot_label", "twin_doc", "twin_from"]
 
 #: The settings every twin study carries (besides ``Ts``) and :func:`twin_from` reads.
 TWIN_KEYS = (
@@ -64,4 +65,13 @@ def twin_doc(cfg: Mapping[str, Any]) -> str:
         f"encoders {cfg['encoder_cpr']} cpr, RE25 + {cfg['gear_ratio']:g}:1, 24 V, "
         f"{cfg['current_limit']:g} A, {cfg['pwm_levels']} PWM levels, plant step "
         f"{cfg['dt'] * 1e3:g} ms"
+    )
+
+
+def robot_label(plant: Params) -> str:
+    """The robot that ran, for figure titles: mass, wheel radius and the damping
+    coefficients as the equations use them (whatever reading or file produced them)."""
+    return (
+        f"plant mb {float(plant.mb):g} kg, r {float(plant.r):g} m, "
+        f"Db {float(plant.Db):.3g}, Dw {float(plant.Dw):.3g} N m s/rad"
     )
