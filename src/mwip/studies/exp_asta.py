@@ -121,11 +121,13 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
                 a = metrics[f"{pre}asta.case{case}.{q}"]
                 b = metrics[f"{pre}asmc.case{case}.{q}"]
                 holds = bool(np.isfinite(a) and np.isfinite(b) and a < b)
-                c = {"id": f"{pre}order.{q}.case{case}",
-                     "text": f"ASTA < ASMC in {q}, Case {case} (Table 6.{6 + case})"
-                             f"{label}",
-                     "holds": holds, "book": book,
-                     "keys": [f"{pre}asta.case{case}.{q}", f"{pre}asmc.case{case}.{q}"]}
+                c = {
+                    "id": f"{pre}order.{q}.case{case}",
+                    "text": f"ASTA < ASMC in {q}, Case {case} (Table 6.{6 + case}){label}",
+                    "holds": holds,
+                    "book": book,
+                    "keys": [f"{pre}asta.case{case}.{q}", f"{pre}asmc.case{case}.{q}"],
+                }
                 if book and not holds:
                     c["cause"], c["evidence"] = _why(runs, metrics, cfg, case, q)
                 claims.append(c)  # fmt: skip
@@ -172,8 +174,11 @@ def _why(
     q: str,
 ) -> tuple[str, str]:  # fmt: skip
     """Cause and evidence of a failing book claim of Case ``case`` on quantity ``q``."""
-    vals = "" if q == "t_end" else (
-        f"ASTA {m[f'asta.case{case}.{q}']:.4g}, ASMC {m[f'asmc.case{case}.{q}']:.4g}; ")
+    vals = (
+        ""
+        if q == "t_end"
+        else (f"ASTA {m[f'asta.case{case}.{q}']:.4g}, ASMC {m[f'asmc.case{case}.{q}']:.4g}; ")
+    )
     ideal = any(f"ideal.{k}.case{case}" in runs for k in KINDS)
     fallen = any(runs[f"{k}.case{case}"].status[0] != "ok" for k in KINDS)
     if fallen and case == 2:

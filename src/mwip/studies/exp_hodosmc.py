@@ -172,7 +172,7 @@ def accelerometer_evidence(res: SimResult) -> str:
 
 
 def _fell_text(runs: Mapping[str, SimResult], names: Mapping[str, str]) -> str:
-    """"SMC fell at 0.54 s, DO4SMC at 0.70 s" for the runs ``names`` (label -> run key)."""
+    """The fall times of the runs ``names`` (label -> run key): "SMC at 0.54 s, ..."."""
     parts = [f"{lab} at {float(runs[n].t_end[0]):.2f} s" for lab, n in names.items()
              if n in runs and runs[n].status[0] != "ok"]  # fmt: skip
     return "fell: " + ", ".join(parts) if parts else "none fell"
@@ -313,8 +313,10 @@ class _Evidence:
             return cause, f"{vals}; {text}"
         sweep = self.sweep(q, case_key)
         if sweep is not None:
-            return "unprinted-setting", f"{vals} (DO1SMC observer gain L = " \
-                f"{self.cfg['do1_gain']:g}); {sweep}"
+            return (
+                "unprinted-setting",
+                f"{vals} (DO1SMC observer gain L = {self.cfg['do1_gain']:g}); {sweep}",
+            )
         return "implementation", f"{vals}: all up, the ordering differs (not explained)"
 
     def sweep(self, q: str, case_key: str) -> str | None:
@@ -328,8 +330,10 @@ class _Evidence:
         vals = [self.m[k] for k in keys]
         if not any(_ordered([v4, v, vs]) for v in vals):
             return None
-        return (f"with L = {lo:g} DO1SMC gives {vals[0]:.4g}, with L = {hi:g} {vals[1]:.4g}: "
-                f"the unprinted first-order observer gain decides DO1SMC against DO4SMC")
+        return (
+            f"with L = {lo:g} DO1SMC gives {vals[0]:.4g}, with L = {hi:g} {vals[1]:.4g}: "
+            f"the unprinted first-order observer gain decides DO1SMC against DO4SMC"
+        )
 
 
 def _do1_range(study: str) -> tuple[float, float]:
@@ -511,9 +515,16 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
             why = None
             if book and not settled:
                 fallen = ev.fallen(pre, tag)
-                why = ev.payload(tag) if fallen else (
-                    "implementation", "all up; never in (-9, -5) rad/s after the stick: "
-                    + _values_text(metrics, fmt) + " (not explained)")
+                why = (
+                    ev.payload(tag)
+                    if fallen
+                    else (
+                        "implementation",
+                        "all up; never in (-9, -5) rad/s after the stick: "
+                        + _values_text(metrics, fmt)
+                        + " (not explained)",
+                    )
+                )
             claims.append(_claim(
                 f"{pre}settle.{tag or 'case3.'}".rstrip("."),
                 f"all three cross the stick and settle in (-9, -5) rad/s, {what}{label}",
@@ -536,8 +547,13 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
 
 def _stick_doc(cfg: Mapping[str, Any]) -> dict[str, float]:
     p = case_plant(2, base=robot.plant())
-    s = StickObstacle(height=cfg["stick_height"], start=cfg["stick_start"],
-                      speed=cfg["stick_speed"], mass=float(p.mb + 2.0 * p.mw), r=float(p.r))
+    s = StickObstacle(
+        height=cfg["stick_height"],
+        start=cfg["stick_start"],
+        speed=cfg["stick_speed"],
+        mass=float(p.mb + 2.0 * p.mw),
+        r=float(p.r),
+    )
     return {"height": s.height, "start": s.start, "duration_each": s.duration,
             "torque": s.torque, "mass": s.mass}  # fmt: skip
 

@@ -51,8 +51,11 @@ def twin_from(cfg: Mapping[str, Any], *, ideal: bool = False) -> Twin:
         imu=imu,
         fusion=FusionSpec(kind="complementary", tau=cfg["fusion_tau"]),
         encoder=EncoderSpec(cpr=cfg["encoder_cpr"], gear_ratio=cfg["gear_ratio"]),
-        drive=DriveSpec(gear_ratio=cfg["gear_ratio"], current_limit=cfg["current_limit"],
-                        pwm_levels=cfg["pwm_levels"]),  # fmt: skip
+        drive=DriveSpec(
+            gear_ratio=cfg["gear_ratio"],
+            current_limit=cfg["current_limit"],
+            pwm_levels=cfg["pwm_levels"],
+        ),  # fmt: skip
         Ts=cfg["Ts"],
         dt=cfg["dt"],
     )
