@@ -193,13 +193,19 @@ def _why(
             text += f"; with ideal sensors and actuator {_fell(runs, 'ideal.', case)}"
         return "twin-model", text
     iv = [m.get(f"ideal.{k}.case{case}.{q}", float("nan")) for k in ("asta", "asmc")]
-    text = (f"{vals}both balance with RMS pitch {m[f'asta.case{case}.rms_theta']:.2g} and "
-            f"{m[f'asmc.case{case}.rms_theta']:.2g} rad, against the book's "
-            f"{PUBLISHED[f'asta.case{case}.rms_theta']:g} and "
-            f"{PUBLISHED[f'asmc.case{case}.rms_theta']:g}: the twin is far quieter than the "
-            f"robot, so the comparison rests on the twin's sensing noise")  # fmt: skip
+    peak = []
+    for k in ("asta", "asmc"):
+        res = runs[f"{k}.case{case}"]
+        peak.append(float(np.max(np.abs(res.theta[res.t >= 2.0]))))
+    text = (f"{vals}both balance; after 2 s the pitch stays within {peak[0]:.2g} (ASTA) and "
+            f"{peak[1]:.2g} rad (ASMC), below the book's RMS values "
+            f"({PUBLISHED[f'asta.case{case}.rms_theta']:g}, "
+            f"{PUBLISHED[f'asmc.case{case}.rms_theta']:g}): the twin lacks the robot's "
+            f"persistent wobble that Table 6.{6 + case} measures, and what remains is its "
+            f"sensing noise")  # fmt: skip
     if ideal:
-        text += f"; with ideal sensors and actuator ASTA {iv[0]:.2g}, ASMC {iv[1]:.2g}"
+        text += (f"; noise-free (ideal sensors and actuator) both settle further, ASTA "
+                 f"{iv[0]:.2g}, ASMC {iv[1]:.2g} in {q}")  # fmt: skip
     return "twin-model", text
 
 

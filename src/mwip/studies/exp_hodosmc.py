@@ -310,7 +310,8 @@ class _Evidence:
             return cause, f"{vals}; {text}"
         if fallen:
             cause, text = self.sensors(fallen[0], tag)
-            return cause, f"{vals}; {text}"
+            pair = self.sweep(q, case_key, pair=True)
+            return cause, f"{vals}; {text}" + (f"; besides, {pair}" if pair else "")
         sweep = self.sweep(q, case_key)
         if sweep is not None:
             return (
@@ -319,16 +320,21 @@ class _Evidence:
             )
         return "implementation", f"{vals}: all up, the ordering differs (not explained)"
 
-    def sweep(self, q: str, case_key: str) -> str | None:
+    def sweep(self, q: str, case_key: str, *, pair: bool = False) -> str | None:
         """The DO1SMC values at the ends of the ``do1_gain`` range when one of them puts the
-        three in the book's order (``None`` otherwise)."""
+        three in the book's order (``pair``: puts DO4SMC below DO1SMC, whatever SMC did);
+        ``None`` otherwise."""
         lo, hi = _do1_range(self.study)
         keys = [f"sweep.do1smc_L{g:g}.{case_key}.{q}" for g in (lo, hi)]
         if not all(k in self.m for k in keys):
             return None
         v4, _, vs = _order_values(self.m, "{k}." + f"{case_key}.{q}")
         vals = [self.m[k] for k in keys]
-        if not any(_ordered([v4, v, vs]) for v in vals):
+        if pair:
+            flips = any(np.isfinite(v4) and np.isfinite(v) and v4 < v for v in vals)
+        else:
+            flips = any(_ordered([v4, v, vs]) for v in vals)
+        if not flips:
             return None
         return (
             f"with L = {lo:g} DO1SMC gives {vals[0]:.4g}, with L = {hi:g} {vals[1]:.4g}: "
