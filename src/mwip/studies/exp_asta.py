@@ -191,12 +191,20 @@ def _why(
         text = f"{vals}on the twin {_fell(runs, '', case)}"
         if ideal:
             text += f"; with ideal sensors and actuator {_fell(runs, 'ideal.', case)}"
+            if any(runs[f"ideal.{k}.case{case}"].status[0] != "ok" for k in KINDS):
+                return "implementation", text + " (not explained)"
         return "twin-model", text
     iv = [m.get(f"ideal.{k}.case{case}.{q}", float("nan")) for k in ("asta", "asmc")]
     peak = []
     for k in ("asta", "asmc"):
         res = runs[f"{k}.case{case}"]
         peak.append(float(np.max(np.abs(res.theta[res.t >= 2.0]))))
+    book = min(PUBLISHED[f"asta.case{case}.rms_theta"], PUBLISHED[f"asmc.case{case}.rms_theta"])
+    if max(peak) >= book:
+        return "implementation", (
+            f"{vals}both up; after 2 s the pitch reaches {peak[0]:.2g} (ASTA) and {peak[1]:.2g} "
+            f"rad (ASMC) (not explained)"
+        )
     text = (f"{vals}both balance; after 2 s the pitch stays within {peak[0]:.2g} (ASTA) and "
             f"{peak[1]:.2g} rad (ASMC), below the book's RMS values "
             f"({PUBLISHED[f'asta.case{case}.rms_theta']:g}, "

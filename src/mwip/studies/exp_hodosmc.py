@@ -52,7 +52,7 @@ from mwip.hardware.obstacle import StickObstacle
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
 from mwip.models.reduced import f_g
-from mwip.params import Params
+from mwip.params import Params, steady_speed_cap
 from mwip.sim import SimResult
 from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
@@ -301,10 +301,28 @@ class _Evidence:
                 return "implementation", text + " (not explained)"
         return "twin-model", text
 
+    def speed_cap(self, case: int) -> tuple[str, str] | None:
+        """When the set speed exceeds the plant's steady-speed cap ``Gb / (2 Dw)`` (steady
+        rolling needs ``Gb sin(theta) = 2 Dw psi'``, :func:`mwip.params.steady_speed_cap`),
+        no controller can reach it: the damping decides (``None`` when it is reachable)."""
+        target = float(self.cfg["speed"])
+        plant = case_plant(2 if case in (2, 3) else 1, base=robot.plant())
+        cap = float(steady_speed_cap(plant))
+        if target == 0.0 or abs(target) <= cap:
+            return None
+        text = (
+            f"the set speed {target:g} rad/s exceeds the plant's steady-speed cap "
+            f"Gb / (2 Dw) = {cap:.3g} rad/s (Dw = {float(plant.Dw):.3g} N m s/rad)"
+        )
+        return "damping-reading", text
+
     def order(self, fmt: str, tag: str, case_key: str, q: str) -> tuple[str, str]:
         """A failing ordering DO4SMC < DO1SMC < SMC of quantity ``q``."""
         fallen = self.fallen("", tag)
         vals = _values_text(self.m, fmt)
+        capped = self.speed_cap(int(case_key[-1])) if q != "rms_theta" else None
+        if capped is not None:
+            return capped[0], f"{vals}; {capped[1]}"
         if fallen and case_key in ("case2", "case3"):
             cause, text = self.payload(tag)
             return cause, f"{vals}; {text}"
@@ -421,7 +439,7 @@ def _rms_experiment(
                     f"all three move at {q1d_dot:g} rad/s (mean over the last {TRACK_WINDOW:g}"
                     f" s within {TRACK_TOL:.0%}), Case {case}{label}", track, book,
                     [f"{pre}{k}.{ck}.final_speed" for k in KINDS],
-                    None if track or not book else (why if why is not None else (
+                    None if track or not book else (ev.speed_cap(case) or why or (
                         "implementation",
                         "mean speeds " + ", ".join(f"{LABEL[k]} {v:.3g}" for k, v in
                                                    zip(KINDS, finals, strict=True))
@@ -521,7 +539,7 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
             why = None
             if book and not settled:
                 fallen = ev.fallen(pre, tag)
-                why = (
+                why = ev.speed_cap(3) or (
                     ev.payload(tag)
                     if fallen
                     else (
