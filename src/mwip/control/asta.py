@@ -54,7 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 from mwip.control._asta_kernel import asta_terms
 from mwip.models.reduced import coefficients, f_g
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
+from mwip.core import Measurement
 
 __all__ = [
     "check_constraints",

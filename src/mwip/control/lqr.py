@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mwip.linearize import linearize
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
+from mwip.core import Measurement
 
 __all__ = [
     "BOOK_Q", "BOOK_R", "lqr", "dlqr", "zoh", "LQRDesign", "design_lqr", "LQR",

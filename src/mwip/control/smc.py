@@ -40,7 +40,7 @@ from mwip.control._smc_kernel import smc_step
 from mwip.control.switching import Switching
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
+from mwip.core import Measurement
 
 __all__ = [
     "SMCGains",

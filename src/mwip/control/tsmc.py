@@ -54,7 +54,7 @@ from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.switching import Switching
 from mwip.models.reduced import coefficients, f_g
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
+from mwip.core import Measurement
 
 __all__ = [
     "model_2_31",

@@ -35,7 +35,7 @@ from mwip.fuzzy.pdc import PDCBalance, PDCDesign
 from mwip.fuzzy.reducers import bmm, weighted_average
 from mwip.fuzzy.sets import LABELS7, UniformPartition, firing_grid
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
+from mwip.core import Measurement
 
 __all__ = [
     "RuleBase",
