@@ -52,9 +52,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.control._asta_kernel import asta_terms
+from mwip.core import Measurement
 from mwip.models.reduced import coefficients, f_g
 from mwip.params import NOMINAL, Params
-from mwip.core import Measurement
 
 __all__ = [
     "check_constraints",

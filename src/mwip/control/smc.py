@@ -38,9 +38,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from mwip.control._smc_kernel import smc_step
 from mwip.control.switching import Switching
+from mwip.core import Measurement
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
-from mwip.core import Measurement
 
 __all__ = [
     "SMCGains",

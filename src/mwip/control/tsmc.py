@@ -52,9 +52,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.switching import Switching
+from mwip.core import Measurement
 from mwip.models.reduced import coefficients, f_g
 from mwip.params import NOMINAL, Params
-from mwip.core import Measurement
 
 __all__ = [
     "model_2_31",

@@ -41,9 +41,9 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.core import Measurement
 from mwip.fuzzy.ts_model import Reading, TSModel, first_weight, vertex_matrices
 from mwip.params import NOMINAL, Params
-from mwip.core import Measurement
 
 __all__ = [
     "PDCInfeasibleError",

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.core import Controller, Measurement
 from mwip.hardware.encoder import EncoderSpec, count, counts_to_angle
 from mwip.hardware.imu import FusionSpec, Imu, ImuNoise, TiltFilter, tilt_arctan
 from mwip.hardware.motor import RE25, DriveActuator, DriveSpec, MotorData
@@ -36,7 +37,6 @@ from mwip.params import REAL, Params
 from mwip.sim.disturbance import Disturbance, Sum
 from mwip.sim.engine import simulate
 from mwip.sim.result import SimResult
-from mwip.core import Controller, Measurement
 
 __all__ = ["Twin", "TwinSensor", "DriveActuator", "case_plant", "run_on_twin", "CASES"]
 

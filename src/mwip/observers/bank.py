@@ -11,6 +11,7 @@ disturbance (2.36) of a running robot.
 from __future__ import annotations
 
 from collections.abc import Mapping
+
 import numpy as np
 from numpy.typing import NDArray
 
