@@ -36,8 +36,8 @@ Example (``examples/balance.toml``)::
     phase = [1.5708, 0.0, 0.0]
 
 Without a ``[controller]`` table the controller runs with the book's settings
-(:mod:`mwip.control.registry`). Unknown tables or keys are errors (a typo must not be silently ignored); every error is a
-one-line ``ValueError`` naming the field.
+(:mod:`mwip.control.registry`). Unknown tables or keys are errors (a typo must not be
+silently ignored); every error is a one-line ``ValueError`` naming the field.
 """
 
 from __future__ import annotations
