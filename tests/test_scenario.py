@@ -41,7 +41,7 @@ def test_scenario_matches_direct_simulation():
     [
         ("[scenario]\nduration = -1\n", "[scenario] duration"),
         ("[scenario]\ncontroler = 'lqr'\n", "unknown key 'controler'"),
-        ("[scenario]\ncontroller = 'pid'\n", "controller must be one of"),
+        ("[scenario]\ncontroller = 'pid'\n", "unknown controller 'pid'; choose from: lqr"),
         ("[plant]\nmb = 0\n", "[plant] parameter 'mb'"),
         ("[plant]\nmass = 2\n", "[plant] unknown parameter 'mass'"),
         ("[initial]\ntheta = 2.0\n", "[initial] theta"),

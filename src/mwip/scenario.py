@@ -116,7 +116,11 @@ class Scenario:
 
     def __post_init__(self) -> None:
         try:
-            _get_controller(self.controller).resolve(self.settings)
+            spec = _get_controller(self.controller)
+        except ValueError as exc:
+            raise ValueError(f"[scenario] {exc}") from None
+        try:
+            spec.resolve(self.settings)
         except ValueError as exc:
             raise ValueError(f"[controller] {exc}") from None
         if not isinstance(self.twin, bool):

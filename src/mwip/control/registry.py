@@ -101,15 +101,15 @@ class Setting:
             return ValueError(f"{who}setting {self.name!r} must be {self.allowed()}, "
                               f"got {value!r}")  # fmt: skip
 
-        if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
-            if self.optional:
-                return None
-            raise bad()
         if self.choices:
             word = str(value).strip()
             if word not in self.choices:
                 raise bad()
             return word
+        if value is None or (isinstance(value, str) and value.strip().lower() == "none"):
+            if self.optional:
+                return None
+            raise bad()
         items: list[Any]
         if isinstance(value, str):
             items = [v for v in value.replace(" ", "").strip("[]()").split(",") if v != ""]
