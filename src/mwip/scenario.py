@@ -46,7 +46,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from mwip.control.registry import CONTROLLERS as _REGISTRY
 from mwip.control.registry import get as _get_controller
@@ -105,7 +105,7 @@ class Scenario:
     duration: float = 10.0
     Ts: float = 0.005
     dt: float | None = None
-    mode: str = "sampled"
+    mode: Literal["sampled", "continuous"] = "sampled"
     plant: Params = REAL
     design: Params = NOMINAL
     initial: Mapping[str, float] = field(default_factory=dict)

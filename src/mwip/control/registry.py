@@ -226,17 +226,13 @@ def _need_period(name: str, Ts: float | None) -> float:
 # ---------------------------------------------------------------------------------------------
 # the book's controllers
 # ---------------------------------------------------------------------------------------------
-_POS = {"lo": 0.0, "lo_open": True}
-_NONNEG = {"lo": 0.0}
-
-
 def _lqr_settings(with_design: bool) -> tuple[Setting, ...]:
-    out = (
+    out: tuple[Setting, ...] = (
         Setting("Q_diag", (1000.0, 100.0, 100.0, 100.0, 1000.0),
                 "state weights on [theta, alpha, theta', v, alpha'] (Sec. 4.4.2)",
-                size=5, **_NONNEG),
+                size=5, lo=0.0),
         Setting("R_diag", (0.01, 0.01), "input weights on [u_r, u_l] (Sec. 4.4.2)", size=2,
-                **_POS),
+                lo=0.0, lo_open=True),
         Setting("v_d", 0.0, "speed reference (m/s) of x_ref = [0, 0, 0, v_d, 0] (ours)",
                 lo=-10.0, hi=10.0),
     )  # fmt: skip
@@ -280,26 +276,27 @@ _SMC_K = {"smc": (25.0, 21.0), "do1smc": (17.3, 14.0), "hodosmc": (6.3, 4.0)}
 
 
 def _smc_settings(kind: str) -> tuple[Setting, ...]:
-    out = (
+    out: tuple[Setting, ...] = (
         Setting("lambdas", (3.0, 0.01, 0.1, 3.0),
-                "sliding-surface coefficients l1..l4 of (3.49) (Table 6.3)", size=4, **_POS),
+                "sliding-surface coefficients l1..l4 of (3.49) (Table 6.3)", size=4, lo=0.0,
+                lo_open=True),
         Setting("K", _SMC_K[kind], f"switching gains K1, K2 of (3.50), rad/s^2 (Table 6.3, "
-                f"{kind})", size=2, **_NONNEG),
+                f"{kind})", size=2, lo=0.0),
         Setting("switching", "sat", "sat(s/phi) (the robot, Sec. 6.2.1) or sign (Sec. 3.5)",
                 choices=("sat", "sign")),
         Setting("phi", 0.05, "boundary layer of sat (ours: the book prints no width)",
-                **_POS),
+                lo=0.0, lo_open=True),
         Setting("psi_dot_d", 0.0, "wheel-speed target q1d' (rad/s) of (3.49)", lo=-100.0,
                 hi=100.0),
         Setting("alpha_d", 0.0, "yaw target q3d (rad) of (3.49)", lo=-100.0, hi=100.0),
     )  # fmt: skip
     if kind == "do1smc":
         out += (Setting("L", 50.0, "first-order observer gain L I3 (1/s; ours: the book "
-                        "prints none, docs/smc.md)", **_POS),)  # fmt: skip
+                        "prints none, docs/smc.md)", lo=0.0, lo_open=True),)  # fmt: skip
     if kind == "hodosmc":
         out += (Setting("v", (22.9778, 357.2853, 1831.5, 5737.7),
                         "4th-order observer gains L_i = v_i I3 (Sec. 3.6.1)", size=4,
-                        **_POS),)  # fmt: skip
+                        lo=0.0, lo_open=True),)  # fmt: skip
     return out
 
 
@@ -341,14 +338,14 @@ for _kind in ("smc", "do1smc", "hodosmc"):
 def _asta_settings() -> tuple[Setting, ...]:
     return (
         Setting("lam", (10.0, 0.3, 3.0), "surface (4.1) lambda_1..3, constraints (4.2) "
-                "((6.1)-(6.2))", size=3, **_POS),
+                "((6.1)-(6.2))", size=3, lo=0.0, lo_open=True),
         Setting("K", (10.0, 10.0), "super-twisting gains K1, K2 of (4.3) ((6.1)-(6.2))",
-                size=2, **_POS),
+                size=2, lo=0.0, lo_open=True),
         Setting("rate", (5.0, 5.0), "adaptation rates 1/partial_i of (4.5), the book's "
-                "Gamma_1,2 ((6.1)-(6.2))", size=2, **_NONNEG),
+                "Gamma_1,2 ((6.1)-(6.2))", size=2, lo=0.0),
         Setting("Gamma0", (0.0, 0.0), "initial adaptive gains Gamma(0) (Remark 4.1)", size=2,
-                **_NONNEG),
-        Setting("eps", 0.01, "boundary layer of the adaptive law (4.5) (ours)", **_NONNEG),
+                lo=0.0),
+        Setting("eps", 0.01, "boundary layer of the adaptive law (4.5) (ours)", lo=0.0),
         Setting("psi_dot_d", 0.0, "wheel-speed target (rad/s) of (4.1)", lo=-100.0, hi=100.0),
         Setting("theta_d", 0.0, "pitch target (rad) of (4.1)", lo=-0.5, hi=0.5),
         Setting("alpha_d", 0.0, "yaw target (rad) of (4.1)", lo=-100.0, hi=100.0),
@@ -394,15 +391,16 @@ register(ControllerSpec(
     "Sec. 4.3, Sec. 4.4.2",
     (
         Setting("C", (2.5, 2.5), "surface slopes C = diag(c1, c2) (Sec. 4.4.2)", size=2,
-                **_POS),
-        Setting("Gamma", (10.0, 10.0), "reaching margins (Sec. 4.4.2)", size=2, **_POS),
+                lo=0.0, lo_open=True),
+        Setting("Gamma", (10.0, 10.0), "reaching margins (Sec. 4.4.2)", size=2, lo=0.0,
+                lo_open=True),
         Setting("D", 0.4, "input-gain uncertainty bound D = d I, ||D|| < 1 (4.29), "
                 "(Sec. 4.4.2)", lo=0.0, hi=1.0, hi_open=True),
-        Setting("Ftilde_ratio", 0.8, "F~ = ratio |F^| (4.28) (Sec. 4.4.2)", **_NONNEG),
-        Setting("Tf", 1.0, "convergence time T_f of (4.43), s (Sec. 4.4.2)", **_POS),
+        Setting("Ftilde_ratio", 0.8, "F~ = ratio |F^| (4.28) (Sec. 4.4.2)", lo=0.0),
+        Setting("Tf", 1.0, "convergence time T_f of (4.43), s (Sec. 4.4.2)", lo=0.0, lo_open=True),
         Setting("switching", "sat", "sat(s/phi) (Sec. 4.4.2) or sign",
                 choices=("sat", "sign")),
-        Setting("phi", 0.05, "boundary layer of sat (ours)", **_POS),
+        Setting("phi", 0.05, "boundary layer of sat (ours)", lo=0.0, lo_open=True),
         Setting("theta_d", 0.0, "pitch target theta* (rad)", lo=-0.5, hi=0.5),
         Setting("alpha_d", 0.0, "yaw target alpha*(0) (rad)", lo=-100.0, hi=100.0),
         Setting("alpha_dot_d", 0.0, "yaw-rate target alpha'* (rad/s): alpha*(t) ramps",
@@ -435,8 +433,8 @@ def _fuzzy_factory(kind: str) -> Factory:
 def _fuzzy_settings() -> tuple[Setting, ...]:
     return (
         Setting("epsilon", 0.2, "radius of Lemma 5.2's ball ||x0|| <= epsilon (rad; Sec. 5.4)",
-                **_POS),
-        Setting("rho", 20.0, "input bound of Lemma 5.2 (N m; Sec. 5.4)", **_POS),
+                lo=0.0, lo_open=True),
+        Setting("rho", 20.0, "input bound of Lemma 5.2 (N m; Sec. 5.4)", lo=0.0, lo_open=True),
         Setting("uncertainty", 0.0, "0: Lemma 5.1/5.2 on the nominal TS model (the book); "
                 "u > 0: also on r, mb, l scaled by 1 +- u (ours, docs/fuzzy.md)",
                 lo=0.0, hi=1.0, hi_open=True),
