@@ -247,9 +247,10 @@ def check_design(d: PDCDesign) -> dict[str, float]:
                                for j in range(2)))  # fmt: skip
     if d.epsilon is not None and d.rho is not None:
         out["eps_ball"] = float(d.epsilon**2 - np.linalg.eigvalsh(d.Q)[0])
-        out["input"] = float(max(
-            float(np.linalg.eigvalsh(np.outer(g, g) - d.rho**2 * d.P)[-1]) for g in d.G
-        ) / (d.rho**2 * scale))
+        out["input"] = float(
+            max(float(np.linalg.eigvalsh(np.outer(g, g) - d.rho**2 * d.P)[-1]) for g in d.G)
+            / (d.rho**2 * scale)
+        )
     return out
 
 

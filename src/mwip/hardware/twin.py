@@ -156,9 +156,7 @@ class TwinSensor:
 class _Logged:
     """Forwards a controller unchanged and adds the twin's readings to its logs."""
 
-    def __init__(
-        self, controller: Controller, sensor: TwinSensor, actuator: DriveActuator
-    ) -> None:
+    def __init__(self, controller: Controller, sensor: TwinSensor, actuator: DriveActuator) -> None:
         self._c = controller
         self._sensor = sensor
         self._act = actuator
