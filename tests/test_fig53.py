@@ -52,6 +52,7 @@ def test_rows_equal_the_single_robot_controller():
     designs = [_Design(r[0]) for r in ROWS]
     ctrl = Fig53Controller(designs, [r[1] for r in ROWS], [r[2] for r in ROWS],
                            [r[3] for r in ROWS], params=NOMINAL)  # fmt: skip
+    assert all(v is not None for v in ctrl._scale.values())  # the merged FLS call is used
     u = ctrl(0.3, meas)
     for i, (G, kind, pd, ad) in enumerate(ROWS):
         ref = FuzzyMWIPController(G, kind=kind, p_d=pd, alpha_d=ad, params=NOMINAL)
