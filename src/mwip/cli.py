@@ -245,7 +245,7 @@ def simulate(
     try:
         sc = sc.with_overrides(initial=initial, **changes)
     except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="--scenario/options") from None
+        raise click.UsageError(str(exc)) from None
     n = max(int(round(sc.duration / sc.Ts)), 1)
     with _progress(n, "simulating") as prog:
         res = sc.run(progress=prog)

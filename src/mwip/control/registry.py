@@ -218,7 +218,7 @@ def _need_period(name: str, Ts: float | None) -> float:
     if Ts is None:
         raise ValueError(
             f"controller {name!r} has internal state and needs a sample period "
-            "(mode 'continuous' runs static laws only: lqr, tsmc, it2, t1)"
+            "(mode 'continuous' runs static laws only: lqr, smc, tsmc, it2, t1)"
         )
     return Ts
 
