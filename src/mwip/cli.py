@@ -19,6 +19,7 @@ import click
 import numpy as np
 
 from mwip.cli_controllers import controllers as _controllers_cmd
+from mwip.control.registry import ControllerSpec
 from mwip.params import DAMPING_READINGS, Params, book_params, load_params
 
 __all__ = ["main", "cli", "entry"]
@@ -284,7 +285,7 @@ def simulate(
         sys.exit(1)
 
 
-def _get_spec(name: str) -> Any:
+def _get_spec(name: str) -> ControllerSpec:
     from mwip.control.registry import get
 
     return get(name)
