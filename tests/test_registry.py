@@ -146,3 +146,20 @@ def test_scenario_names_controller_and_settings(tmp_path):
     path.write_text('[scenario]\ncontroller = "smc"\n[controller]\nK = [20.0]\n')
     with pytest.raises(ValueError, match=r"^\[controller\] controller 'smc': setting 'K'"):
         load_scenario(path)
+
+
+def test_params_is_the_simulated_robot_everywhere_plant_an_alias(tmp_path, capsys):
+    """`--params` names the simulated robot in simulate as in run/reproduce; `--plant` (and
+    `--design-params` for `--nominal`) still work and mean the same."""
+    outs = []
+    for flags in (["--params", "nominal", "--nominal", "real"],
+                  ["--plant", "nominal", "--design-params", "real"]):  # fmt: skip
+        out = tmp_path / flags[0].strip("-")
+        assert main(["simulate", "--controller", "smc", *flags, "--theta0", "0.05",
+                     "--duration", "1", "--out", str(out)]) == 0  # fmt: skip
+        outs.append(np.load(out / "timeseries.npz")["states"])
+    assert np.array_equal(outs[0], outs[1])
+    default = tmp_path / "default"
+    main(["simulate", "--controller", "smc", "--theta0", "0.05", "--duration", "1",
+          "--out", str(default)])  # fmt: skip
+    assert not np.array_equal(np.load(default / "timeseries.npz")["states"], outs[0])

@@ -31,14 +31,13 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.control._smc_kernel import smc_step
 from mwip.control.switching import Switching
-from mwip.core import Measurement
+from mwip.core import Measurement, Observer
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
 
@@ -119,7 +118,7 @@ class SlidingModeController:
     def __init__(
         self,
         gains: SMCGains,
-        observer: Any | None = None,
+        observer: Observer | None = None,
         params: Params = NOMINAL,
         Ts: float = 0.005,
         switching: Switching | None = None,
