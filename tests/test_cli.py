@@ -70,7 +70,7 @@ def test_params_show_and_save(tmp_path, capsys):
         (["simulate", "--duration", "nan"], "--duration"),
         (["simulate", "--Ts", "0"], "--Ts"),
         (["simulate", "--dt", "0.0003"], "dt"),
-        (["simulate", "--plant", "missing.toml"], "--plant"),
+        (["simulate", "--plant", "missing.toml"], "--params"),
         (["simulate", "--controller", "pid"], "--controller"),
         (["design", "lqr", "--Ts", "-0.1"], "--Ts"),
         (["run", "no-such-study"], "STUDY"),

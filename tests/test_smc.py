@@ -14,15 +14,12 @@ from mwip.control.smc import (
     SMCGains,
     gains_from_bounds,
     make_smc,
-    sliding_surface,
-    smc_law,
 )
 from mwip.control.smc_design import check_smc_design, sliding_matrix
 from mwip.control.switching import Switching
-from mwip.models.reduced import f_g, mass_matrix
+from mwip.models.reduced import mass_matrix
 from mwip.params import NOMINAL
 from mwip.sim import Sinusoid, simulate
-from mwip.sim.sensors import Measurement
 
 BOOK = (3.0, 0.2, 0.3, 3.0)
 
@@ -216,23 +213,3 @@ def test_saturation_reduces_chattering():
         assert res.ok
         tv[kind] = total_variation_rate(res.t, res.u.T).sum()
     assert tv["sat"] < 0.2 * tv["sign"]
-
-
-@pytest.mark.parametrize("switching", [Switching(), Switching("sat", 0.3)])
-def test_controller_call_equals_the_numpy_law(rng, switching):
-    """The compiled sample-time law equals sliding_surface + smc_law on f_g (3.49)-(3.50)."""
-    gains = SMCGains(BOOK, 7.5, 4.0)
-    ctrl = SlidingModeController(gains, params=NOMINAL, switching=switching, q1d_dot=-2.0,
-                                 q3d=0.3, check=False)  # fmt: skip
-    y = np.concatenate([rng.uniform(-1, 1, (50, 3)), rng.uniform(-3, 3, (50, 3)),
-                        np.zeros((50, 2))], axis=1)  # fmt: skip
-    y[:5, 1] = 0.0  # a few rows upright
-    t = 1.7
-    u = ctrl(t, Measurement(t=t, y=y))
-    q, qd = y[:, :3], y[:, 3:6]
-    F, G = f_g(NOMINAL, q, qd)
-    S = sliding_surface(q, qd, t, BOOK, -2.0, 0.3)
-    uAB = smc_law(F, G, qd, S, np.zeros((50, 3)), gains, switching, -2.0)
-    np.testing.assert_allclose(ctrl.log()["S1"], S[:, 0], rtol=1e-13, atol=1e-13)
-    np.testing.assert_allclose(u[:, 0], 0.5 * (uAB[:, 0] + uAB[:, 1]), rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(u[:, 1], 0.5 * (uAB[:, 0] - uAB[:, 1]), rtol=1e-12, atol=1e-12)

@@ -18,6 +18,8 @@ from typing import Any
 import click
 import numpy as np
 
+from mwip.cli_controllers import controllers as _controllers_cmd
+from mwip.control.registry import ControllerSpec
 from mwip.params import DAMPING_READINGS, Params, book_params, load_params
 
 __all__ = ["main", "cli", "entry"]
@@ -80,10 +82,32 @@ def cli() -> None:
 @cli.command()
 @click.option(
     "--controller",
-    type=click.Choice(["lqr"]),
     default="lqr",
     show_default=True,
-    help="Control law.",
+    help="Control law: a name of `mwip controllers` (lqr, dlqr, smc, do1smc, hodosmc, asta, "
+    "asmc, tsmc, it2, t1).",
+)
+@click.option(
+    "--set",
+    "sets",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="A controller setting (repeatable), e.g. --set K=20,15; see `mwip controllers NAME`.",
+)
+@click.option(
+    "--twin",
+    is_flag=True,
+    help="Run on the digital twin (Chapter 6: IMU fusion, encoders, RE25 drives; sampled).",
+)
+@click.option(
+    "--case",
+    type=click.IntRange(1, 3),
+    default=1,
+    show_default=True,
+    help="With --twin: 1 the robot, 2 with the payload, 3 payload + a stick at ~6 s.",
+)
+@click.option(
+    "--seed", type=click.IntRange(0), default=0, show_default=True, help="Sensor-noise seed."
 )
 @click.option(
     "--theta0",
@@ -113,16 +137,21 @@ def cli() -> None:
     help="Zero-order hold at Ts, or the law inside the ODE.",
 )
 @click.option(
+    "--params",
     "--plant",
+    "plant",
     default="real",
     show_default=True,
-    help="Plant parameters: real, nominal or a TOML file.",
+    help="The simulated robot: real, nominal or a parameter TOML file (--plant: the old name).",
 )
 @click.option(
+    "--nominal",
     "--design-params",
+    "design_params",
     default="nominal",
     show_default=True,
-    help="Parameters the controller is designed with.",
+    help="The design model the controller is built on: real, nominal or a TOML file "
+    "(--design-params: the old name).",
 )
 @click.option(
     "--disturbance",
@@ -148,12 +177,18 @@ def cli() -> None:
 )
 @click.pass_context
 def simulate(
-    ctx: click.Context, controller: str, theta0: float, alpha0: float, v0: float,
+    ctx: click.Context, controller: str, sets: tuple[str, ...], twin: bool, case: int, seed: int,
+    theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
     disturbance: str, out: Path | None, as_json: bool, damping: str,
     scenario_file: Path | None,
 ) -> None:  # fmt: skip
-    """Simulate a closed loop and print status, settling time and max |u|."""
+    """Simulate a closed loop and print status, settling time and max |u|.
+
+    Any controller of `mwip controllers`, on the default robot (Table 3.1), on --params FILE,
+    or on the digital twin (--twin, --case).
+    """
+    from mwip.cli_controllers import parse_sets
     from mwip.scenario import Scenario, load_scenario
     from mwip.sim import BOOK_SINUSOIDS
 
@@ -181,19 +216,26 @@ def simulate(
     else:
         sc = Scenario(initial={"theta": theta0})
     changes: dict[str, Any] = {}
-    for opt, key, val in (
-        ("controller", "controller", controller),
+    name = controller if given("controller") else sc.controller
+    settings = dict(sc.settings) if name == sc.controller else {}
+    settings.update(parse_sets(name, sets))
+    changes.update(controller=name, settings=settings)
+    fields: tuple[tuple[str, str, Any], ...] = (
         ("duration", "duration", duration),
         ("Ts", "Ts", Ts),
         ("dt", "dt", dt),
         ("mode", "mode", mode),
-    ):
+        ("twin", "twin", twin),
+        ("case", "case", case),
+        ("seed", "seed", seed),
+    )
+    for opt, key, val in fields:
         if given(opt):
             changes[key] = val
     if given("plant") or given("damping"):
-        changes["plant"] = _params(plant, "--plant", damping=damping)
+        changes["plant"] = _params(plant, "--params", damping=damping)
     if given("design_params") or given("damping"):
-        changes["design"] = _params(design_params, "--design-params", damping=damping)
+        changes["design"] = _params(design_params, "--nominal", damping=damping)
     if given("disturbance"):
         changes["disturbance"] = BOOK_SINUSOIDS if disturbance == "book" else None
     initial = dict(sc.initial)
@@ -201,7 +243,10 @@ def simulate(
                           ("v0", "v", v0)):  # fmt: skip
         if given(opt):
             initial[key] = val
-    sc = sc.with_overrides(initial=initial, **changes)
+    try:
+        sc = sc.with_overrides(initial=initial, **changes)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
     n = max(int(round(sc.duration / sc.Ts)), 1)
     with _progress(n, "simulating") as prog:
         res = sc.run(progress=prog)
@@ -209,6 +254,8 @@ def simulate(
     summary: dict[str, Any] = dict(res.summary())
     summary.update(
         controller=sc.controller,
+        settings=_get_spec(sc.controller).resolve(sc.settings),
+        twin=f"case {sc.case}" if sc.twin else None,
         mode=mode,
         Ts=Ts,
         dt=res.settings["dt"],
@@ -236,6 +283,12 @@ def simulate(
                        f"{out / 'summary.json'}")  # fmt: skip
     if summary["status"] != "ok":
         sys.exit(1)
+
+
+def _get_spec(name: str) -> ControllerSpec:
+    from mwip.control.registry import get
+
+    return get(name)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -792,6 +845,9 @@ def report(out: Path, verbose: bool) -> None:
     for line in summary_lines(load_results(out, names), verbose=verbose):
         click.echo(line)
     click.echo(f"report: {path}")
+
+
+cli.add_command(_controllers_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:

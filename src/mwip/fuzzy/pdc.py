@@ -41,9 +41,9 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.core import Measurement
 from mwip.fuzzy.ts_model import Reading, TSModel, first_weight, vertex_matrices
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
 
 __all__ = [
     "PDCInfeasibleError",
@@ -204,9 +204,10 @@ def design_pdc(
     Q = 0.5 * (Qv.value + Qv.value.T)
     P = np.linalg.inv(Q)
     P = 0.5 * (P + P.T)
-    N = np.vstack([Nv[0].value, Nv[1].value])
+    N = np.vstack([np.asarray(Nv[0].value), np.asarray(Nv[1].value)])
     G = -N @ P
-    Y = 0.5 * (Ys[0].value + Ys[0].value.T)
+    Y0 = np.asarray(Ys[0].value)
+    Y = 0.5 * (Y0 + Y0.T)
     T = np.kron(np.eye(2), P)
     W = T @ Y @ T
     return PDCDesign(
@@ -233,11 +234,12 @@ def check_design(d: PDCDesign) -> dict[str, float]:
         "P_min": float(np.linalg.eigvalsh(d.P)[0]),
         "W_min": float(np.linalg.eigvalsh(d.W)[0]),
     }
-    ii, ij = [], []
+    ii: list[float] = []
+    ij: list[float] = []
     for i in range(2):
         for j in range(2):
             M = K[i, j].T @ d.P + d.P @ K[i, j] + (Wb[i][i] if i == j else Wb[0][1])
-            lam = float(np.linalg.eigvalsh(0.5 * (M + M.T))[-1]) / scale
+            lam = float(np.linalg.eigvalsh(0.5 * (M + M.T))[-1] / scale)
             (ii if i == j else ij).append(lam)
     out["lmi_ii"] = max(ii)
     out["lmi_ij"] = max(ij)
@@ -245,9 +247,10 @@ def check_design(d: PDCDesign) -> dict[str, float]:
                                for j in range(2)))  # fmt: skip
     if d.epsilon is not None and d.rho is not None:
         out["eps_ball"] = float(d.epsilon**2 - np.linalg.eigvalsh(d.Q)[0])
-        out["input"] = max(
-            float(np.linalg.eigvalsh(np.outer(g, g) - d.rho**2 * d.P)[-1]) for g in d.G
-        ) / (d.rho**2 * scale)
+        out["input"] = float(
+            max(float(np.linalg.eigvalsh(np.outer(g, g) - d.rho**2 * d.P)[-1]) for g in d.G)
+            / (d.rho**2 * scale)
+        )
     return out
 
 

@@ -196,7 +196,7 @@ def simulate_motor(
     duration: float = 0.5,
     motor: MotorData = RE25,
     dt: float = 1e-5,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+) -> tuple[NDArray[np.floating], NDArray[np.float64], NDArray[np.float64]]:
     """Free motor run from rest (electrical and mechanical model): ``(t, omega, i)``.
 
     Semi-implicit Euler on ``L i' = V - R i - k_e omega``, ``J omega' = k_t i - tau_load``

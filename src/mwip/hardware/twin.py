@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.core import Controller, Measurement
 from mwip.hardware.encoder import EncoderSpec, count, counts_to_angle
 from mwip.hardware.imu import FusionSpec, Imu, ImuNoise, TiltFilter, tilt_arctan
 from mwip.hardware.motor import RE25, DriveActuator, DriveSpec, MotorData
@@ -36,7 +37,6 @@ from mwip.params import REAL, Params
 from mwip.sim.disturbance import Disturbance, Sum
 from mwip.sim.engine import simulate
 from mwip.sim.result import SimResult
-from mwip.sim.sensors import Measurement
 
 __all__ = ["Twin", "TwinSensor", "DriveActuator", "case_plant", "run_on_twin", "CASES"]
 
@@ -156,7 +156,7 @@ class TwinSensor:
 class _Logged:
     """Forwards a controller unchanged and adds the twin's readings to its logs."""
 
-    def __init__(self, controller: Any, sensor: TwinSensor, actuator: DriveActuator) -> None:
+    def __init__(self, controller: Controller, sensor: TwinSensor, actuator: DriveActuator) -> None:
         self._c = controller
         self._sensor = sensor
         self._act = actuator
@@ -198,7 +198,7 @@ def stick_for(plant: Params, speed: float = -7.0, start: float = 6.0) -> StickOb
 
 
 def run_on_twin(
-    controller: Any,
+    controller: Controller,
     case: int = 1,
     *,
     twin: Twin | None = None,
