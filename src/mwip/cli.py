@@ -19,6 +19,7 @@ import click
 import numpy as np
 
 from mwip.cli_controllers import controllers as _controllers_cmd
+from mwip.export.cli import export as _export_group
 from mwip.params import DAMPING_READINGS, Params, book_params, load_params
 
 __all__ = ["main", "cli", "entry"]
@@ -847,6 +848,7 @@ def report(out: Path, verbose: bool) -> None:
 
 
 cli.add_command(_controllers_cmd)
+cli.add_command(_export_group)
 
 
 def main(argv: list[str] | None = None) -> int:
