@@ -252,13 +252,14 @@ def _smc(ctrl: Any, w: _W, prefix: str) -> tuple[list[str], str, str]:
     switch = ("w1 = mwip_clip1(s1 / PHI_SW); w2 = mwip_clip1(s2 / PHI_SW);" if sw.kind == "sat"
               else "w1 = mwip_sgn(s1); w2 = mwip_sgn(s2);")  # fmt: skip
     n = w.num
+    phi_line = (f"static const mwip_real PHI_SW = {n(sw.phi)};" if sw.kind == "sat" else "")
     keep_u = ("    for (i = 0; i < 2; ++i) s->u_prev[i] = u[i];\n    s->has_u = 1;"
               if fields else "")  # fmt: skip
     code = f"""\
 {consts}
 static const mwip_real L1 = {n(l1)}, L2 = {n(l2)}, L3 = {n(l3)}, L4 = {n(l4)};
 static const mwip_real K1 = {n(ctrl.gains.K1)}, K2 = {n(ctrl.gains.K2)};
-static const mwip_real PHI_SW = {n(sw.phi if sw.kind == "sat" else 1.0)};
+{phi_line}
 static const mwip_real Q1D = {n(ctrl.q1d_dot)}, Q3D = {n(ctrl.q3d)};
 
 void {prefix}_init({prefix}_state *s, const mwip_real y[8])
@@ -350,6 +351,7 @@ def _tsmc(ctrl: Any, w: _W, prefix: str) -> tuple[list[str], str, str]:
     Tf = ctrl.Tf
     switch = "mwip_clip1(sv / PHI_SW)" if sw.kind == "sat" else "mwip_sgn(sv)"
     D, IDinv, C, Gam = ctrl.D, ctrl._IDinv, ctrl.C, ctrl.Gamma
+    phi_line = (f"static const mwip_real PHI_SW = {n(sw.phi)};" if sw.kind == "sat" else "")
     code = f"""\
 static const mwip_real C[2] = {{{n(C[0])}, {n(C[1])}}};
 static const mwip_real GAM[2] = {{{n(Gam[0])}, {n(Gam[1])}}};
@@ -358,7 +360,7 @@ static const mwip_real IDINV[2][2] = {{{{{n(IDinv[0, 0])}, {n(IDinv[0, 1])}}},
                                       {{{n(IDinv[1, 0])}, {n(IDinv[1, 1])}}}}};
 static const mwip_real RATIO = {n(ctrl.Ftilde_ratio)}, TF = {n(Tf)};
 static const mwip_real TF2 = {n(Tf**2)}, TF3 = {n(Tf**3)};
-static const mwip_real PHI_SW = {n(sw.phi if sw.kind == "sat" else 1.0)};
+{phi_line}
 static const mwip_real REFS[3] = {{{n(ctrl._refs[0])}, {n(ctrl._refs[1])}, {n(ctrl._refs[2])}}};
 
 void {prefix}_init({prefix}_state *s, const mwip_real y[8])
@@ -370,8 +372,8 @@ void {prefix}_init({prefix}_state *s, const mwip_real y[8])
     for (j = 0; j < 2; ++j) {{
         s->cf[j][0] = e[j];
         s->cf[j][1] = ed[j];
-        s->cf[j][2] = (-3.0 * e[j]) / TF2 - (2.0 * ed[j]) / TF;
-        s->cf[j][3] = (2.0 * e[j]) / TF3 + ed[j] / TF2;
+        s->cf[j][2] = ((mwip_real)-3 * e[j]) / TF2 - ((mwip_real)2 * ed[j]) / TF;
+        s->cf[j][3] = ((mwip_real)2 * e[j]) / TF3 + ed[j] / TF2;
     }}
     s->t0 = 0;
 }}
@@ -394,8 +396,8 @@ void {prefix}_step({prefix}_state *s, mwip_real t, const mwip_real y[8], mwip_re
         }} else {{
             const mwip_real *cf = s->cf[j];
             a = ((cf[0] + cf[1] * tau) + cf[2] * (tau * tau)) + cf[3] * (tau * tau * tau);
-            ad = (cf[1] + (2.0 * cf[2]) * tau) + (3.0 * cf[3]) * (tau * tau);
-            add = 2.0 * cf[2] + (6.0 * cf[3]) * tau;
+            ad = (cf[1] + ((mwip_real)2 * cf[2]) * tau) + ((mwip_real)3 * cf[3]) * (tau * tau);
+            add = (mwip_real)2 * cf[2] + ((mwip_real)6 * cf[3]) * tau;
         }}
         sv = ((ed[j] + C[j] * e[j]) - ad) - C[j] * a;
         swv[j] = {switch};
