@@ -20,6 +20,7 @@ import numpy as np
 
 from mwip.cli_controllers import controllers as _controllers_cmd
 from mwip.control.registry import ControllerSpec
+from mwip.export.cli import export as _export_group
 from mwip.params import DAMPING_READINGS, Params, book_params, load_params
 
 __all__ = ["main", "cli", "entry"]
@@ -848,6 +849,7 @@ def report(out: Path, verbose: bool) -> None:
 
 
 cli.add_command(_controllers_cmd)
+cli.add_command(_export_group)
 
 
 def main(argv: list[str] | None = None) -> int:
