@@ -190,7 +190,7 @@ def _claims(metrics: dict[str, float], runs: dict[str, Any]) -> list[dict[str, A
     ours: separates the algorithms from the model mismatch)."""
     claims: list[dict[str, Any]] = []
     for p, where, book in (("", "plant", True), ("matched.", "design model, no mismatch", False)):
-        m = {k[len(p):]: v for k, v in metrics.items() if k.startswith(p)} if p else metrics
+        m = {k[len(p) :]: v for k, v in metrics.items() if k.startswith(p)} if p else metrics
         up = all(runs[p + k][0].ok and m[f"{k}.final_abs_theta"] < 0.01 for k in ("asta", "asmc"))
         a, b = m["asta.settling_time"], m["asmc.settling_time"]
         faster = bool(np.isfinite(a) and (not np.isfinite(b) or a <= b))

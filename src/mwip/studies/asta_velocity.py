@@ -90,7 +90,7 @@ def _claims(metrics: dict[str, float], psi_dot_d: float) -> list[dict[str, Any]]
         ("", "plant", True, "real"),
         ("matched.", "design model, no mismatch", False, "matched"),
     ):
-        m = {k[len(p):]: v for k, v in metrics.items() if k.startswith(p)} if p else metrics
+        m = {k[len(p) :]: v for k, v in metrics.items() if k.startswith(p)} if p else metrics
         both = max(m["asta.rms_speed_err"], m["asmc.rms_speed_err"])
         on_surface = metrics[f"{pred}.speed_on_surface"]
         claims += [

@@ -93,8 +93,10 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     ax1.legend()
     ax2.set_ylabel("u_r (N m)")
     ax2.set_xlabel("t (s)")
-    ax1.set_title(f"LQR balance of the {robot.label()} from {np.degrees(cfg['theta0']):.3g} deg "
-                  "(nominal design)")
+    ax1.set_title(
+        f"LQR balance of the {robot.label()} from {np.degrees(cfg['theta0']):.3g} deg "
+        "(nominal design)"
+    )
     folder.mkdir(parents=True, exist_ok=True)
     save_figure(fig, folder / "lqr-gain.png")
     for key, res in runs.items():
