@@ -13,6 +13,12 @@ Runs: ``asta``/``asmc`` on the real plant (the study's keys) and, as extras,
 algorithms' properties from the effect of the mismatch. ``sigma'`` is the true derivative of
 the sliding variable, from the plant's accelerations at each record (the input just applied).
 
+What decides the settling claim: ``reach_time`` is the end of the reaching phase (``|sigma_1|``
+first at 1 % of ``|sigma_1(0)|``); after it both controllers hold the same printed surface, so
+the pitch then follows the same sliding dynamics (``slide_to_settle``). With the same gains
+ASMC applies the adaptive switching term directly and ASTA only through its integral, so ASMC
+reaches first; the book defines its ASMC only as "the same adaptive law" (SPEC.md section 3).
+
 Settings (``scenarios/asta-balance.toml``, :mod:`mwip.studies.settings`): ``theta0``,
 ``duration``, ``Ts``, ``dt``, ``lam``, ``K``, ``rate``, ``Gamma0``, ``eps``. The helpers below
 take them as a mapping, so :mod:`mwip.studies.asta_velocity` runs them with its own settings.
