@@ -10,7 +10,14 @@ from matplotlib.figure import Figure
 
 from mwip.io import write_atomic, write_json_atomic
 
-__all__ = ["CAUSES", "metrics_document", "save_figure", "to_jsonable", "validate_claim"]
+__all__ = [
+    "CAUSES",
+    "drop_unused_causes",
+    "metrics_document",
+    "save_figure",
+    "to_jsonable",
+    "validate_claim",
+]
 
 #: Why a book claim does not hold (issue 12; SPEC.md section 3). Every book claim that fails
 #: names one of these as ``"cause"``, with ``"evidence"``: one or two sentences whose numbers
@@ -126,3 +133,12 @@ def write_metrics(folder: Path, doc: dict[str, Any]) -> Path:
 def save_figure(fig: Figure, path: Path) -> Path:
     """Save a matplotlib figure as PNG atomically (no pyplot, no global backend)."""
     return write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=120))
+
+
+def drop_unused_causes(claims: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The claims with ``cause``/``evidence`` removed where the claim holds (a study may write
+    them for every outcome; they explain only a failure)."""
+    return [
+        {k: v for k, v in c.items() if not (c["holds"] and k in ("cause", "evidence"))}
+        for c in claims
+    ]
