@@ -39,7 +39,7 @@ from mwip.models.reduced import accelerations
 from mwip.params import Params
 from mwip.sim import SimResult, simulate
 from mwip.studies import robot, settings
-from mwip.studies.common import drop_unused_causes, metrics_document, save_figure, write_metrics
+from mwip.studies.common import finish_claims, metrics_document, save_figure, write_metrics
 
 SOURCE = "Figs. 4.2-4.4"
 NAME = "asta-balance"
@@ -172,7 +172,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
             metrics[f"{p}{k}.slide_to_settle"] = (
                 metrics[f"{p}{k}.settling_time"] - metrics[f"{p}{k}.reach_time"]
             )
-    claims = drop_unused_causes(_claims(metrics, runs))
+    claims = finish_claims(_claims(metrics, runs), metrics)
     doc = metrics_document(
         NAME, SOURCE, metrics, {}, claims, runs_doc(runs),
         {**settings_doc(cfg), "duration": duration, "window": [0.0, duration], "seed": 0,

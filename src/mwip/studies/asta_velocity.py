@@ -33,7 +33,7 @@ from mwip.studies.asta_balance import (
     settings_doc,
     three_panel_figure,
 )  # fmt: skip
-from mwip.studies.common import drop_unused_causes, metrics_document, write_metrics
+from mwip.studies.common import finish_claims, metrics_document, write_metrics
 
 SOURCE = "Figs. 4.5-4.7"
 NAME = "asta-velocity"
@@ -63,7 +63,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     metrics["real.speed_on_surface"] = speed_on_surface(robot.plant(), psi_dot_d, cfg["lam"])
     # (the key keeps its name for any plant: the simulated one)
     metrics["matched.speed_on_surface"] = speed_on_surface(robot.nominal(), psi_dot_d, cfg["lam"])
-    claims = drop_unused_causes(_claims(metrics, psi_dot_d))
+    claims = finish_claims(_claims(metrics, psi_dot_d), metrics)
     doc = metrics_document(
         NAME, SOURCE, metrics, {}, claims, runs_doc(runs),
         {**settings_doc(cfg), "duration": duration, "window": list(window), "seed": 0,

@@ -12,7 +12,7 @@ from mwip.io import write_atomic, write_json_atomic
 
 __all__ = [
     "CAUSES",
-    "drop_unused_causes",
+    "finish_claims",
     "metrics_document",
     "save_figure",
     "to_jsonable",
@@ -135,10 +135,25 @@ def save_figure(fig: Figure, path: Path) -> Path:
     return write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=120))
 
 
-def drop_unused_causes(claims: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The claims with ``cause``/``evidence`` removed where the claim holds (a study may write
-    them for every outcome; they explain only a failure)."""
-    return [
-        {k: v for k, v in c.items() if not (c["holds"] and k in ("cause", "evidence"))}
-        for c in claims
-    ]
+def finish_claims(claims: list[dict[str, Any]], metrics: dict[str, float]) -> list[dict[str, Any]]:
+    """Claims ready for :func:`metrics_document`: ``cause``/``evidence`` removed where a claim
+    holds (they explain only a failure), and a failing book claim that the study has no
+    explanation for (e.g. under a user's settings) marked ``cause = "implementation"`` with its
+    deciding numbers as evidence: an unexplained gap is ours until explained."""
+    out = []
+    for c in claims:
+        c = dict(c)
+        if c["holds"]:
+            c.pop("cause", None)
+            c.pop("evidence", None)
+        elif c.get("book") and "cause" not in c:
+            values = ", ".join(f"{k} = {_num(metrics[k])}" for k in c.get("keys", []))
+            c["cause"] = "implementation"
+            c["evidence"] = f"not explained by this study: {values or 'no deciding metric'}."
+        out.append(c)
+    return out
+
+
+def _num(x: Any) -> str:
+    """A metric for evidence text (``None`` and non-numbers as written)."""
+    return f"{x:.4g}" if isinstance(x, int | float) else str(x)

@@ -54,7 +54,7 @@ from mwip.observers.design import as_gain_matrices
 from mwip.sim import SimResult, simulate
 from mwip.sim.disturbance import Sinusoid
 from mwip.studies import robot, settings
-from mwip.studies.common import drop_unused_causes, metrics_document, save_figure, write_metrics
+from mwip.studies.common import finish_claims, metrics_document, save_figure, write_metrics
 
 SOURCE = "Fig. 3.2, Table 3.3"
 ORDERS = {"do2": 2, "do3": 3, "do4": 4}
@@ -199,7 +199,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     for n in ORDERS:  # |H_n(jw)| of the printed gains at the disturbances' frequencies
         for w in sorted(set(cfg["disturbance_omega"])):
             metrics[f"{n}.H_w{w:g}"] = float(error_transfer(v[n], w))
-    claims = drop_unused_causes(_claims(metrics, sorted(set(cfg["disturbance_omega"]))))
+    claims = finish_claims(_claims(metrics, sorted(set(cfg["disturbance_omega"]))), metrics)
     doc = metrics_document(
         NAME, SOURCE, metrics, published, claims,
         {name: {"status": str(res.status[0]), "t_end": float(res.t_end[0])} for name in ORDERS},

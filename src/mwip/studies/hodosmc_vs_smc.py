@@ -34,7 +34,7 @@ from mwip.metrics import rms, total_variation_rate
 from mwip.observers.design import as_gain_matrices
 from mwip.sim import SimResult, simulate
 from mwip.studies import robot, settings
-from mwip.studies.common import drop_unused_causes, metrics_document, save_figure, write_metrics
+from mwip.studies.common import finish_claims, metrics_document, save_figure, write_metrics
 from mwip.studies.do_comparison import disturbance
 
 SOURCE = "Fig. 3.3"
@@ -91,7 +91,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         a, b = metrics[f"hodosmc.{key}"], metrics[f"smc.{key}"]
         metrics[f"rel_diff.{key}"] = (a - b) / max(a, b)
     doc = metrics_document(
-        NAME, SOURCE, metrics, {}, drop_unused_causes(_claims(metrics, runs)),
+        NAME, SOURCE, metrics, {}, finish_claims(_claims(metrics, runs), metrics),
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
         {"dt": cfg["dt"], "Ts": cfg["Ts"], "window": list(window), "seed": 0,
          "duration": duration, "theta0": cfg["theta0"], "psi_dot_d": cfg["psi_dot_d"],

@@ -30,7 +30,7 @@ from mwip.control.lqr import LQR, design_lqr
 from mwip.params import book_params
 from mwip.sim import SimResult, simulate
 from mwip.studies import robot, settings
-from mwip.studies.common import drop_unused_causes, metrics_document, save_figure, write_metrics
+from mwip.studies.common import finish_claims, metrics_document, save_figure, write_metrics
 
 SOURCE = "Sec. 4.4.2"
 #: The printed K row (both rows printed equal; yaw entries flip sign between wheels).
@@ -79,9 +79,8 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     lit = design_lqr(book_params("nominal", "literal"), Q, R, Ts=None)
     for j, name in enumerate(names):
         metrics[f"literal.K_r.{name}"] = float(lit.K[0, j])
-    claims = drop_unused_causes(
-        _claims(cont.K, lit.K, runs, names, robot.label(nominal).replace(" plant", " set"))
-    )
+    design = robot.label(nominal).replace(" plant", " set")
+    claims = finish_claims(_claims(cont.K, lit.K, runs, names, design), metrics)
     doc = metrics_document(
         "lqr-gain", SOURCE, metrics, published, claims,
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
