@@ -107,3 +107,25 @@ def test_hodosmc_vs_smc_quick_claims(tmp_path):
         assert c[k]["holds"], k
     assert m["hodosmc.u_tv"] < 0.5 * m["smc.u_tv"]
     assert m["hodosmc.on_surface"] < 0.1 and m["smc.on_surface"] < 0.5
+
+
+def test_finish_claims_keeps_causes_for_failures_only():
+    from mwip.studies.common import finish_claims, validate_claim
+
+    claims = [
+        {"id": "a", "text": "a", "book": True, "holds": True, "cause": "implementation",
+         "evidence": "x"},
+        {"id": "b", "text": "b", "book": True, "holds": False, "keys": ["m"]},
+        {"id": "c", "text": "c", "book": False, "holds": False},
+        {"id": "d", "text": "d", "book": True, "holds": False, "cause": "book-inconsistency",
+         "evidence": "y"},
+    ]  # fmt: skip
+    out = {c["id"]: c for c in finish_claims(claims, {"m": 0.125}, "real plant")}
+    assert "cause" not in out["a"] and "evidence" not in out["a"]
+    assert out["b"]["cause"] == "implementation" and "m = 0.125" in out["b"]["evidence"]
+    assert "real plant" in out["b"]["evidence"]
+    assert "cause" not in out["c"]  # not a book claim: nothing to explain
+    assert out["d"]["cause"] == "book-inconsistency" and out["d"]["evidence"] == "y"
+    for c in out.values():
+        validate_claim(c)
+    assert "cause" in claims[0]  # the input is not modified

@@ -172,7 +172,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
             metrics[f"{p}{k}.slide_to_settle"] = (
                 metrics[f"{p}{k}.settling_time"] - metrics[f"{p}{k}.reach_time"]
             )
-    claims = finish_claims(_claims(metrics, runs), metrics)
+    claims = finish_claims(_claims(metrics, runs), metrics, robot.label())
     doc = metrics_document(
         NAME, SOURCE, metrics, {}, claims, runs_doc(runs),
         {**settings_doc(cfg), "duration": duration, "window": [0.0, duration], "seed": 0,

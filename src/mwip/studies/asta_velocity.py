@@ -63,7 +63,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     metrics["real.speed_on_surface"] = speed_on_surface(robot.plant(), psi_dot_d, cfg["lam"])
     # (the key keeps its name for any plant: the simulated one)
     metrics["matched.speed_on_surface"] = speed_on_surface(robot.nominal(), psi_dot_d, cfg["lam"])
-    claims = finish_claims(_claims(metrics, psi_dot_d), metrics)
+    claims = finish_claims(_claims(metrics, psi_dot_d), metrics, robot.label())
     doc = metrics_document(
         NAME, SOURCE, metrics, {}, claims, runs_doc(runs),
         {**settings_doc(cfg), "duration": duration, "window": list(window), "seed": 0,

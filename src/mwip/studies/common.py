@@ -135,11 +135,14 @@ def save_figure(fig: Figure, path: Path) -> Path:
     return write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=120))
 
 
-def finish_claims(claims: list[dict[str, Any]], metrics: dict[str, float]) -> list[dict[str, Any]]:
+def finish_claims(
+    claims: list[dict[str, Any]], metrics: dict[str, float], robot: str = ""
+) -> list[dict[str, Any]]:
     """Claims ready for :func:`metrics_document`: ``cause``/``evidence`` removed where a claim
     holds (they explain only a failure), and a failing book claim that the study has no
     explanation for (e.g. under a user's settings) marked ``cause = "implementation"`` with its
-    deciding numbers as evidence: an unexplained gap is ours until explained."""
+    deciding numbers as evidence: an unexplained gap is ours until explained. ``robot`` names
+    the robot that ran, for that evidence."""
     out = []
     for c in claims:
         c = dict(c)
@@ -149,7 +152,11 @@ def finish_claims(claims: list[dict[str, Any]], metrics: dict[str, float]) -> li
         elif c.get("book") and "cause" not in c:
             values = ", ".join(f"{k} = {_num(metrics[k])}" for k in c.get("keys", []))
             c["cause"] = "implementation"
-            c["evidence"] = f"not explained by this study: {values or 'no deciding metric'}."
+            where = f" on the {robot}" if robot else ""
+            c["evidence"] = (
+                f"not explained by this study{where} with these settings: "
+                f"{values or 'no deciding metric'}."
+            )
         out.append(c)
     return out
 

@@ -199,7 +199,9 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     for n in ORDERS:  # |H_n(jw)| of the printed gains at the disturbances' frequencies
         for w in sorted(set(cfg["disturbance_omega"])):
             metrics[f"{n}.H_w{w:g}"] = float(error_transfer(v[n], w))
-    claims = finish_claims(_claims(metrics, sorted(set(cfg["disturbance_omega"]))), metrics)
+    claims = finish_claims(
+        _claims(metrics, sorted(set(cfg["disturbance_omega"]))), metrics, robot.label()
+    )
     doc = metrics_document(
         NAME, SOURCE, metrics, published, claims,
         {name: {"status": str(res.status[0]), "t_end": float(res.t_end[0])} for name in ORDERS},

@@ -91,7 +91,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         a, b = metrics[f"hodosmc.{key}"], metrics[f"smc.{key}"]
         metrics[f"rel_diff.{key}"] = (a - b) / max(a, b)
     doc = metrics_document(
-        NAME, SOURCE, metrics, {}, finish_claims(_claims(metrics, runs), metrics),
+        NAME, SOURCE, metrics, {}, finish_claims(_claims(metrics, runs), metrics, robot.label()),
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
         {"dt": cfg["dt"], "Ts": cfg["Ts"], "window": list(window), "seed": 0,
          "duration": duration, "theta0": cfg["theta0"], "psi_dot_d": cfg["psi_dot_d"],

@@ -80,7 +80,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     for j, name in enumerate(names):
         metrics[f"literal.K_r.{name}"] = float(lit.K[0, j])
     design = robot.label(nominal).replace(" plant", " set")
-    claims = finish_claims(_claims(cont.K, lit.K, runs, names, design), metrics)
+    claims = finish_claims(_claims(cont.K, lit.K, runs, names, design), metrics, robot.label())
     doc = metrics_document(
         "lqr-gain", SOURCE, metrics, published, claims,
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
