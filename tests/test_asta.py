@@ -125,3 +125,19 @@ def test_closed_loop_second_order_sliding_and_gains_stop():
         assert np.all(np.diff(g) >= 0)
     assert out["ASTA"][0] < 1e-4 and out["ASTA"][1] < 0.05
     assert out["ASMC"][1] > 10 * out["ASTA"][1]
+
+
+def test_closed_loop_band_scales_like_the_algorithm_on_the_plant():
+    """On the (non-stiff, units-reading) nominal plant the closed-loop sliding band shrinks
+    like the abstract sampled dynamics: by ~4 (Ts^2) for ASTA and ~2 (Ts) for ASMC when Ts is
+    halved (docs/chapter4.md, "Sliding accuracy")."""
+    bands = {}
+    for Ts in (0.001, 0.0005):
+        for cls in (ASTA, ASMC):
+            res = simulate(cls(NOMINAL, Ts=Ts), NOMINAL, q0=(0, -np.pi / 18, 0), duration=3.0,
+                           Ts=Ts, dt=Ts)  # fmt: skip
+            s = asta_surface(res.q, res.q_dot, (10.0, 0.3, 0.3))
+            bands[cls.__name__, Ts] = np.abs(s[res.t > 2.0, 0]).max()
+    assert 3.3 < bands["ASTA", 0.001] / bands["ASTA", 0.0005] < 4.7
+    assert 1.7 < bands["ASMC", 0.001] / bands["ASMC", 0.0005] < 2.4
+    assert bands["ASTA", 0.0005] < 0.1 * bands["ASMC", 0.0005]

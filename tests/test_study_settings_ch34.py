@@ -131,3 +131,29 @@ def test_module_docstring_lists_the_settings(name):
     assert mod.NAME == name and STUDIES[name][0] is mod.run
     for key in settings.defaults(name):
         assert f"``{key}``" in (mod.__doc__ or ""), key
+
+
+#: the settings each of these studies declares open (not printed by the book), SPEC issue 12
+OPEN = {
+    "lqr-gain": {"theta0", "dt_continuous"},
+    "do-comparison": {"Ts", "dt", "rms_window"},
+    "hodosmc-vs-smc": {"Ts", "dt", "rms_window"},
+    "asta-balance": {"Ts", "dt", "Gamma0", "eps"},
+    "asta-velocity": {"Ts", "dt", "Gamma0", "eps", "rms_window"},
+}
+
+
+@pytest.mark.parametrize("name", list(OPEN))
+def test_open_settings_load_and_contain_their_defaults(name):
+    """Every [open] key loads (range, why) and its default lies in the declared range; the
+    integration step divides the sample period in every range corner we ship."""
+    table = settings.open_settings(name)
+    assert set(table) == OPEN[name]
+    base = settings.defaults(name)
+    for key, entry in table.items():
+        lo, hi = entry["range"]
+        values = base[key] if isinstance(base[key], list) else [base[key]]
+        assert all(lo <= v <= hi for v in values), key
+        assert len(entry["why"]) > 40, key  # a reason, not a label
+    if "dt" in table:
+        assert base["Ts"] / base["dt"] == pytest.approx(round(base["Ts"] / base["dt"]))

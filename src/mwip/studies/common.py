@@ -10,7 +10,14 @@ from matplotlib.figure import Figure
 
 from mwip.io import write_atomic, write_json_atomic
 
-__all__ = ["CAUSES", "metrics_document", "save_figure", "to_jsonable", "validate_claim"]
+__all__ = [
+    "CAUSES",
+    "finish_claims",
+    "metrics_document",
+    "save_figure",
+    "to_jsonable",
+    "validate_claim",
+]
 
 #: Why a book claim does not hold (issue 12; SPEC.md section 3). Every book claim that fails
 #: names one of these as ``"cause"``, with ``"evidence"``: one or two sentences whose numbers
@@ -126,3 +133,34 @@ def write_metrics(folder: Path, doc: dict[str, Any]) -> Path:
 def save_figure(fig: Figure, path: Path) -> Path:
     """Save a matplotlib figure as PNG atomically (no pyplot, no global backend)."""
     return write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=120))
+
+
+def finish_claims(
+    claims: list[dict[str, Any]], metrics: dict[str, float], robot: str = ""
+) -> list[dict[str, Any]]:
+    """Claims ready for :func:`metrics_document`: ``cause``/``evidence`` removed where a claim
+    holds (they explain only a failure), and a failing book claim that the study has no
+    explanation for (e.g. under a user's settings) marked ``cause = "implementation"`` with its
+    deciding numbers as evidence: an unexplained gap is ours until explained. ``robot`` names
+    the robot that ran, for that evidence."""
+    out = []
+    for c in claims:
+        c = dict(c)
+        if c["holds"]:
+            c.pop("cause", None)
+            c.pop("evidence", None)
+        elif c.get("book") and "cause" not in c:
+            values = ", ".join(f"{k} = {_num(metrics[k])}" for k in c.get("keys", []))
+            c["cause"] = "implementation"
+            where = f" on the {robot}" if robot else ""
+            c["evidence"] = (
+                f"not explained by this study{where} with these settings: "
+                f"{values or 'no deciding metric'}."
+            )
+        out.append(c)
+    return out
+
+
+def _num(x: Any) -> str:
+    """A metric for evidence text (``None`` and non-numbers as written)."""
+    return f"{x:.4g}" if isinstance(x, int | float) else str(x)
