@@ -55,6 +55,7 @@ from mwip.studies.tsmc_equilibrium import (
     tsmc_doc,
     tsmc_from,
 )  # fmt: skip
+from mwip.studies.tsmc_velocity import lean_text
 
 SOURCE = "Figs. 4.16-4.18"
 NAME = "tsmc-circle"
@@ -138,8 +139,8 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
          "text": "the path converges to a circle of radius v_d / alpha'_d = "
                  f"{v_d / alpha_dot_d:g} m within 2 % (Fig. 4.17)",
          "holds": bool(m["tsmc.radius_err"] < 0.02), "cause": "claim-definition",
-         "evidence": f"a steady {v_d:g} m/s turn needs a lean of {m['real.lean_for_v_d']:.4f} "
-                     "rad (2 Dw psi' = sin(theta)(Gb + ...)) and the TSMC has no speed feedback, "
+         "evidence": f"a steady {v_d:g} m/s turn needs {lean_text(m['real.lean_for_v_d'])} "
+                     "(2 Dw psi' = sin(theta)(Gb + ...)) and the TSMC has no speed feedback, "
                      f"so with theta* = 0 v decays ((4.37)): v = {m['tsmc.final_v']:.3f} m/s at "
                      f"t = {t_end:g} s, radius {m['tsmc.radius']:.3f} m over the last quarter.",
          "keys": ["tsmc.radius_err", "tsmc.radius", "tsmc.final_v", "real.lean_for_v_d"]},

@@ -57,6 +57,13 @@ def steady_balance_residual(p: Any, psi_dot: float, theta: float) -> float:
     return float((2.0 * p.Dw * psi_dot - g) / g) if g != 0 else float("nan")
 
 
+def lean_text(lean: float) -> str:
+    """``lean_for_speed``'s answer in words (NaN: no lean can hold the speed)."""
+    if np.isfinite(lean):
+        return f"a lean of {lean:.4f} rad"
+    return "more than any lean gives (sin(theta) would exceed 1)"
+
+
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the study into ``out/tsmc-velocity``; returns the metrics document."""
     folder = Path(out) / NAME
@@ -103,8 +110,8 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
          "text": f"TSMC reaches v_d = {v_d:g} m/s with theta -> 0 (Fig. 4.12): v within 2 % of "
                  "v_d and |theta| < 0.02 rad at the end", "holds": bool(t_ok),
          "cause": "claim-definition",
-         "evidence": f"a steady {v_d:g} m/s needs Gb sin(theta) = 2 Dw psi', a lean of "
-                     f"{m['real.lean_for_v_d']:.4f} rad on the real plant, and the TSMC of "
+         "evidence": f"a steady {v_d:g} m/s needs Gb sin(theta) = 2 Dw psi', "
+                     f"{lean_text(m['real.lean_for_v_d'])} on the real plant, and the TSMC of "
                      "(4.30)-(4.32) has no speed feedback, so by (4.38) v decays once theta -> "
                      f"0: at t = {t_end:g} s v = {m['tsmc.final_v']:.3f} m/s with theta = "
                      f"{m['tsmc.final_theta']:.4f} rad.",
