@@ -196,7 +196,12 @@ def test_design_it2(capsys):
     assert main(["design", "it2", "--epsilon", "0.2", "--rho", "20", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["status"] == "optimal" and len(doc["G1"]) == 4 and len(doc["G2"]) == 4
-    assert main(["design", "it2", "--epsilon", "0.2", "--rho", "0.3"]) == 1
+    assert main(["design", "it2", "--epsilon", "0.2", "--rho", "0.1"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "infeasible" in err
+    # a solver point reported optimal_inaccurate that fails the LMIs: exit 1, one line
+    argv = ["design", "it2", "--epsilon", "0.2", "--rho", "0.47097", "--damping", "literal"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "fails its check" in err
     assert main(["design", "it2", "--epsilon", "0", "--rho", "3"]) == 2

@@ -39,7 +39,8 @@ CHANGES = {
     "asta-balance": (0.5, {"K": [20.0, 0.3]}, "asta.u_tv", ("K",)),
     "asta-velocity": (0.3, {"psi_dot_d": 0.3}, "real.speed_on_surface", ("psi_dot_d",)),
     "tsmc-equilibrium": (0.5, {"theta0": 0.05}, "lqr.max_abs_u", ("initial", "theta0")),
-    "tsmc-velocity": (0.3, {"v_feasible": 0.01}, "tsmc_lean.v_target", ("tsmc_lean", "v_ref")),
+    "tsmc-velocity": (0.3, {"theta_max": 0.01}, "tsmc_lean.theta_target",
+                      ("tsmc_lean", "theta_max")),
     "tsmc-circle": (0.3, {"alpha_dot_d": 0.3}, "real.yaw_torque_each_wheel",
                     ("targets", "alpha_dot_d")),
 }  # fmt: skip
@@ -56,7 +57,7 @@ def _expected(name):
     if name == "asta-velocity":
         lam = settings.defaults(name)["lam"]
         return asta_velocity.speed_on_surface(real, 0.3, lam)
-    if name == "tsmc-velocity":
+    if name == "tsmc-velocity":  # the nominal lean for 1 m/s (0.025 rad) clipped to theta_max
         return 0.01
     if name == "tsmc-circle":
         return real.b / real.r * (real.Db + real.Dw) * 0.3

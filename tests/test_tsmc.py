@@ -13,7 +13,7 @@ from mwip.control.tsmc import (
     lean_for_speed,
 )  # fmt: skip
 from mwip.models.reduced import accelerations
-from mwip.params import NOMINAL, REAL
+from mwip.params import NOMINAL, REAL, book_params, steady_speed_cap
 from mwip.sim import simulate
 from mwip.sim.sensors import Measurement
 from oracle_laws import augmenting, model_2_31, subsystem, tsmc_gain, tsmc_surface
@@ -95,12 +95,20 @@ def test_invalid_parameters():
 
 
 def test_lean_for_speed():
-    # v = 1 m/s needs sin(theta) = 2 Dw v / (r Gb) >> 1 on this plant: infeasible
-    assert np.isnan(lean_for_speed(REAL, 1.0)) and np.isnan(lean_for_speed(NOMINAL, 0.2))
-    th = lean_for_speed(REAL, 0.01)
-    psid = 0.01 / REAL.r
-    assert 2 * REAL.Dw * psid == pytest.approx(REAL.Gb * np.sin(th))
-    assert TSMC(NOMINAL, v_ref=1.0, speed="lean", theta_max=0.4).theta_ref == 0.4
+    """Steady rolling: 2 Dw psi' = Gb sin(theta) (no yaw); about 0.041 rad for 1 m/s on the
+    real plant under the units reading (SPEC.md section 3); none above the speed cap."""
+    th = lean_for_speed(REAL, 1.0)
+    assert 2 * REAL.Dw * (1.0 / REAL.r) == pytest.approx(REAL.Gb * np.sin(th), rel=1e-12)
+    assert 0.040 < th < 0.042
+    cap = REAL.r * steady_speed_cap(REAL)  # m/s, reached lying flat
+    assert np.isnan(lean_for_speed(REAL, 1.01 * cap)) and lean_for_speed(REAL, 0.99 * cap) < 1.6
+    # the literal reading caps the speed at 4 cm/s: 1 m/s is impossible there
+    assert np.isnan(lean_for_speed(book_params("real", "literal"), 1.0))
+    # with a yaw rate the centrifugal term adds to gravity: a smaller lean
+    assert 0 < lean_for_speed(REAL, 0.2, 0.2) < lean_for_speed(REAL, 0.2)
+    lean = TSMC(NOMINAL, v_ref=1.0, speed="lean")
+    assert lean.theta_ref == pytest.approx(lean_for_speed(NOMINAL, 1.0), rel=1e-12)
+    assert TSMC(NOMINAL, v_ref=1.0, speed="lean", theta_max=0.01).theta_ref == 0.01
 
 
 def test_targets_reached_by_Tf_on_nominal_plant():

@@ -454,8 +454,13 @@ def design_hodo_cmd(
     help="Also stabilise +-ROBUST relative parameter variations (e.g. 0.35).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def design_it2_cmd(epsilon: float, rho: float, robust: float | None, as_json: bool) -> None:
-    """IT2 PDC balance gains G1, G2 from the LMIs of Lemma 5.1/5.2 (5.12)-(5.20)."""
+@_DAMPING
+def design_it2_cmd(
+    epsilon: float, rho: float, robust: float | None, as_json: bool, damping: str
+) -> None:
+    """IT2 PDC balance gains G1, G2 from the LMIs of Lemma 5.1/5.2 (5.12)-(5.20), on the
+    book's nominal set. Every design is checked (LMI residuals, vertex closed-loop
+    stability); one that fails exits 1 with a one-line error, whatever the solver's status."""
     from mwip.fuzzy.design_cli import design_it2
     from mwip.fuzzy.pdc import PDCInfeasibleError
 
@@ -464,7 +469,9 @@ def design_it2_cmd(epsilon: float, rho: float, robust: float | None, as_json: bo
     if robust is not None:
         _in_range("--robust", robust, 0.0, 0.9)
     try:
-        _, text = design_it2(epsilon, rho, as_json=as_json, robust=robust)
+        _, text = design_it2(
+            epsilon, rho, as_json=as_json, robust=robust, params=book_params("nominal", damping)
+        )
     except PDCInfeasibleError as exc:
         raise click.ClickException(str(exc)) from None
     click.echo(text)

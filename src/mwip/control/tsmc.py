@@ -34,12 +34,14 @@ everything nominal. ``F~`` bounds ``|F - F^|`` (4.28); the book sets ``F~ = 0.8 
 ``D`` bounds the input-gain uncertainty ``G = (I + Delta) G^``, ``|Delta_ij| <= D_ij`` (4.29).
 ``sw`` is the saturation ``sat(s / phi)`` (the book's simulations, Section 4.4.2) or ``sgn``.
 
-Speed. The TSMC does not act on ``v``: ``v`` obeys the internal dynamics (4.35)/(4.37). On
-this plant (``Dw`` used as rotational damping, SPEC.md section 2) summing the wheel and pitch
-rows of (2.33) gives at any steady motion ``2 Dw psi' = sin(theta) (Gb + (m12 + Ibl cos
-theta) alpha'^2)``: a non-zero speed needs a lean. :func:`lean_for_speed` gives that lean (the
-equilibrium of (4.40)); ``TSMC(..., v_ref=...)`` uses it as the pitch target (``speed="lean"``).
-See docs/chapter4.md for why the book's ``v -> v*`` with ``theta -> 0`` cannot hold here.
+Speed. The TSMC does not act on ``v``: ``v`` obeys the internal dynamics (4.35)/(4.37).
+Summing the wheel and pitch rows of (2.33) gives at any steady motion ``2 Dw psi' =
+sin(theta) (Gb + (m12 + Ibl cos theta) alpha'^2)``: with any ``Dw > 0`` a non-zero speed
+needs a lean (about 0.041 rad for 1 m/s on the real plant, ``Dw`` read as ``D r^2``, SPEC.md
+sections 2-3), and with ``theta -> 0`` (4.38) makes ``v`` decay. :func:`lean_for_speed` gives
+that lean (the equilibrium of (4.40)); ``TSMC(..., v_ref=..., speed="lean")`` uses it as the
+pitch target (our extension). See docs/chapter4.md for why the book's ``v -> v*`` with
+``theta -> 0`` cannot hold as worded.
 """
 
 from __future__ import annotations
