@@ -261,7 +261,8 @@ class DriveActuator:
     (``mode``, :class:`DriveSpec`), clipped to [-1, 1], quantised and reduced by the dead-band
     (``pwm``, per row); the bridge applies ``duty x V_s`` with the battery's sag
     ``V_s = V_0 - R_s I_bat`` (``sag``, per row; ``I_bat = sum duty i`` of the previous
-    sample); the driver's current limit clips the voltage to ``|V - k_e omega_m| <= R I_max``.
+    sample); the driver's current limit clips the voltage to ``|V - k_e omega_m| <= R I_max``
+    within the supply ``|V| <= V_s``.
     The current is integrated exactly over the sample with ``V`` and ``omega_m`` held
     (:func:`current_step`); the wheel torque is ``eta N k_t`` times the mean current.
 
@@ -342,7 +343,7 @@ class DriveActuator:
         vs = np.maximum(vs, 0.0)[:, None]
         v = duty * vs
         band = R * d.current_limit
-        v_lim = np.clip(v, emf - band, emf + band)
+        v_lim = np.clip(np.clip(v, emf - band, emf + band), -vs, vs)
         limited = (np.abs(duty_ref) > 1.0) | (np.abs(v_lim - v) > 1e-12)
         self.i, i_mean = current_step(self.i, v_lim, om, m, self.Ts)
         with np.errstate(divide="ignore", invalid="ignore"):
