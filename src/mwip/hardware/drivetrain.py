@@ -124,7 +124,11 @@ def reflected_inertia(gear_ratio: float, rotor_inertia: float) -> dict[str, floa
     """Mass-matrix increments of two rotors behind ``gear_ratio`` (module docstring):
     ``{"Iwa": N^2 J, "Iby": 2 (N-1)^2 J, "m12_offset": 2 N (N-1) J}``."""
     n, j = float(gear_ratio), float(rotor_inertia)
-    return {"Iwa": n * n * j, "Iby": 2.0 * (n - 1.0) ** 2 * j, "m12_offset": 2.0 * n * (n - 1.0) * j}
+    return {
+        "Iwa": n * n * j,
+        "Iby": 2.0 * (n - 1.0) ** 2 * j,
+        "m12_offset": 2.0 * n * (n - 1.0) * j,
+    }
 
 
 def derive_plant(

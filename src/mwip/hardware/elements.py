@@ -84,4 +84,6 @@ def check_elements(elements: Iterable[str], what: str = "elements") -> frozenset
 def element_mask(rows: Iterable[Iterable[str]]) -> NDArray[np.bool_]:
     """(N, E) mask: row ``i`` has element ``ELEMENTS[j]`` switched on."""
     sets = [check_elements(r) for r in rows]
-    return np.array([[e in s for e in ELEMENTS] for s in sets], dtype=bool).reshape(-1, len(ELEMENTS))
+    return np.array([[e in s for e in ELEMENTS] for s in sets], dtype=bool).reshape(
+        -1, len(ELEMENTS)
+    )

@@ -152,9 +152,7 @@ class Twin:
         """A fresh sensor for ``plant`` (it needs the plant's wheel geometry)."""
         return TwinSensor(plant, self, masks=self.masks(rows), common_noise=common_noise)
 
-    def actuator(
-        self, plant: Params, rows: Iterable[Iterable[str]] | None = None
-    ) -> TwinActuator:
+    def actuator(self, plant: Params, rows: Iterable[Iterable[str]] | None = None) -> TwinActuator:
         """A fresh drive for ``plant``."""
         return TwinActuator(self, plant_b_over_r=float(np.mean(plant.b / plant.r)),
                             masks=self.masks(rows))  # fmt: skip

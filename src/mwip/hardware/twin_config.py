@@ -106,9 +106,7 @@ def twin_from_dict(data: Mapping[str, Any], base: Twin | None = None) -> Twin:
     allowed = set(_TOP) | set(_TABLES)
     unknown = sorted(set(data) - allowed)
     if unknown:
-        raise ValueError(
-            f"twin: unknown key {unknown[0]!r}; allowed: {', '.join(sorted(allowed))}"
-        )
+        raise ValueError(f"twin: unknown key {unknown[0]!r}; allowed: {', '.join(sorted(allowed))}")
     kw: dict[str, Any] = {}
     for table, (attr, cls) in _TABLES.items():
         sub = data.get(table, {})
