@@ -13,13 +13,19 @@ import pytest
 from mwip.control.smc import make_smc
 from mwip.hardware import Twin, run_on_twin
 from mwip.hardware.ablation import ablation_steps, rms_metrics, run_ablation
-from mwip.hardware.drivetrain import Backlash, GearboxSpec, coulomb_torque, derive_plant
+from mwip.hardware.drivetrain import (
+    Backlash,
+    GearboxSpec,
+    coulomb_torque,
+    derive_plant,
+    relative_mobility,
+)
 from mwip.hardware.elements import ELEMENTS
 from mwip.hardware.imu import Imu, ImuNoise
 from mwip.hardware.motor import RE25, RPM, DriveActuator, DriveSpec
 from mwip.hardware.sensitivity import input_gains, payload_sensitivity, pitch_pole
 from mwip.hardware.twin_config import load_twin, twin_from_dict, twin_to_toml
-from mwip.models.reduced import mass_matrix
+from mwip.models.reduced import accelerations, mass_matrix
 from mwip.params import REAL
 from mwip.sim import simulate
 
@@ -180,12 +186,25 @@ def test_voltage_drive_puts_back_emf_into_db_and_torque_mode_does_not() -> None:
     assert Twin.ideal().plant(REAL) is REAL
 
 
-def test_coulomb_friction_slides_and_sticks() -> None:
-    w = np.array([[1.0, -1.0], [0.0, 0.0]])
-    drive = np.array([[0.5, 0.5], [0.01, -0.5]])
-    f = coulomb_torque(w, drive, 0.034, 0.02)
-    assert np.allclose(f[0], [-0.034, 0.034])
-    assert np.allclose(f[1], [-0.01, 0.034])  # sticks: cancels a small drive, caps a large
+def test_coulomb_friction_slides_and_sticks(rng: np.random.Generator) -> None:
+    p = derive_plant(REAL, inertia=True)
+    m = relative_mobility(p)
+    # the mobility is the relative wheel acceleration per unit torque on that wheel (2.32)
+    qdd = accelerations(p, np.zeros(3), np.zeros(3), np.array([1.0, 0.0]))
+    assert m == pytest.approx(qdd[0] - qdd[1] + (REAL.b / REAL.r) * qdd[2], rel=1e-10)
+    fc = 0.034
+    w = rng.normal(scale=0.3, size=(200, 2))
+    drive = rng.normal(scale=0.1, size=(200, 2))
+    f = coulomb_torque(w, drive, fc, m, TS)
+    assert np.all(np.abs(f) <= fc + 1e-15)
+    w_end = w + TS * m * (drive + f)  # the relative speed the sample would end with
+    free = w + TS * m * drive
+    stuck = np.isclose(w_end, 0.0, atol=1e-12)
+    assert stuck.any() and (~stuck).any()
+    # sliding: full friction against the motion, never reversing it
+    assert np.allclose(np.abs(f[~stuck]), fc)
+    assert np.all(np.sign(w_end[~stuck]) == np.sign(free[~stuck]))
+    assert np.all(np.abs(w_end[~stuck]) < np.abs(free[~stuck]))
     g = GearboxSpec()
     i0 = (24.0 / RE25.resistance) * (1 - np.sqrt(RE25.max_efficiency)) ** 2
     assert g.coulomb == pytest.approx(23 * RE25.k_t * i0, rel=0.01)

@@ -28,8 +28,7 @@ Back-EMF of a voltage drive (element ``motor``, ``mode = "voltage"``)
 Gearbox friction (element ``friction``)
     Viscous: ``GearboxSpec.viscous`` is added to ``Db`` (the book's ``Db`` stays the rest of
     the drive train's viscous loss). Coulomb: ``-F_c sign(w)`` held over the sample, and
-    stiction ``|F| <= F_c`` against the drive torque while ``|w| < stick_speed``
-    (:func:`coulomb_torque`).
+    stiction, in the discrete stick-slip form of :func:`coulomb_torque`.
 Backlash (element ``backlash``)
     :class:`Backlash`: a play of ``backlash`` rad at the wheel; after a torque reversal the
     motor side (inertia ``N^2 J``) must cross it before torque reaches the wheel.
@@ -50,6 +49,7 @@ __all__ = [
     "TwinPlant",
     "reflected_inertia",
     "derive_plant",
+    "relative_mobility",
     "coulomb_torque",
     "Backlash",
 ]
@@ -71,19 +71,16 @@ class GearboxSpec:
         book's ``Db`` is the drive train's viscous friction).
     backlash : play at the wheel (rad); default 0.7 deg (MAXON GP 32 A catalogue, average
         no-load backlash; the book names no gearbox).
-    stick_speed : relative wheel speed (rad/s) below which Coulomb friction sticks.
     """
 
     coulomb: float = 0.034
     viscous: float = 0.0
     backlash: float = float(np.deg2rad(0.7))
-    stick_speed: float = 0.02
 
     def __post_init__(self) -> None:
         _check("coulomb", self.coulomb, 0.0, 100.0)
         _check("viscous", self.viscous, 0.0, 100.0)
         _check("backlash", self.backlash, 0.0, 1.0)
-        _check("stick_speed", self.stick_speed, 0.0, 100.0)
 
 
 @dataclass(frozen=True)
@@ -162,16 +159,37 @@ def derive_plant(
     return TwinPlant(**vals, m12_offset=add(base_off, off))
 
 
+def relative_mobility(plant: Params) -> NDArray[np.float64]:
+    """Relative acceleration of one wheel per unit torque on it, upright at rest:
+    ``e M(0)^-1 e^T`` with ``e = [1, -1, b/r]`` (the torque ``u`` on a wheel is the
+    generalised force ``u e`` of (2.32)); shape ``plant.batch_shape``."""
+    from mwip.models.reduced import mass_matrix
+
+    M = mass_matrix(plant, np.zeros(3))
+    br = np.asarray(plant.b / plant.r, dtype=float)
+    e = np.stack(np.broadcast_arrays(np.ones_like(br), -np.ones_like(br), br), axis=-1)
+    x = np.linalg.solve(M, e[..., None])[..., 0]
+    return np.sum(e * x, axis=-1)
+
+
 def coulomb_torque(
-    w: NDArray[np.float64], drive: NDArray[np.float64], f_c: ArrayLike, stick_speed: float
+    w: NDArray[np.float64],
+    drive: NDArray[np.float64],
+    f_c: ArrayLike,
+    mobility: ArrayLike,
+    Ts: float,
 ) -> NDArray[np.float64]:
-    """Coulomb friction torque on the wheel (N m), held over a sample: ``-F_c sign(w)`` while
-    sliding (``|w| >= stick_speed``, ``w`` the wheel speed relative to the body), else the
-    static friction ``-clip(drive, -F_c, F_c)`` that holds up to ``F_c`` against the drive."""
+    """Coulomb friction torque on each wheel (N m), held over a sample, in the discrete
+    stick-slip form (Karnopp): the torque that would stop the relative wheel speed ``w``
+    within the sample, ``f* = -w / (Ts m) - drive`` (``m`` the relative mobility,
+    :func:`relative_mobility`), is applied when ``|f*| <= F_c`` (sticking), else
+    ``-F_c sign(w + Ts m drive)`` (sliding). A held ``-F_c sign(w)`` would instead reverse a
+    slow wheel within the sample and chatter at the sample rate."""
     fc = np.asarray(f_c, dtype=float)
-    slide = -fc * np.sign(w)
-    stick = -np.clip(drive, -fc, fc)
-    return np.where(np.abs(w) >= stick_speed, slide, stick)
+    m = np.asarray(mobility, dtype=float)
+    need = -w / (Ts * m) - drive
+    slide = -fc * np.sign(w + Ts * m * drive)
+    return np.where(np.abs(need) <= fc, need, slide)
 
 
 class Backlash:

@@ -41,7 +41,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.hardware.drivetrain import Backlash, GearboxSpec, coulomb_torque, derive_plant
+from mwip.hardware.drivetrain import (
+    Backlash,
+    GearboxSpec,
+    coulomb_torque,
+    derive_plant,
+    relative_mobility,
+)
 from mwip.hardware.elements import (
     DRIVE_ELEMENTS,
     ELEMENTS,
@@ -155,7 +161,7 @@ class Twin:
     def actuator(self, plant: Params, rows: Iterable[Iterable[str]] | None = None) -> TwinActuator:
         """A fresh drive for ``plant``."""
         return TwinActuator(self, plant_b_over_r=float(np.mean(plant.b / plant.r)),
-                            masks=self.masks(rows))  # fmt: skip
+                            masks=self.masks(rows), mobility=relative_mobility(plant))  # fmt: skip
 
 
 def _col(masks: NDArray[np.bool_], name: str) -> NDArray[np.bool_]:
@@ -183,9 +189,15 @@ class TwinActuator:
     """
 
     def __init__(
-        self, twin: Twin, *, plant_b_over_r: float, masks: NDArray[np.bool_] | None = None
+        self,
+        twin: Twin,
+        *,
+        plant_b_over_r: float,
+        masks: NDArray[np.bool_] | None = None,
+        mobility: ArrayLike = 1.0 / 2e-3,
     ) -> None:
         self.twin = twin
+        self.mobility = np.asarray(mobility, dtype=float)
         self.masks = twin.masks() if masks is None else np.asarray(masks, dtype=bool)
         m = self.masks
         self.b_over_r = float(plant_b_over_r)
@@ -232,7 +244,8 @@ class TwinActuator:
         if self._rows("friction", n).any():
             w = self.drive.motor_speed(state) / self.twin.drive.gear_ratio
             fc = self.twin.gearbox.coulomb * self._rows("friction", n)
-            fric = coulomb_torque(w, u, fc, self.twin.gearbox.stick_speed)
+            mob = np.broadcast_to(self.mobility, (n,))[:, None]
+            fric = coulomb_torque(w, u, fc, mob, self.twin.Ts)
             u = u + fric
         if self._rows("backlash", n).any():
             u = self.backlash(u)

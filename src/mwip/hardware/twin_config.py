@@ -70,7 +70,6 @@ SOURCES: dict[str, str] = {
     "gearbox.coulomb": "N m per wheel; N k_t I_0, I_0 from Table 2.1's 85 % efficiency",
     "gearbox.viscous": "N m s/rad per wheel beyond the book's Db (which is the drive's)",
     "gearbox.backlash": "rad at the wheel; MAXON GP 32 A catalogue (0.7 deg)",
-    "gearbox.stick_speed": "rad/s; relative wheel speed below which friction sticks",
     "imu.accel_sigma": "m/s^2 per sample; MEMS class (docs/twin.md); book names no part",
     "imu.accel_bias": "m/s^2; 2 mg residual offset, ASSUMED",
     "imu.gyro_sigma": "rad/s per sample; MEMS class, ASSUMED",
