@@ -3,7 +3,9 @@
 Shows how a study calls :func:`mwip.hardware.ablation.run_ablation` with its own controller
 factories, settings and claims. Run (about a minute per study)::
 
-    PYTHONPATH=src python examples/twin_ablation.py [--twin FILE] [--out DIR] [--quick]
+    PYTHONPATH=src python examples/twin_ablation.py [--twin FILE] [--out DIR] [--quick] [--alone]
+
+``--alone``: each element alone on the ideal robot instead of added in turn.
 
 Writes ``DIR/ablation.json`` (flat ``ablation.<element>.<run>.case<k>.<quantity>``) and
 ``DIR/ablation.md`` (the tables).
@@ -37,7 +39,7 @@ def _ordered(key: str, kinds: tuple[str, ...]) -> Callable[[Mapping[str, float]]
     return test
 
 
-def hodosmc(study: str, twin: Twin, quick: bool) -> Ablation:
+def hodosmc(study: str, twin: Twin, quick: bool, alone: bool = False) -> Ablation:
     cfg = settings.current(study)
     q1d = cfg["speed"]
     duration = 4.0 if quick else cfg["duration"]
@@ -81,10 +83,11 @@ def hodosmc(study: str, twin: Twin, quick: bool) -> Ablation:
             **extra,
         },
         claims=claims,
+        cumulative=not alone,
     )
 
 
-def asta(twin: Twin, quick: bool) -> Ablation:
+def asta(twin: Twin, quick: bool, alone: bool = False) -> Ablation:
     cfg = settings.current(exp_asta.NAME)
     duration = 4.0 if quick else cfg["duration"]
     window = (2.0, duration) if quick else tuple(cfg["rms_window"])
@@ -114,6 +117,7 @@ def asta(twin: Twin, quick: bool) -> Ablation:
             "seed": cfg["seed"],
         },
         claims=claims,
+        cumulative=not alone,
     )
 
 
@@ -122,20 +126,20 @@ def main() -> None:
     ap.add_argument("--twin", type=Path, default=None)
     ap.add_argument("--out", type=Path, default=Path("/tmp/twin-ablation"))
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--alone", action="store_true")
     args = ap.parse_args()
     twin = load_twin(args.twin) if args.twin else Twin()
     args.out.mkdir(parents=True, exist_ok=True)
     flat: dict[str, float] = {}
     text = []
+    q, al = args.quick, args.alone
+    bal, spd, obs = exp_hodosmc.NAME_BALANCE, exp_hodosmc.NAME_SPEED, exp_hodosmc.NAME_OBSTACLE
     jobs: list[tuple[str, Callable[[], Ablation], tuple[str, ...]]] = [
-        (exp_hodosmc.NAME_BALANCE, lambda: hodosmc(exp_hodosmc.NAME_BALANCE, twin, args.quick),
-         ("rms_theta", "rms_theta_meas", "rms_speed_err")),
-        (exp_hodosmc.NAME_SPEED, lambda: hodosmc(exp_hodosmc.NAME_SPEED, twin, args.quick),
-         ("rms_theta", "rms_speed_err")),
-        (exp_hodosmc.NAME_OBSTACLE, lambda: hodosmc(exp_hodosmc.NAME_OBSTACLE, twin, args.quick),
-         ("settling_time",)),
-        (exp_asta.NAME, lambda: asta(twin, args.quick), ("rms_theta", "rms_theta_meas", "rms_s1")),
-    ]  # fmt: skip
+        (bal, lambda: hodosmc(bal, twin, q, al), ("rms_theta", "rms_theta_meas", "rms_speed_err")),
+        (spd, lambda: hodosmc(spd, twin, q, al), ("rms_theta", "rms_speed_err")),
+        (obs, lambda: hodosmc(obs, twin, q, al), ("settling_time",)),
+        (exp_asta.NAME, lambda: asta(twin, q, al), ("rms_theta", "rms_theta_meas", "rms_s1")),
+    ]
     for name, job, quantities in jobs:
         ab = job()
         flat.update({f"{name}.{k}": v for k, v in ab.metrics.items()})

@@ -117,9 +117,10 @@ class Ablation:
         cols = [f"{r}.case{c}" for c in self.cases for r in self.runs]
         head = ["step", *cols, *[f"C{i + 1}" for i in range(len(self.claim_texts))]]
         body = []
+        alone = any(len(s) == 1 for _, s in self.steps[2:])
         for step, _ in self.steps:
             m = self.step_metrics(step)
-            row = ["ideal robot" if step == "ideal" else f"+ {step}"]
+            row = ["ideal robot" if step == "ideal" else (f"only {step}" if alone else f"+ {step}")]
             for c in cols:
                 v = m.get(f"{c}.{quantity}", float("nan"))
                 fell = m.get(f"{c}.fell", 0.0) == 1.0
@@ -138,7 +139,8 @@ class Ablation:
             return "\n".join(out)
         lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         lines += ["| " + " | ".join(r) + " |" for r in body]
-        text = f"{quantity} with the twin's elements added in turn\n\n" + "\n".join(lines)
+        how = "each alone" if alone else "added in turn"
+        text = f"{quantity} with the twin's elements {how}\n\n" + "\n".join(lines)
         return text + ("\n\n" + "\n".join(notes) if notes else "")
 
 
