@@ -132,13 +132,17 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     flat: dict[str, float] = {}
     text = []
-    q, al = args.quick, args.alone
+    quick, al = args.quick, args.alone
     bal, spd, obs = exp_hodosmc.NAME_BALANCE, exp_hodosmc.NAME_SPEED, exp_hodosmc.NAME_OBSTACLE
     jobs: list[tuple[str, Callable[[], Ablation], tuple[str, ...]]] = [
-        (bal, lambda: hodosmc(bal, twin, q, al), ("rms_theta", "rms_theta_meas", "rms_speed_err")),
-        (spd, lambda: hodosmc(spd, twin, q, al), ("rms_theta", "rms_speed_err")),
-        (obs, lambda: hodosmc(obs, twin, q, al), ("settling_time",)),
-        (exp_asta.NAME, lambda: asta(twin, q, al), ("rms_theta", "rms_theta_meas", "rms_s1")),
+        (
+            bal,
+            lambda: hodosmc(bal, twin, quick, al),
+            ("rms_theta", "rms_theta_meas", "rms_speed_err"),
+        ),
+        (spd, lambda: hodosmc(spd, twin, quick, al), ("rms_theta", "rms_speed_err")),
+        (obs, lambda: hodosmc(obs, twin, quick, al), ("settling_time",)),
+        (exp_asta.NAME, lambda: asta(twin, quick, al), ("rms_theta", "rms_theta_meas", "rms_s1")),
     ]
     for name, job, quantities in jobs:
         ab = job()

@@ -301,6 +301,9 @@ def test_ablation_keys_batched_equals_one_by_one_and_ideal_is_plain() -> None:
     assert "<table>" in a.table("rms_theta", html=True)
     with pytest.raises(ValueError, match="unknown element"):
         ablation_steps(("inertia", "wind"))
+    alone = dict(ablation_steps(cumulative=False))
+    assert alone["pwm"] == {"motor", "pwm"} and alone["imu_bias"] == {"fusion", "imu_bias"}
+    assert alone["delay"] == {"delay"} and len(alone) == len(ELEMENTS) + 1
 
 
 def test_all_elements_registered_in_order() -> None:

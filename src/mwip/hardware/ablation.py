@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from mwip.hardware.elements import ELEMENTS, check_elements
+from mwip.hardware.elements import ELEMENTS, REQUIRES, check_elements
 from mwip.hardware.twin import Twin, run_on_twin
 from mwip.metrics import rms
 from mwip.params import Params
@@ -54,14 +54,16 @@ def ablation_steps(
     order: Sequence[str] = ELEMENTS, *, cumulative: bool = True
 ) -> list[tuple[str, frozenset[str]]]:
     """``[("ideal", {}), (e1, {e1}), (e2, {e1, e2}), ...]`` (``cumulative``) or each element
-    alone (``[("ideal", {}), (e1, {e1}), (e2, {e2}), ...]``)."""
+    alone with what it acts through (``[("ideal", {}), (e1, {e1}), ("pwm", {"motor", "pwm"}),
+    ...]``, :data:`mwip.hardware.elements.REQUIRES`)."""
     names = list(order)
     check_elements(names, "order")
     if len(set(names)) != len(names):
         raise ValueError(f"'order' lists an element twice: {names}")
     steps: list[tuple[str, frozenset[str]]] = [("ideal", frozenset())]
     for k, name in enumerate(names):
-        steps.append((name, frozenset(names[: k + 1]) if cumulative else frozenset({name})))
+        alone = frozenset({name}) | REQUIRES.get(name, frozenset())
+        steps.append((name, frozenset(names[: k + 1]) if cumulative else alone))
     return steps
 
 
@@ -105,6 +107,7 @@ class Ablation:
     cases: tuple[int, ...]
     claim_texts: list[str] = field(default_factory=list)
     claims: dict[str, list[bool | None]] = field(default_factory=dict)
+    alone: bool = False
 
     def step_metrics(self, step: str) -> dict[str, float]:
         """One step's metrics without the ``ablation.<step>.`` prefix."""
@@ -117,10 +120,13 @@ class Ablation:
         cols = [f"{r}.case{c}" for c in self.cases for r in self.runs]
         head = ["step", *cols, *[f"C{i + 1}" for i in range(len(self.claim_texts))]]
         body = []
-        alone = any(len(s) == 1 for _, s in self.steps[2:])
+        alone = self.alone
         for step, _ in self.steps:
             m = self.step_metrics(step)
-            row = ["ideal robot" if step == "ideal" else (f"only {step}" if alone else f"+ {step}")]
+            label = f"only {step}"
+            if alone and step in REQUIRES:
+                label += f" (with {', '.join(sorted(REQUIRES[step]))})"
+            row = ["ideal robot" if step == "ideal" else (label if alone else f"+ {step}")]
             for c in cols:
                 v = m.get(f"{c}.{quantity}", float("nan"))
                 fell = m.get(f"{c}.fell", 0.0) == 1.0
@@ -203,7 +209,7 @@ def run_ablation(
             for (step, _), r in zip(steps, rows, strict=True):
                 for q, v in fn(r, name, case).items():
                     out[f"ablation.{step}.{name}.case{case}.{q}"] = float(v)
-    ab = Ablation(out, steps, names, cases, [t for t, _ in claims])
+    ab = Ablation(out, steps, names, cases, [t for t, _ in claims], alone=not cumulative)
     for step, _ in steps:
         m = ab.step_metrics(step)
         ab.claims[step] = [_judge(test, m) for _, test in claims]

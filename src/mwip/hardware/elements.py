@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 __all__ = [
     "ELEMENTS",
     "DESCRIPTIONS",
+    "REQUIRES",
     "PLANT_ELEMENTS",
     "DRIVE_ELEMENTS",
     "SENSOR_ELEMENTS",
@@ -61,6 +62,15 @@ DESCRIPTIONS: dict[str, str] = {
     "accel_motion": "accelerometer reads the body's acceleration",
     "imu_noise": "IMU white noise",
     "imu_bias": "IMU bias and gyro drift",
+}
+
+#: Elements that act only through another one (an ablation of one element alone adds these).
+REQUIRES: dict[str, frozenset[str]] = {
+    "pwm": frozenset({"motor"}),
+    "sag": frozenset({"motor"}),
+    "accel_motion": frozenset({"fusion"}),
+    "imu_noise": frozenset({"fusion"}),
+    "imu_bias": frozenset({"fusion"}),
 }
 
 PLANT_ELEMENTS = frozenset({"inertia"})
