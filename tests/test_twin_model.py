@@ -310,3 +310,28 @@ def test_all_elements_registered_in_order() -> None:
     assert ELEMENTS[0] == "inertia" and ELEMENTS[-1] == "imu_bias" and len(set(ELEMENTS)) == 12
     assert Twin().active == frozenset(ELEMENTS)
     assert Twin.ideal().active == frozenset()
+
+
+def test_closed_loop_sensitivities_equal_single_runs() -> None:
+    from mwip.hardware.sensitivity import payload_closed_loop, stick_closed_loop
+    from mwip.hardware.twin import stick_for
+
+    tw = Twin(elements={"inertia", "encoder", "fusion", "imu_noise"})
+    kw = {"q0": (0.0, 0.05, 0.0), "duration": 0.8, "seed": 2}
+    rows = payload_closed_loop(_smc, (0.1, 0.5), twin=tw, window=(0.2, 0.8), **kw)
+    for row in rows:
+        one = run_on_twin(_smc(), 2, twin=tw, plant=REAL.with_payload(mass=row["mass"]), **kw)
+        from mwip.metrics import rms
+
+        assert row["rms_theta"] == pytest.approx(float(rms(one.t, one.theta, (0.2, 0.8))))
+    assert rows[0]["rms_theta"] != pytest.approx(rows[1]["rms_theta"], rel=1e-3)
+    kw2 = {"q0": (0.0, 0.0, 0.0), "duration": 0.8, "seed": 2}
+    srows = stick_closed_loop(_smc, (0.005, 0.02), twin=tw, start=0.3, window=(0.2, 0.8), **kw2)
+    p2 = REAL.with_payload()
+    for row in srows:
+        stick = replace(stick_for(p2, -7.0, 0.3), height=row["height"])
+        one = run_on_twin(_smc(), 2, twin=tw, plant=p2, disturbance=stick, **kw2)
+        assert row["rms_speed_err"] == pytest.approx(
+            float(rms(one.t, one.q_dot[:, 0] + 7.0, (0.2, 0.8)))
+        )
+    assert srows[0]["rms_theta"] < srows[1]["rms_theta"]  # a higher stick disturbs more

@@ -14,21 +14,26 @@ vary it and return the numbers that carry it into the dynamics (docs/twin_model.
   length at the set speed, resisting torque ``m g h / dpsi`` and its impulse;
 - :func:`gear_sensitivity`: for gear ratios, the reflected inertia, the pitch input gain of
   the twin's plant against the nominal model's, the back-EMF damping, wheel stall torque and
-  no-load speed.
+  no-load speed;
+- :func:`payload_closed_loop`, :func:`stick_closed_loop`: a controller on the twin for each
+  payload mass / stick height (one batched run each).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mwip.hardware.motor import DriveSpec
 from mwip.hardware.obstacle import StickObstacle
-from mwip.hardware.twin import Twin
-from mwip.params import NOMINAL, REAL, Params
+from mwip.hardware.twin import Twin, run_on_twin
+from mwip.metrics import rms
+from mwip.params import NOMINAL, REAL, Params, stack_params
+from mwip.sim.result import SimResult
 
 __all__ = [
     "pitch_pole",
@@ -36,6 +41,8 @@ __all__ = [
     "payload_sensitivity",
     "stick_sensitivity",
     "gear_sensitivity",
+    "payload_closed_loop",
+    "stick_closed_loop",
     "sensitivity_tables",
     "tables_markdown",
 ]
@@ -136,6 +143,81 @@ def gear_sensitivity(
             "wheel_no_load_speed": float(m.no_load_speed_rpm * 2 * np.pi / 60 / n),
         })  # fmt: skip
     return rows
+
+
+def _closed_rows(
+    res: SimResult, values: Sequence[float], key: str, window: tuple[float, float], q1d: float
+) -> list[dict[str, float]]:
+    rows = []
+    meas = res.series().get("y_meas")
+    for i, v in enumerate(values):
+        ok = res.status[i] == "ok"
+        nan = float("nan")
+        rows.append({
+            key: float(v),
+            "rms_theta": float(rms(res.t, res.states[i, :, 1], window)) if ok else nan,
+            "rms_theta_meas": float(rms(res.t, meas[i, :, 1], window))
+            if ok and meas is not None else nan,
+            "rms_speed_err": float(rms(res.t, res.states[i, :, 3] - q1d, window)) if ok else nan,
+            "t_end": float(res.t_end[i]),
+        })  # fmt: skip
+    return rows
+
+
+def payload_closed_loop(
+    factory: Callable[[], Any],
+    masses: Sequence[float] = (0.1, 0.2, 0.3, 0.4, 0.5),
+    *,
+    twin: Twin | None = None,
+    height: float = 0.1,
+    base: Params = REAL,
+    window: tuple[float, float] = (2.0, 10.0),
+    q1d_dot: float = 0.0,
+    **run_kwargs: Any,
+) -> list[dict[str, float]]:
+    """RMS (6.3) of ``factory()`` (a batch-capable controller) on the twin with each payload
+    mass on rods of ``height`` (Case 2 geometry, :meth:`Params.with_payload`): one batched
+    run; ``run_kwargs`` go to :func:`mwip.hardware.twin.run_on_twin` (``q0``, ``duration``,
+    ``seed``, ...); every row sees the IMU noise of a single run (``common_noise``)."""
+    plant = stack_params([base.with_payload(mass=m, height=height) for m in masses])
+    run_kwargs.setdefault("common_noise", True)
+    res = run_on_twin(factory(), 2, twin=twin, plant=plant, **run_kwargs)
+    return _closed_rows(res, masses, "mass", window, q1d_dot)
+
+
+class _Sticks:
+    """A batch of sticks, one per robot: ``tau_ext(t) -> (K, N, 3)``."""
+
+    def __init__(self, sticks: Sequence[StickObstacle]) -> None:
+        self.sticks = list(sticks)
+
+    def __call__(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.stack([s(t) for s in self.sticks], axis=-2)
+
+
+def stick_closed_loop(
+    factory: Callable[[], Any],
+    heights: Sequence[float] = (0.005, 0.01, 0.015, 0.02),
+    *,
+    twin: Twin | None = None,
+    plant: Params | None = None,
+    speed: float = -7.0,
+    start: float = 6.0,
+    window: tuple[float, float] = (2.0, 10.0),
+    **run_kwargs: Any,
+) -> list[dict[str, float]]:
+    """RMS (6.3) of ``factory()`` on the twin (Case 2 plant unless ``plant``) crossing a stick
+    of each height at ``start`` while running at ``speed``: one batched run (the controller
+    should track ``speed``)."""
+    p = REAL.with_payload() if plant is None else plant
+    mass = float(p.mb + 2 * p.mw)
+    sticks = [StickObstacle(height=h, start=start, speed=speed, mass=mass, r=float(p.r))
+              for h in heights]  # fmt: skip
+    batch = stack_params([p] * len(heights))
+    run_kwargs.setdefault("common_noise", True)
+    res = run_on_twin(factory(), 2, twin=twin, plant=batch, disturbance=_Sticks(sticks),
+                      **run_kwargs)  # fmt: skip
+    return _closed_rows(res, heights, "height", window, speed)
 
 
 def sensitivity_tables(twin: Twin | None = None) -> dict[str, list[dict[str, Any]]]:
