@@ -207,7 +207,8 @@ class TwinActuator:
         )  # fmt: skip
         n2j = twin.drive.gear_ratio**2 * twin.motor.rotor_inertia
         self.backlash = Backlash(_col(m, "backlash") * twin.gearbox.backlash, n2j, twin.Ts)
-        self.any = bool(m.any(axis=0)[[_IDX[e] for e in sorted(DRIVE_ELEMENTS)]].any())
+        idx = [_IDX[e] for e in sorted(DRIVE_ELEMENTS)]
+        self.any = bool(np.any(m[:, idx]))
         self.u_prev = np.zeros((0, 2))
         self.last: dict[str, NDArray[np.float64]] = {}
 
@@ -447,4 +448,5 @@ def _batched(p: Params, n: int) -> Params:
     """``p`` as a batch of ``n`` identical robots (``Db`` carries the batch shape)."""
     from dataclasses import replace
 
-    return replace(p, Db=np.broadcast_to(np.asarray(p.Db, dtype=float), (n,)).copy())
+    db: Any = np.broadcast_to(np.asarray(p.Db, dtype=float), (n,)).copy()
+    return replace(p, Db=db)
