@@ -242,6 +242,10 @@ def test_twin_file_round_trip_and_errors(tmp_path: object) -> None:
         twin_from_dict({"delay": 2.0})
     with pytest.raises(ValueError, match="unknown element 'wind'"):
         twin_from_dict({"elements": ["wind"]})
+    m = twin_from_dict({"motor": {"torque_constant": 0.0234, "terminal_resistance": 2.32}}).motor
+    assert (m.k_t, m.k_e, m.resistance) == (0.0234, 0.0234, 2.32)  # catalogue values
+    with pytest.raises(ValueError, match="terminal_resistance"):
+        twin_from_dict({"motor": {"terminal_resistance": -1.0}})
     f = tmp_path / "t.toml"  # type: ignore[operator]
     f.write_text("[twin.drive]\ngear_ratio = 11.0\n")
     t11 = load_twin(f)

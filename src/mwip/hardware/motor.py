@@ -61,7 +61,12 @@ def _check(name: str, value: float, lo: float, hi: float) -> None:
 
 @dataclass(frozen=True)
 class MotorData:
-    """Motor data sheet (Table 2.1 defaults, MAXON RE25 20 W 24 V), SI units."""
+    """Motor data sheet (Table 2.1 defaults, MAXON RE25 20 W 24 V), SI units.
+
+    ``torque_constant`` and ``terminal_resistance`` are derived from Table 2.1 when 0 (the
+    default): ``k_t = k_e = V / omega_0``, ``R = k_t V / tau_stall``; a positive value sets
+    them directly (e.g. from a catalogue or a measurement).
+    """
 
     rated_power: float = 20.0
     rated_voltage: float = 24.0
@@ -72,6 +77,8 @@ class MotorData:
     max_efficiency: float = 0.85
     rotor_inertia: float = 10.8e-7  # 10.8 g cm^2
     inductance: float = 0.238e-3
+    torque_constant: float = 0.0
+    terminal_resistance: float = 0.0
 
     def __post_init__(self) -> None:
         _check("rated_power", self.rated_power, 0.0, 1e4)
@@ -83,10 +90,19 @@ class MotorData:
         _check("max_efficiency", self.max_efficiency, 0.0, 1.0)
         _check("rotor_inertia", self.rotor_inertia, 0.0, 1.0)
         _check("inductance", self.inductance, 0.0, 1.0)
+        for name in ("torque_constant", "terminal_resistance"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and 0.0 <= v <= 1e3):
+                raise ValueError(
+                    f"{name!r} must be finite and in [0, 1000] (0: from Table 2.1), got {v!r}"
+                )
 
     @property
     def k_e(self) -> float:
-        """Back-EMF constant (V s/rad) = rated voltage / no-load speed."""
+        """Back-EMF constant (V s/rad) = rated voltage / no-load speed (or
+        ``torque_constant``)."""
+        if self.torque_constant > 0:
+            return self.torque_constant
         return self.rated_voltage / (self.no_load_speed_rpm * RPM)
 
     @property
@@ -96,7 +112,9 @@ class MotorData:
 
     @property
     def resistance(self) -> float:
-        """Terminal resistance (Ohm) = ``k_t V / tau_stall``."""
+        """Terminal resistance (Ohm) = ``k_t V / tau_stall`` (or ``terminal_resistance``)."""
+        if self.terminal_resistance > 0:
+            return self.terminal_resistance
         return self.k_t * self.rated_voltage / self.stall_torque
 
     @property

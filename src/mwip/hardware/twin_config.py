@@ -58,6 +58,8 @@ SOURCES: dict[str, str] = {
     "motor.max_efficiency": "Table 2.1; gives the no-load current (gearbox.coulomb)",
     "motor.rotor_inertia": "kg m^2; Table 2.1 (10.8 g cm^2)",
     "motor.inductance": "H; MAXON catalogue RE25 24 V (Table 2.1 has none)",
+    "motor.torque_constant": "N m/A = V s/rad; 0: V / no-load speed (23.97e-3)",
+    "motor.terminal_resistance": "Ohm; 0: k_t V / stall torque (2.368)",
     "drive.gear_ratio": "ASSUMED MAXON GP 32 A 23:1 (the book names no gearbox; docs/twin.md)",
     "drive.gear_efficiency": "MAXON GP 32 A catalogue, 2 stages (75 %)",
     "drive.supply_voltage": "V; battery, Sec. 2.5",
