@@ -339,3 +339,27 @@ def test_closed_loop_sensitivities_equal_single_runs() -> None:
             float(rms(one.t, one.q_dot[:, 0] + 7.0, (0.2, 0.8)))
         )
     assert srows[0]["rms_theta"] < srows[1]["rms_theta"]  # a higher stick disturbs more
+
+
+def test_pwm_deadband_and_supply_sag() -> None:
+    from mwip.hardware.motor import apply_deadband
+
+    d = apply_deadband(np.array([0.005, -0.005, 0.5, -0.5]), 0.01)
+    assert np.allclose(d, [0.0, 0.0, 0.49, -0.49])
+    drive = DriveSpec(pwm_levels=0, deadband=0.0, supply_resistance=0.2, current_limit=3.0)
+    act = DriveActuator(RE25, drive, Ts=TS, emf_in_plant=True)
+    act.reset(2)
+    state = np.zeros((2, 8))
+    cmd = np.array([[0.5, 0.5], [-0.2, 0.3]])
+    act(0.0, cmd, state)
+    i_bat = np.sum(act.last["duty"] * act.last["current"], axis=1)
+    assert np.allclose(act.last["supply"], 24.0)  # no current drawn before the first sample
+    act(TS, cmd, state)
+    assert np.allclose(act.last["supply"], 24.0 - 0.2 * i_bat)
+    assert np.all(act.last["supply"] < 24.0)
+    # switched off per row, the supply stays stiff
+    act2 = DriveActuator(RE25, drive, Ts=TS, sag=np.array([True, False]), emf_in_plant=True)
+    act2.reset(2)
+    act2(0.0, cmd, state)
+    act2(TS, cmd, state)
+    assert act2.last["supply"][1] == 24.0 and act2.last["supply"][0] < 24.0
