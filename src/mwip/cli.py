@@ -602,6 +602,11 @@ def params_save(which: str, path: Path, damping: str) -> None:
 
 
 # ---------------------------------------------------------------------------------------------
+from mwip.hardware.twin_cli import twin as _twin_group  # noqa: E402 - a group of its own module
+
+cli.add_command(_twin_group)
+
+
 @cli.command("list")
 def list_cmd() -> None:
     """List the studies with their book sources."""

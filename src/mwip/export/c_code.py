@@ -252,7 +252,7 @@ def _smc(ctrl: Any, w: _W, prefix: str) -> tuple[list[str], str, str]:
     switch = ("w1 = mwip_clip1(s1 / PHI_SW); w2 = mwip_clip1(s2 / PHI_SW);" if sw.kind == "sat"
               else "w1 = mwip_sgn(s1); w2 = mwip_sgn(s2);")  # fmt: skip
     n = w.num
-    phi_line = (f"static const mwip_real PHI_SW = {n(sw.phi)};" if sw.kind == "sat" else "")
+    phi_line = f"static const mwip_real PHI_SW = {n(sw.phi)};" if sw.kind == "sat" else ""
     keep_u = ("    for (i = 0; i < 2; ++i) s->u_prev[i] = u[i];\n    s->has_u = 1;"
               if fields else "")  # fmt: skip
     code = f"""\
@@ -351,7 +351,7 @@ def _tsmc(ctrl: Any, w: _W, prefix: str) -> tuple[list[str], str, str]:
     Tf = ctrl.Tf
     switch = "mwip_clip1(sv / PHI_SW)" if sw.kind == "sat" else "mwip_sgn(sv)"
     D, IDinv, C, Gam = ctrl.D, ctrl._IDinv, ctrl.C, ctrl.Gamma
-    phi_line = (f"static const mwip_real PHI_SW = {n(sw.phi)};" if sw.kind == "sat" else "")
+    phi_line = f"static const mwip_real PHI_SW = {n(sw.phi)};" if sw.kind == "sat" else ""
     code = f"""\
 static const mwip_real C[2] = {{{n(C[0])}, {n(C[1])}}};
 static const mwip_real GAM[2] = {{{n(Gam[0])}, {n(Gam[1])}}};
