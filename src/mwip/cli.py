@@ -138,6 +138,7 @@ def cli() -> None:
     help="Folder for timeseries.csv, timeseries.npz and summary.json.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--plot", is_flag=True, help="Also draw OUT/run.png (needs --out).")
 @_DAMPING
 @click.option(
     "--scenario",
@@ -150,7 +151,7 @@ def cli() -> None:
 def simulate(
     ctx: click.Context, controller: str, theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
-    disturbance: str, out: Path | None, as_json: bool, damping: str,
+    disturbance: str, out: Path | None, as_json: bool, plot: bool, damping: str,
     scenario_file: Path | None,
 ) -> None:  # fmt: skip
     """Simulate a closed loop and print status, settling time and max |u|."""
@@ -171,6 +172,8 @@ def simulate(
     for name, val in (("--alpha0", alpha0), ("--v0", v0)):
         if not (math.isfinite(val) and abs(val) <= 1e3):
             raise click.BadParameter(f"must be in [-1000, 1000], got {val!r}", param_hint=name)
+    if plot and out is None:
+        raise click.BadParameter("needs --out FOLDER to write run.png into", param_hint="--plot")
     if out is not None and out.exists() and not out.is_dir():
         raise click.BadParameter(f"{str(out)!r} exists and is not a folder", param_hint="--out")
     if scenario_file is not None:
@@ -222,6 +225,9 @@ def simulate(
         res.to_csv(out / "timeseries.csv")
         res.to_npz(out / "timeseries.npz")
         write_json_atomic(out / "summary.json", summary)
+        from mwip.plot.simulate_files import write_simulate_extras
+
+        written = write_simulate_extras(res, sc.plant, out, plot=plot)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:
@@ -233,7 +239,7 @@ def simulate(
         )
         if out is not None:
             click.echo(f"wrote {out / 'timeseries.csv'}, {out / 'timeseries.npz'}, "
-                       f"{out / 'summary.json'}")  # fmt: skip
+                       f"{out / 'summary.json'}, {', '.join(map(str, written))}")  # fmt: skip
     if summary["status"] != "ok":
         sys.exit(1)
 
@@ -792,6 +798,15 @@ def report(out: Path, verbose: bool) -> None:
     for line in summary_lines(load_results(out, names), verbose=verbose):
         click.echo(line)
     click.echo(f"report: {path}")
+
+
+def _register() -> None:
+    from mwip.animate import animate_cmd
+
+    cli.add_command(animate_cmd)
+
+
+_register()
 
 
 def main(argv: list[str] | None = None) -> int:
