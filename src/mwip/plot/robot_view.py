@@ -100,7 +100,7 @@ class RobotView:
         self._traces()
         title = (f"{run.study}: {run.name}" if run.study
                  else f"{run.source.parent.name}/{run.source.name}")  # fmt: skip
-        self.fig.suptitle(title, fontsize=12)
+        self.fig.suptitle(title, fontsize=12, x=0.01, ha="left")
         self.fig.canvas.draw()  # lay out once, then freeze: every frame moves artists only
         self.fig.set_layout_engine("none")
 
@@ -118,7 +118,7 @@ class RobotView:
                 canvas.restore_region(background)
                 self.show(i, final=i == n - 1)
                 for a in self.moving:
-                    a.axes.draw_artist(a)
+                    (a.axes or self.fig).draw_artist(a)
                 frame = np.asarray(canvas.buffer_rgba()).copy()
                 yield frame
             for _ in range(hold):
@@ -146,8 +146,7 @@ class RobotView:
         (self.com,) = ax.plot([], [], "o", color="k", ms=4)
         (self.payload,) = ax.plot([], [], color="#8e5a2b", lw=3)
         (self.rods,) = ax.plot([], [], color="#8e5a2b", lw=1)
-        self.clock = ax.text(1.0, 1.02, "", transform=ax.transAxes, ha="right", va="bottom",
-                             fontsize=11)  # fmt: skip
+        self.clock = self.fig.text(0.99, 0.985, "", ha="right", va="top", fontsize=11)
         self.banner = ax.text(0.5, 0.55, "", transform=ax.transAxes, ha="center", fontsize=16,
                               color=_FELL, weight="bold")  # fmt: skip
         ax.set_ylim(-0.05, max(1.25 * top, 0.75 * self.half))
@@ -155,7 +154,7 @@ class RobotView:
         ax.set_aspect("equal", adjustable="box")
         ax.set_xlabel(f"m from the axle (ground marks every {100 * self.mark_step:.0f} cm)")
         ax.set_ylabel("height (m)")
-        ax.set_title("side view (to scale)", fontsize=11, loc="left")
+        ax.set_title("side view (to scale)", fontsize=11)
         self.moving = [self.marks, self.wheel, self.spokes, self.body, self.com, self.payload,
                        self.rods, self.clock, self.banner]  # fmt: skip
 

@@ -123,6 +123,13 @@ def write_metrics(folder: Path, doc: dict[str, Any]) -> Path:
     return write_json_atomic(folder / "metrics.json", doc)
 
 
+#: The widest a study figure is drawn (px): the report shows figures at most about 1200 px
+#: wide at a 1280 px window, so none is shrunk by more than about 1.2x (fonts stay readable).
+MAX_FIGURE_PX = 1440
+
+
 def save_figure(fig: Figure, path: Path) -> Path:
-    """Save a matplotlib figure as PNG atomically (no pyplot, no global backend)."""
-    return write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=120))
+    """Save a matplotlib figure as PNG atomically (no pyplot, no global backend), at 120 dpi
+    or, for a figure wider than 12 in, at the dpi that makes it :data:`MAX_FIGURE_PX` wide."""
+    dpi = min(120.0, MAX_FIGURE_PX / float(fig.get_figwidth()))
+    return write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=dpi))
