@@ -610,8 +610,8 @@ def _execute(
     verbose: bool = False, overrides: dict[str, dict[str, Any]] | None = None,
     damping: str = "units", summary: bool = True,
 ) -> None:  # fmt: skip
-    """Run ``names`` with a progress bar, then print the one-screen summary (``summary``:
-    else one line); exits 1 if a study failed."""
+    """Run ``names`` with a progress bar, then print the one-screen summary (not
+    ``summary``: its headline only, on stderr); exits 1 if a study failed."""
     from mwip.report import load_results, summary_lines
     from mwip.report.claims import find_compare, load_comparison
     from mwip.studies.runner import run_studies
@@ -642,10 +642,11 @@ def _execute(
     cmp = load_comparison(compare) if compare is not None else None
     lines = summary_lines(load_results(out, names), width=width, verbose=verbose,
                           damping=damping, compare=cmp)  # fmt: skip
-    for line in lines if summary else lines[:1]:
-        click.echo(line)
+    for line in lines if summary else [f"{out.name}: {lines[0]}"]:
+        click.echo(line, err=not summary)
     click.echo(f"{len(names) - len(failed)}/{len(names)} studies done in "
-               f"{record['wall_s']:.1f} s; report: {out / 'index.html'}")  # fmt: skip
+               f"{record['wall_s']:.1f} s; report: {out / 'index.html'}",
+               err=not summary)  # fmt: skip
     if failed:
         sys.exit(1)
 
