@@ -195,6 +195,19 @@ def test_animate_a_fallen_run_shows_the_fall_then_stops(study_folder, tmp_path):
         assert im.size == (640, 424)
 
 
+def test_plot_command_draws_any_run_of_a_study(study_folder, tmp_path, capsys):
+    """`mwip plot` on a study folder: the figure of its run, apart from the study's figures."""
+    assert main(["plot", str(study_folder), "--run", "smc.case1"]) == 0
+    path = study_folder / "plot" / "smc.case1.png"
+    assert f"wrote {path}" in capsys.readouterr().out
+    with Image.open(path) as im:
+        assert im.size == (1000, 960)
+    assert main(["plot", str(study_folder), "--out", str(tmp_path / "x.jpg")]) == 2
+    assert main(["plot", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "must end in .png" in err[0] and "no run found" in err[1]
+
+
 @pytest.mark.parametrize(
     ("setup", "args", "expect"),
     [

@@ -844,8 +844,10 @@ def report(out: Path, compare: Path | None, verbose: bool) -> None:
 
 def _register() -> None:
     from mwip.animate import animate_cmd
+    from mwip.plot.command import plot_cmd
 
     cli.add_command(animate_cmd)
+    cli.add_command(plot_cmd)
 
 
 _register()

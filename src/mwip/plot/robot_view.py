@@ -90,7 +90,7 @@ class RobotView:
         self.w = 1.5 * self.r
         self.fig = Figure(figsize=size, dpi=dpi, layout="constrained")
         FigureCanvasAgg(self.fig)
-        gs = self.fig.add_gridspec(2, 2, height_ratios=(1.35, 1))
+        gs = self.fig.add_gridspec(2, 2, height_ratios=(1.35, 1), width_ratios=(1.35, 1))
         self.ax_side = self.fig.add_subplot(gs[0, 0])
         self.ax_top = self.fig.add_subplot(gs[0, 1])
         self.ax_th = self.fig.add_subplot(gs[1, 0])
@@ -152,9 +152,9 @@ class RobotView:
         ax.set_ylim(-0.05, max(1.25 * top, 0.75 * self.half))
         ax.set_xlim(-self.half, self.half)
         ax.set_aspect("equal", adjustable="box")
-        ax.set_xlabel(f"m from the axle (ground marks every {100 * self.mark_step:.0f} cm)")
+        ax.set_xlabel(f"side view to scale: m from the axle (marks every "
+                      f"{100 * self.mark_step:.0f} cm)")  # fmt: skip
         ax.set_ylabel("height (m)")
-        ax.set_title("side view (to scale)", fontsize=11)
         self.moving = [self.marks, self.wheel, self.spokes, self.body, self.com, self.payload,
                        self.rods, self.clock, self.banner]  # fmt: skip
 
@@ -171,9 +171,8 @@ class RobotView:
         ax.set_ylim(cy - 0.6 * span, cy + 0.6 * span)
         ax.set_aspect("equal", adjustable="box")
         ax.grid(True, alpha=0.3)
-        ax.set_xlabel("x (m)")
+        ax.set_xlabel("top view of the path: x (m)")
         ax.set_ylabel("y (m)")
-        ax.set_title("top view: path", fontsize=11)
 
     def _traces(self) -> None:
         res = self.run.result

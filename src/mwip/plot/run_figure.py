@@ -67,21 +67,21 @@ def run_figure(run: Run, title: str | None = None) -> Figure:
         ax.set_xlabel("t (s)")
     a_th.plot(t, x[:, 1], color="C0")
     a_th.set_ylabel("pitch theta (rad)")
-    a_sp.plot(t, x[:, 3], color="C0", label="psi' (measured by the plant)")
+    a_sp.plot(t, x[:, 3], color="C0", label="psi' (plant)")
     if run.reference is not None:
         a_sp.axhline(run.reference, color="k", ls=":", lw=1.4, label="reference psi'_d")
     a_sp.set_ylabel("wheel speed psi' (rad/s)")
     a_sp.legend(loc="best", fontsize=10)
     a_al.plot(t, x[:, 2], color="C0")
     a_al.set_ylabel("yaw alpha (rad)")
-    a_u.plot(t, u[:, 0], color="C1", label="u_r commanded")
-    a_u.plot(t, u[:, 1], color="C2", label="u_l commanded")
+    a_u.plot(t, u[:, 0], color="C1", lw=1.2, label="u_r commanded")
+    a_u.plot(t, u[:, 1], color="C2", lw=1.2, ls=(0, (4, 2)), label="u_l commanded")
     applied = res.logs.get("u_applied")
-    if applied is not None:
+    if applied is not None:  # wide and light, under the commanded torques
         ap = np.asarray(applied, dtype=float)
         ap = ap[0] if ap.ndim == 3 else ap
-        a_u.plot(t, ap[:, 0], color="C1", ls="--", lw=1.0, label="u_r applied")
-        a_u.plot(t, ap[:, 1], color="C2", ls="--", lw=1.0, label="u_l applied")
+        a_u.plot(t, ap[:, 0], color="C1", lw=3.5, alpha=0.35, zorder=1, label="u_r applied")
+        a_u.plot(t, ap[:, 1], color="C2", lw=3.5, alpha=0.35, zorder=1, label="u_l applied")
     a_u.set_ylabel("wheel torque (N m)")
     a_u.legend(loc="best", fontsize=10, ncol=2)
     est = disturbance_estimates(run)
