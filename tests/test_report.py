@@ -414,3 +414,28 @@ def test_runner_reports_each_simulation_run(tmp_path, jobs):
     assert seen.count("lqr-gain") == 3  # continuous, sampled, continuous gain held
     assert seen.count("do-comparison") >= 1
     assert RUN_END_HOOKS == before
+
+
+def test_study_figures_are_drawn_for_the_width_the_report_shows(tmp_path):
+    """At most 1440 px wide; no text under 10 px once shrunk to the report's 1200 px."""
+    from matplotlib.figure import Figure
+    from matplotlib.text import Text
+    from PIL import Image
+
+    from mwip.studies.common import save_figure
+
+    for width_in, dpi in ((14.0, 1440 / 14.0), (9.0, 120.0)):
+        fig = Figure(figsize=(width_in, 5))
+        ax = fig.add_subplot()
+        ax.plot([0, 1], [0, 1], label="a")
+        ax.legend(fontsize=6)
+        ax.tick_params(labelsize=5)
+        ax.set_title("t", fontsize=12)
+        path = tmp_path / f"fig-{width_in:g}.png"
+        save_figure(fig, path)
+        with Image.open(path) as im:
+            assert im.size[0] == round(width_in * dpi) <= 1440
+        shrink = max(1.0, width_in * dpi / 1200)
+        sizes = [t.get_fontsize() * dpi / 72 / shrink for t in fig.findobj(Text) if t.get_text()]
+        assert min(sizes) >= 10.0 - 1e-9
+        assert max(sizes) == pytest.approx(12 * dpi / 72 / shrink)  # larger text untouched
