@@ -50,7 +50,8 @@ EXPECTED = (
 
 
 class RunFolderError(ValueError):
-    """The path holds no run that can be drawn (the message says what is expected)."""
+    """Input that cannot be drawn: no run at the path, a run too short, an output format that
+    is not supported (a ``ValueError``; the message is one line saying what is expected)."""
 
 
 @dataclass(frozen=True)
