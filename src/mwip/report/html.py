@@ -71,8 +71,14 @@ nav a{margin-right:.6rem;white-space:nowrap}
 code{font-size:.9em}
 table.bookclaims td:first-child,table.claims td:first-child{white-space:nowrap}
 table.bookclaims td:nth-child(2),table.claims td:nth-child(2){min-width:16rem}
-@media (max-width:700px){table.bookclaims td:nth-child(2),table.claims td:nth-child(2)
-{min-width:11rem}main{padding:.6rem}}
+@media (max-width:700px){main{padding:.6rem}
+table.bookclaims thead,table.claims tr.head{display:none}
+table.bookclaims,table.bookclaims tbody,table.bookclaims tr,table.bookclaims td,
+table.bookclaims th,table.claims,table.claims tbody,table.claims tr,table.claims td
+{display:block;width:auto;min-width:0!important}
+table.bookclaims tr,table.claims tr{border-bottom:1px solid #cfd6dd;padding:.3rem 0}
+table.bookclaims td,table.claims td{border:none;padding:.1rem .4rem;white-space:normal}
+td[data-label]::before{content:attr(data-label) ": ";font-weight:600;color:#56616c}}
 """
 
 
@@ -143,14 +149,17 @@ def _claims_table(res: StudyResult, compare: Comparison | None) -> str:
     for c in res.claims:
         kind = "book" if is_book(c) else "ours"
         cause = _e(c.get("cause", "")) if is_book(c) and not c.get("holds") else ""
-        body += f"<tr><td>{kind}</td><td>{_e(c.get('text', ''))}</td>"
-        body += f"<td>{_verdict(bool(c.get('holds')))}</td><td>{cause or '-'}</td>"
+        body += f"<tr><td data-label='by'>{kind}</td><td>{_e(c.get('text', ''))}</td>"
+        body += f"<td data-label='verdict'>{_verdict(bool(c.get('holds')))}</td>"
+        body += f"<td data-label='cause'>{cause or '-'}</td>"
         if compare:
-            body += f"<td>{_verdict(compare.verdict(res.name, c))}</td>"
-        body += f"<td>{_why(c)}</td></tr>"
+            body += (f"<td data-label='{_e(compare.label)}'>"
+                     f"{_verdict(compare.verdict(res.name, c))}</td>")  # fmt: skip
+        body += f"<td data-label='evidence'>{_why(c)}</td></tr>"
     return (
-        '<div class="scroll"><table class="claims"><tr><th>by</th><th>claim</th><th>verdict</th>'
-        f"<th>cause</th>{other}<th>evidence and deciding numbers</th></tr>{body}</table></div>"
+        '<div class="scroll"><table class="claims"><tr class="head"><th>by</th><th>claim</th>'
+        f"<th>verdict</th><th>cause</th>{other}<th>evidence and deciding numbers</th></tr>"
+        f"{body}</table></div>"
     )
 
 
@@ -172,11 +181,12 @@ def _book_claims_section(
     def row(r: StudyResult, c: dict[str, Any]) -> str:
         cells = (
             f"<tr><td><a href='#{_e(r.name)}'>{_e(r.name)}</a></td><td>{_e(c.get('text', ''))}"
-            f"</td><td>{_verdict(bool(c.get('holds')))}</td>"
+            f"</td><td data-label='{here}'>{_verdict(bool(c.get('holds')))}</td>"
         )
         if compare:
-            cells += f"<td>{_verdict(compare.verdict(r.name, c))}</td>"
-        return cells + f"<td>{_why(c)}</td></tr>"
+            cells += (f"<td data-label='{_e(compare.label)}'>"
+                      f"{_verdict(compare.verdict(r.name, c))}</td>")  # fmt: skip
+        return cells + f"<td data-label='evidence'>{_why(c)}</td></tr>"
 
     held = [(r, c) for r, c in claims if c.get("holds")]
     body = (
