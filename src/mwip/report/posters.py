@@ -28,7 +28,7 @@ def ensure_posters(results: list[StudyResult]) -> dict[str, Path]:
             continue
         try:
             run = load_run(res.folder)
-        except RunFolderError:
+        except (RunFolderError, OSError, ValueError):  # no drawable run: no poster
             continue
         folder = res.folder / POSTER_DIR
         path = folder / f"{run.name}.png"
@@ -38,7 +38,7 @@ def ensure_posters(results: list[StudyResult]) -> dict[str, Path]:
         if not path.is_file() or path.stat().st_mtime < run.source.stat().st_mtime:
             try:
                 poster_frame(run, path)
-            except RunFolderError:
+            except (RunFolderError, OSError, ValueError):
                 shutil.rmtree(folder, ignore_errors=True)
                 continue
         made[res.name] = path
