@@ -107,6 +107,11 @@ def test_run_figure_panels_have_units_and_show_what_the_run_logged():
     assert len(dist.lines) == 3 and np.allclose(dist.lines[1].get_ydata()[1:], 0.25)
     speed = next(ax for ax in axes if "wheel speed" in ax.get_ylabel())
     assert speed.lines[-1].get_ydata()[0] == 1.5  # the reference
+    zero = res.plant(0)
+    zero.logs["tau_hat"] = np.zeros_like(zero.logs["tau_hat"])  # a law without observer
+    dist = next(ax for ax in run_figure(Run("z", zero, REAL, False, None, Path("z"))).axes
+                if "disturbance" in ax.get_ylabel())  # fmt: skip
+    assert not dist.lines
     fell = Run("c", _fallen().plant(0), REAL, False, None, Path("c.npz"))
     fig = run_figure(fell)
     assert "FELL at t = " in fig.get_suptitle()

@@ -38,12 +38,15 @@ _STOPPED = "#c0392b"
 
 
 def disturbance_estimates(run: Run) -> dict[str, np.ndarray]:
-    """The run's disturbance estimates, name -> (K, 3) (``tau_hat``, ``do<n>``)."""
+    """The run's disturbance estimates, name -> (K, 3) (``tau_hat``, ``do<n>``); an estimate
+    that is zero throughout is a law without observer (conventional SMC logs ``tau_hat = 0``)
+    and is left out."""
     out = {}
     for name, arr in run.result.logs.items():
         a = np.asarray(arr, dtype=float)
         a = a[0] if a.ndim == 3 else a
-        if a.ndim == 2 and a.shape[1] == 3 and (name == "tau_hat" or re.fullmatch(r"do\d+", name)):
+        named = name == "tau_hat" or re.fullmatch(r"do\d+", name)
+        if named and a.ndim == 2 and a.shape[1] == 3 and np.nanmax(np.abs(a), initial=0.0) > 0:
             out[name] = a
     return out
 
