@@ -1,11 +1,11 @@
 """Per-sample cost of the compiled control laws against their NumPy composition, one process.
 
-Reference: the same law built from the public NumPy functions (SMC: ``f_g`` +
+Reference: the same law built from the NumPy oracles of tests/oracle_laws.py (SMC: ``f_g`` +
 ``sliding_surface`` + ``smc_law``; TSMC: ``subsystem`` + ``augmenting`` + ``tsmc_surface`` +
 ``tsmc_gain`` + ``tsmc_law``), as the controllers evaluated it before the fused kernels. Both
 are called on the same measurement, one robot, many times; the ratio is what a quasi-continuous
 study (one law call per 0.5-1 ms) gains. The results agree to rounding (tested in
-tests/test_smc.py and tests/test_tsmc.py).
+tests/test_kernels.py).
 
 Usage::
 
@@ -15,23 +15,29 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from mwip.control.smc import SlidingModeController, SMCGains, sliding_surface, smc_law
+from mwip.control.smc import SlidingModeController, SMCGains
 from mwip.control.switching import Switching
-from mwip.control.tsmc import (
-    TSMC,
+from mwip.control.tsmc import TSMC
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from mwip.models.reduced import f_g
+from mwip.params import NOMINAL
+from mwip.sim.sensors import Measurement
+from oracle_laws import (  # noqa: E402
     augmenting,
+    sliding_surface,
+    smc_law,
     subsystem,
     tsmc_gain,
     tsmc_law,
     tsmc_surface,
 )
-from mwip.models.reduced import f_g
-from mwip.params import NOMINAL
-from mwip.sim.sensors import Measurement
 
 
 def _time(fn, calls: int) -> float:  # noqa: ANN001

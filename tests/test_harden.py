@@ -32,9 +32,9 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def _fake_study(name: str = "good"):
     def run(out, quick=False):
-        doc = metrics_document(name, "test", {"a.x": 1.0}, {},
-                               [{"text": "x", "holds": True, "keys": ["a.x"]}],
-                               {"a": {"status": "ok"}}, {})  # fmt: skip
+        claim = {"id": "x", "text": "x", "holds": True, "book": False, "keys": ["a.x"]}
+        doc = metrics_document(name, "test", {"a.x": 1.0}, {}, [claim], {"a": {"status": "ok"}},
+                               {})  # fmt: skip
         write_metrics(out / name, doc)
         return doc
 
@@ -183,11 +183,7 @@ def _reproduce_and_interrupt(tmp_path: Path, twice: bool) -> tuple[int, float, s
         [sys.executable, "-m", "mwip", "reproduce", "--quick", "--out", str(out), "-j", "2"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, start_new_session=True,
     )  # fmt: skip
-    deadline = time.monotonic() + 60
-    while not [p for p in tmp_path.iterdir() if ".partial-" in p.name]:  # studies under way
-        assert proc.poll() is None and time.monotonic() < deadline
-        time.sleep(0.05)
-    time.sleep(1.0)
+    _wait_for_staging(proc, tmp_path)
     t0 = time.monotonic()
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group
     if twice:
@@ -203,13 +199,28 @@ def _reproduce_and_interrupt(tmp_path: Path, twice: bool) -> tuple[int, float, s
     return proc.returncode, time.monotonic() - t0, err.decode()
 
 
+def _wait_for_staging(proc: subprocess.Popen, root: Path) -> None:
+    """Until a staging folder exists under ``root`` (studies under way), then 1 s more."""
+    deadline = time.monotonic() + 120
+    while not _staging(root):
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    time.sleep(1.0)
+
+
+def _staging(root: Path) -> list[Path]:
+    return [p for p in root.rglob("*") if ".partial-" in p.name or ".replaced-" in p.name]
+
+
 @pytest.mark.parametrize("twice", [False, True])
 def test_ctrl_c_stops_reproduce_at_once(tmp_path, twice):
     code, wall, err = _reproduce_and_interrupt(tmp_path, twice)
     assert code == 130, err
     assert wall < 2.0, f"took {wall:.2f} s to stop"
     assert "Traceback" not in err and "interrupted" in err
-    assert sorted(p.name for p in tmp_path.iterdir()) == []  # no OUT, no staging folder
+    assert not _staging(tmp_path)  # no staging folder left
+    out = tmp_path / "out"  # no results: at most the (empty) folder reproduce marked as its own
+    assert not out.exists() or sorted(p.name for p in out.iterdir()) == [MARKER]
 
 
 def test_a_killed_reproduce_leaves_no_workers_and_its_leftovers_go(tmp_path):
@@ -221,11 +232,7 @@ def test_a_killed_reproduce_leaves_no_workers_and_its_leftovers_go(tmp_path):
         [sys.executable, "-m", "mwip", "reproduce", "--quick", "--out", str(out), "-j", "2"],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, start_new_session=True,
     )  # fmt: skip
-    deadline = time.monotonic() + 60
-    while not [p for p in tmp_path.iterdir() if ".partial-" in p.name]:
-        assert proc.poll() is None and time.monotonic() < deadline
-        time.sleep(0.05)
-    time.sleep(1.0)
+    _wait_for_staging(proc, tmp_path)
     kids = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True)
     workers = [int(k) for k in kids.stdout.split()]
     assert workers
@@ -235,9 +242,11 @@ def test_a_killed_reproduce_leaves_no_workers_and_its_leftovers_go(tmp_path):
     while [w for w in workers if Path(f"/proc/{w}").exists() and not _zombie(w)]:
         assert time.monotonic() < deadline, "worker processes outlived their parent"
         time.sleep(0.1)
-    assert [p for p in tmp_path.iterdir() if ".partial-" in p.name]  # left behind by the kill
-    remove_stale(out)  # what the next run on OUT does first
-    assert list(tmp_path.iterdir()) == []
+    assert _staging(tmp_path)  # left behind by the kill
+    for folder in (out, *out.glob("compare-*")):  # what the next run on each does first
+        remove_stale(folder)
+    remove_stale(out / "compare-literal")
+    assert not _staging(tmp_path)
 
 
 def _zombie(pid: int) -> bool:

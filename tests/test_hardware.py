@@ -153,15 +153,17 @@ def test_motor_reproduces_table_2_1_at_24V() -> None:
 
 
 def test_drive_limits_and_pwm() -> None:
-    drive = DriveSpec()
+    drive = DriveSpec(mode="torque", deadband=0.0)
     act = DriveActuator(RE25, drive, plant_b_over_r=REAL.b / REAL.r, Ts=TS)
     act.reset(3)
     state = np.zeros((3, 8))
     u = act(0.0, np.array([[0.2, -0.2], [50.0, 50.0], [-50.0, 0.0]]), state)
     lim = drive.wheel_torque_limit()
-    assert lim == pytest.approx(drive.gear_ratio * RE25.k_t * drive.current_limit)
+    eta = drive.gear_efficiency
+    assert lim == pytest.approx(drive.gear_ratio * eta * RE25.k_t * drive.current_limit)
     assert u[0] == pytest.approx([0.2, -0.2], abs=0.01)  # within a PWM step
-    step = drive.gear_ratio * RE25.k_t * drive.supply_voltage / drive.pwm_levels / RE25.resistance
+    step = (drive.gear_ratio * eta * RE25.k_t * drive.supply_voltage / drive.pwm_levels
+            / RE25.resistance)  # fmt: skip
     assert np.all(np.abs(u) <= lim + step)
     # the first sample starts from zero current (L/R = 0.1 ms): 2 % short of the limit
     assert u[1, 0] == pytest.approx(lim * (1 - RE25.tau_e / TS), abs=step)

@@ -14,15 +14,12 @@ from mwip.control.smc import (
     SMCGains,
     gains_from_bounds,
     make_smc,
-    sliding_surface,
-    smc_law,
 )
 from mwip.control.smc_design import check_smc_design, sliding_matrix
 from mwip.control.switching import Switching
-from mwip.models.reduced import f_g, mass_matrix
-from mwip.params import NOMINAL
+from mwip.models.reduced import mass_matrix
+from mwip.params import NOMINAL, NOMINAL_LITERAL
 from mwip.sim import Sinusoid, simulate
-from mwip.sim.sensors import Measurement
 
 BOOK = (3.0, 0.2, 0.3, 3.0)
 
@@ -78,17 +75,22 @@ def test_design_check_violations(lambdas, fails):
 
 
 def test_hurwitz_conditions_equal_eigenvalue_test():
+    """(3.66) agrees with the eigenvalues, without and with the wheel damping, under both
+    readings of the tables' damping (the literal one makes the damping terms dominant)."""
     rng = np.random.default_rng(3)
-    agree = 0
-    for _ in range(300):
-        lam = rng.uniform(0.01, 5.0, 3)
-        for damping in (False, True):
-            rep = check_smc_design(lam, NOMINAL, theta_max=0.0, damping=damping)
-            by = {c.name: c.holds for c in rep.conditions}
-            hurwitz = by["(3.66a)"] and by["(3.66b)"] and by["(3.66c)"]
-            assert hurwitz == by["eig"], (lam, damping)
-            agree += hurwitz
-    assert 20 < agree < 580  # both outcomes occur (40 of 600 stable with this seed)
+    agree = total = 0
+    for p in (NOMINAL, NOMINAL_LITERAL):
+        for _ in range(150):
+            lam = rng.uniform(0.01, 5.0, 3)
+            lam[1] /= 10.0  # l2 < l1 l3 is needed: draw it smaller so both outcomes are common
+            for damping in (False, True):
+                rep = check_smc_design(lam, p, theta_max=0.0, damping=damping)
+                by = {c.name: c.holds for c in rep.conditions}
+                hurwitz = by["(3.66a)"] and by["(3.66b)"] and by["(3.66c)"]
+                assert hurwitz == by["eig"], (lam, damping)
+                agree += hurwitz
+                total += 1
+    assert 0.05 * total < agree < 0.95 * total  # both outcomes occur
 
 
 def test_sliding_matrix_by_finite_differences():
@@ -117,8 +119,8 @@ def test_failing_design_warns_but_runs():
 
 def test_reaching_phase_and_band_on_nominal_plant():
     """No disturbance, no mismatch: S1' = -K1 sgn(S1), so S1 falls linearly and reaches zero
-    at |S1(0)| / K1 (exact law in continuous mode); sampled, it then stays in a band below
-    K1 Ts that shrinks with Ts."""
+    at |S1(0)| / K1 (exact law in continuous mode); sampled, it then stays in the relay's band
+    K1 Ts, which halves with Ts."""
     s0 = 3.0 * np.pi / 18  # S1(0) = l1 theta0
     ctrl = SlidingModeController(SMCGains(BOOK, 1.0, 1.0), None, NOMINAL, 0.001)
     assert ctrl.static
@@ -137,9 +139,11 @@ def test_reaching_phase_and_band_on_nominal_plant():
         s1 = res.series()["S1"]
         assert s1[0] == pytest.approx(s0)
         bands.append(np.abs(s1[res.t > 1.0]).max())
-        assert bands[-1] < 1.0 * Ts  # K1 Ts
+        # the relay's one-sample step K1 Ts, up to the O(Ts^2) drift of the held equivalent
+        # control
+        assert bands[-1] == pytest.approx(1.0 * Ts, rel=0.005)
         assert abs(res.theta[-1]) < 0.01  # theta converges along the sliding dynamics
-    assert bands[1] < 0.8 * bands[0]
+    assert bands[1] == pytest.approx(0.5 * bands[0], rel=0.01)
 
 
 class _OracleSMC(SlidingModeController):
@@ -158,15 +162,12 @@ class _OracleSMC(SlidingModeController):
 
 
 def test_true_disturbance_gives_ideal_sliding_dynamics():
+    """With the true disturbance the loop stays on S1 = 0 and theta, psi' follow (3.58)-(3.59)
+    integrated separately; the remaining difference is the plant integrator's (second order:
+    halving the step divides it by about 4)."""
     dist = Sinusoid(amplitude=(0.05, 0.05, 0.0), omega=(2.0, 1.0, 1.0), phase=(np.pi / 2, 0, 0))
     l1, l2, l3, _ = BOOK
     th0 = 0.1
-    ctrl = _OracleSMC(dist)
-    res = simulate(ctrl, NOMINAL, q0=(0, th0, 0), qdot0=(0, -l1 * th0, 0), duration=3.0,
-                   Ts=0.001, dt=0.0005, mode="continuous", disturbance=dist)  # fmt: skip
-    assert res.ok
-    s1 = res.q_dot[:, 1] + l1 * res.theta + l2 * res.q[:, 0] + l3 * res.q_dot[:, 0]
-    assert np.abs(s1).max() < 1e-6  # stays on the surface
     p = NOMINAL
 
     def reduced(t, x):  # (3.58)-(3.59) with the wheel damping, alpha' = 0
@@ -178,15 +179,26 @@ def test_true_disturbance_gives_ideal_sliding_dynamics():
         a = np.linalg.solve([[l3, 1.0], [z1, z2]], [-l1 * thd - l2 * psid, h])
         return [thd, a[1], a[0]]
 
-    # (3.59) uses the position term l2 (q1 - q1d' t) through S1 = 0; differentiate S1 = 0 instead:
-    # q2'' + l1 q2' + l2 q1' + l3 q1'' = 0 is exactly what `reduced` imposes.
-    sol = solve_ivp(reduced, (0, 3), [th0, -l1 * th0, 0.0], t_eval=res.t, rtol=1e-10, atol=1e-12)
-    np.testing.assert_allclose(res.theta, sol.y[0], atol=2e-5)
-    # psi' carries the fast sliding mode (-440 rad/s with the wheel damping): its first
-    # milliseconds are resolved only to the 0.5 ms step
-    late = res.t > 0.02
-    np.testing.assert_allclose(res.q_dot[late, 0], sol.y[2][late], atol=2e-4)
-    np.testing.assert_allclose(res.q_dot[:, 0], sol.y[2], atol=3e-3)
+    errors = []
+    for dt in (0.0005, 0.00025):
+        res = simulate(_OracleSMC(dist), NOMINAL, q0=(0, th0, 0), qdot0=(0, -l1 * th0, 0),
+                       duration=3.0, Ts=0.001, dt=dt, mode="continuous",
+                       disturbance=dist)  # fmt: skip
+        assert res.ok
+        s1 = res.q_dot[:, 1] + l1 * res.theta + l2 * res.q[:, 0] + l3 * res.q_dot[:, 0]
+        assert np.abs(s1).max() < 1e-6  # stays on the surface
+        # (3.59) uses the position term l2 (q1 - q1d' t) through S1 = 0; differentiate S1 = 0:
+        # q2'' + l1 q2' + l2 q1' + l3 q1'' = 0 is exactly what `reduced` imposes.
+        sol = solve_ivp(reduced, (0, 3), [th0, -l1 * th0, 0.0], t_eval=res.t, rtol=1e-10,
+                        atol=1e-12)  # fmt: skip
+        errors.append(
+            (np.abs(res.theta - sol.y[0]).max(), np.abs(res.q_dot[:, 0] - sol.y[2]).max())
+        )
+        if dt == 0.0005:
+            assert errors[-1][0] < 2e-5
+            assert errors[-1][1] < 2e-4 * np.abs(sol.y[2]).max()
+    ratio = np.array(errors[0]) / np.array(errors[1])
+    assert np.all((3.5 < ratio) & (ratio < 4.5)), ratio
 
 
 def test_observer_in_the_loop_estimates_and_make_smc():
@@ -216,23 +228,3 @@ def test_saturation_reduces_chattering():
         assert res.ok
         tv[kind] = total_variation_rate(res.t, res.u.T).sum()
     assert tv["sat"] < 0.2 * tv["sign"]
-
-
-@pytest.mark.parametrize("switching", [Switching(), Switching("sat", 0.3)])
-def test_controller_call_equals_the_numpy_law(rng, switching):
-    """The compiled sample-time law equals sliding_surface + smc_law on f_g (3.49)-(3.50)."""
-    gains = SMCGains(BOOK, 7.5, 4.0)
-    ctrl = SlidingModeController(gains, params=NOMINAL, switching=switching, q1d_dot=-2.0,
-                                 q3d=0.3, check=False)  # fmt: skip
-    y = np.concatenate([rng.uniform(-1, 1, (50, 3)), rng.uniform(-3, 3, (50, 3)),
-                        np.zeros((50, 2))], axis=1)  # fmt: skip
-    y[:5, 1] = 0.0  # a few rows upright
-    t = 1.7
-    u = ctrl(t, Measurement(t=t, y=y))
-    q, qd = y[:, :3], y[:, 3:6]
-    F, G = f_g(NOMINAL, q, qd)
-    S = sliding_surface(q, qd, t, BOOK, -2.0, 0.3)
-    uAB = smc_law(F, G, qd, S, np.zeros((50, 3)), gains, switching, -2.0)
-    np.testing.assert_allclose(ctrl.log()["S1"], S[:, 0], rtol=1e-13, atol=1e-13)
-    np.testing.assert_allclose(u[:, 0], 0.5 * (uAB[:, 0] + uAB[:, 1]), rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(u[:, 1], 0.5 * (uAB[:, 0] - uAB[:, 1]), rtol=1e-12, atol=1e-12)

@@ -110,3 +110,37 @@ def test_wrong_type_is_named(name: str) -> None:
         with pytest.raises(ValueError, match=r"\[settings\] record_every must be an integer"):
             with settings.using(name, {"record_every": 2.5}):
                 pass
+
+
+TWIN_STUDIES = STUDIES[1:]
+
+
+@pytest.mark.parametrize("name", TWIN_STUDIES)
+def test_open_settings_load_and_cover_the_twin(name: str) -> None:
+    """Every ``[open]`` key of a Chapter 6 study loads (a key of ``[settings]``, a finite range
+    holding the default, a reason), and every hardware number the book leaves open is one."""
+    from mwip.studies.twin_settings import TWIN_KEYS
+
+    table = settings.open_settings(name)
+    cfg = settings.defaults(name)
+    assert set(TWIN_KEYS) <= set(table)
+    for key, entry in table.items():
+        lo, hi = entry["range"]
+        values = cfg[key] if isinstance(cfg[key], list) else [cfg[key]]
+        assert all(lo <= v <= hi for v in values) and len(entry["why"]) > 20, key
+    study_specific = {
+        "exp-hodosmc-balance": {"do1_gain", "phi"},
+        "exp-hodosmc-speed": {"do1_gain", "phi"},
+        "exp-hodosmc-obstacle": {"do1_gain", "phi", "stick_height"},
+        "exp-asta": {"Gamma0", "eps"},
+        "exp-it2": {"epsilon", "rho", "uncertainty", "rms_start"},
+    }[name]
+    assert study_specific <= set(table)
+
+
+def test_a_twin_setting_reaches_the_twin(tmp_path: Path) -> None:
+    """An open hardware setting (the fusion constant) changes the run and is recorded."""
+    base = _run("exp-asta", tmp_path / "base")
+    new = _run("exp-asta", tmp_path / "new", {"fusion_tau": 0.2})
+    assert "tau 0.2 s" in new["settings"]["twin"] and "tau 0.5 s" in base["settings"]["twin"]
+    assert not _same(base["metrics"]["asmc.case1.u_tv"], new["metrics"]["asmc.case1.u_tv"])

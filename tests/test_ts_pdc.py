@@ -14,6 +14,7 @@ from mwip.fuzzy.pdc import (
     check_design,
     design_pdc,
     pdc_gain,
+    verify_design,
 )
 from mwip.fuzzy.ts_model import (
     first_weight,
@@ -24,7 +25,7 @@ from mwip.fuzzy.ts_model import (
     vertex_matrices,
 )
 from mwip.linearize import linearize
-from mwip.params import NOMINAL
+from mwip.params import NOMINAL, NOMINAL_LITERAL
 from mwip.sim import simulate
 
 EPS, RHO = 0.2, 20.0
@@ -103,6 +104,38 @@ def test_infeasible_bound_raises_one_line():
     assert "\n" not in str(err.value) and "infeasible" in str(err.value)
     with pytest.raises(ValueError):
         design_pdc(epsilon=EPS)
+
+
+def test_inaccurate_solver_point_is_rejected():
+    """At the edge of feasibility Clarabel reports ``optimal_inaccurate`` for a point with a
+    positive (5.12) residual and an unstable vertex loop (literal-damping nominal model,
+    epsilon 0.2, rho 0.47097); design_pdc used to return it as a design."""
+    with pytest.raises(PDCInfeasibleError) as err:
+        design_pdc(epsilon=0.2, rho=0.47097, params=NOMINAL_LITERAL)
+    msg = str(err.value)
+    assert "\n" not in msg and "fails its check" in msg and "optimal_inaccurate" in msg
+    assert "lmi_ii" in msg and "vertex loop 1 unstable" in msg
+
+
+def test_verify_design_catches_bad_points(design):
+    """Solver-independent: a verified design passes; spoiling it in any checked way fails."""
+    import dataclasses
+
+    verify_design(design)
+    spoilt = {
+        "vertex loop": dataclasses.replace(design, G=-design.G),  # wrong sign: unstable
+        "P_min": dataclasses.replace(design, P=-design.P),
+        "W_min": dataclasses.replace(design, W=-design.W),
+        "input": dataclasses.replace(design, rho=1e-3),
+        "eps_ball": dataclasses.replace(design, epsilon=10.0),
+    }
+    for what, d in spoilt.items():
+        with pytest.raises(PDCInfeasibleError, match=what):
+            verify_design(d)
+    # the robust design's extra models are checked too: the nominal gains of another model
+    other = vertex_matrices(dataclasses.replace(NOMINAL, r=3 * NOMINAL.r))
+    with pytest.raises(PDCInfeasibleError, match="of model 2"):
+        verify_design(design, [design.model, dataclasses.replace(other, B=-other.B)])
 
 
 def test_lyapunov_decreases_and_input_bound_holds_on_nonlinear_plant(design):

@@ -19,6 +19,9 @@ from typing import Any
 import click
 import numpy as np
 
+from mwip.cli_controllers import controllers as _controllers_cmd
+from mwip.control.registry import ControllerSpec
+from mwip.export.cli import export as _export_group
 from mwip.params import DAMPING_READINGS, Params, book_params, load_params
 
 __all__ = ["main", "cli", "entry"]
@@ -121,10 +124,32 @@ def cli() -> None:
 @cli.command()
 @click.option(
     "--controller",
-    type=click.Choice(["lqr"]),
     default="lqr",
     show_default=True,
-    help="Control law.",
+    help="Control law: a name of `mwip controllers` (lqr, dlqr, smc, do1smc, hodosmc, asta, "
+    "asmc, tsmc, it2, t1).",
+)
+@click.option(
+    "--set",
+    "sets",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="A controller setting (repeatable), e.g. --set K=20,15; see `mwip controllers NAME`.",
+)
+@click.option(
+    "--twin",
+    is_flag=True,
+    help="Run on the digital twin (Chapter 6: IMU fusion, encoders, RE25 drives; sampled).",
+)
+@click.option(
+    "--case",
+    type=click.IntRange(1, 3),
+    default=1,
+    show_default=True,
+    help="With --twin: 1 the robot, 2 with the payload, 3 payload + a stick at ~6 s.",
+)
+@click.option(
+    "--seed", type=click.IntRange(0), default=0, show_default=True, help="Sensor-noise seed."
 )
 @click.option(
     "--theta0",
@@ -154,16 +179,21 @@ def cli() -> None:
     help="Zero-order hold at Ts, or the law inside the ODE.",
 )
 @click.option(
+    "--params",
     "--plant",
+    "plant",
     default="real",
     show_default=True,
-    help="Plant parameters: real, nominal or a TOML file.",
+    help="The simulated robot: real, nominal or a parameter TOML file (--plant: the old name).",
 )
 @click.option(
+    "--nominal",
     "--design-params",
+    "design_params",
     default="nominal",
     show_default=True,
-    help="Parameters the controller is designed with.",
+    help="The design model the controller is built on: real, nominal or a TOML file "
+    "(--design-params: the old name).",
 )
 @click.option(
     "--disturbance",
@@ -179,6 +209,7 @@ def cli() -> None:
     help="Folder for timeseries.csv, timeseries.npz and summary.json.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--plot", is_flag=True, help="Also draw OUT/run.png (needs --out).")
 @_DAMPING
 @_FORCE
 @click.option(
@@ -203,12 +234,18 @@ def cli() -> None:
 )
 @click.pass_context
 def simulate(
-    ctx: click.Context, controller: str, theta0: float, alpha0: float, v0: float,
+    ctx: click.Context, controller: str, sets: tuple[str, ...], twin: bool, case: int, seed: int,
+    theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
-    disturbance: str, out: Path | None, as_json: bool, damping: str, force: bool,
+    disturbance: str, out: Path | None, as_json: bool, plot: bool, damping: str, force: bool,
     max_steps: float | None, max_memory: float | None, scenario_file: Path | None,
 ) -> None:  # fmt: skip
-    """Simulate a closed loop and print status, settling time and max |u|."""
+    """Simulate a closed loop and print status, settling time and max |u|.
+
+    Any controller of `mwip controllers`, on the default robot (Table 3.1), on --params FILE,
+    or on the digital twin (--twin, --case).
+    """
+    from mwip.cli_controllers import parse_sets
     from mwip.scenario import Scenario, load_scenario
     from mwip.sim import BOOK_SINUSOIDS
 
@@ -236,6 +273,8 @@ def simulate(
         max_bytes=DEFAULT.max_bytes if max_memory is None
         else _in_range("--max-memory", max_memory, 0.0, 1e6) * 2**30,
     )  # fmt: skip
+    if plot and out is None:
+        raise click.BadParameter("needs --out FOLDER to write run.png into", param_hint="--plot")
     if out is not None:
         _out_ok(out, force)
     if scenario_file is not None:
@@ -246,19 +285,26 @@ def simulate(
     else:
         sc = Scenario(initial={"theta": theta0})
     changes: dict[str, Any] = {}
-    for opt, key, val in (
-        ("controller", "controller", controller),
+    name = controller if given("controller") else sc.controller
+    settings = dict(sc.settings) if name == sc.controller else {}
+    settings.update(parse_sets(name, sets))
+    changes.update(controller=name, settings=settings)
+    fields: tuple[tuple[str, str, Any], ...] = (
         ("duration", "duration", duration),
         ("Ts", "Ts", Ts),
         ("dt", "dt", dt),
         ("mode", "mode", mode),
-    ):
+        ("twin", "twin", twin),
+        ("case", "case", case),
+        ("seed", "seed", seed),
+    )
+    for opt, key, val in fields:
         if given(opt):
             changes[key] = val
     if given("plant") or given("damping"):
-        changes["plant"] = _params(plant, "--plant", damping=damping)
+        changes["plant"] = _params(plant, "--params", damping=damping)
     if given("design_params") or given("damping"):
-        changes["design"] = _params(design_params, "--design-params", damping=damping)
+        changes["design"] = _params(design_params, "--nominal", damping=damping)
     if given("disturbance"):
         changes["disturbance"] = BOOK_SINUSOIDS if disturbance == "book" else None
     initial = dict(sc.initial)
@@ -266,7 +312,10 @@ def simulate(
                           ("v0", "v", v0)):  # fmt: skip
         if given(opt):
             initial[key] = val
-    sc = sc.with_overrides(initial=initial, **changes)
+    try:
+        sc = sc.with_overrides(initial=initial, **changes)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
     cost = estimate(sc.duration, sc.Ts, sc.dt if sc.dt is not None else min(sc.Ts, DEFAULT_DT))
     budget.check(cost, "this simulation")
     long = cost.seconds() > 5.0
@@ -279,6 +328,8 @@ def simulate(
     summary: dict[str, Any] = dict(res.summary())
     summary.update(
         controller=sc.controller,
+        settings=_get_spec(sc.controller).resolve(sc.settings),
+        twin=f"case {sc.case}" if sc.twin else None,
         mode=mode,
         Ts=Ts,
         dt=res.settings["dt"],
@@ -294,6 +345,9 @@ def simulate(
         res.to_csv(out / "timeseries.csv")
         res.to_npz(out / "timeseries.npz")
         write_json_atomic(out / "summary.json", summary)
+        from mwip.plot.simulate_files import write_simulate_extras
+
+        written = write_simulate_extras(res, sc.plant, out, plot=plot)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:
@@ -305,9 +359,15 @@ def simulate(
         )
         if out is not None:
             click.echo(f"wrote {out / 'timeseries.csv'}, {out / 'timeseries.npz'}, "
-                       f"{out / 'summary.json'}")  # fmt: skip
+                       f"{out / 'summary.json'}, {', '.join(map(str, written))}")  # fmt: skip
     if summary["status"] != "ok":
         sys.exit(1)
+
+
+def _get_spec(name: str) -> ControllerSpec:
+    from mwip.control.registry import get
+
+    return get(name)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -472,8 +532,13 @@ def design_hodo_cmd(
     help="Also stabilise +-ROBUST relative parameter variations (e.g. 0.35).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def design_it2_cmd(epsilon: float, rho: float, robust: float | None, as_json: bool) -> None:
-    """IT2 PDC balance gains G1, G2 from the LMIs of Lemma 5.1/5.2 (5.12)-(5.20)."""
+@_DAMPING
+def design_it2_cmd(
+    epsilon: float, rho: float, robust: float | None, as_json: bool, damping: str
+) -> None:
+    """IT2 PDC balance gains G1, G2 from the LMIs of Lemma 5.1/5.2 (5.12)-(5.20), on the
+    book's nominal set. Every design is checked (LMI residuals, vertex closed-loop
+    stability); one that fails exits 1 with a one-line error, whatever the solver's status."""
     from mwip.fuzzy.design_cli import design_it2
     from mwip.fuzzy.pdc import PDCInfeasibleError
 
@@ -482,7 +547,9 @@ def design_it2_cmd(epsilon: float, rho: float, robust: float | None, as_json: bo
     if robust is not None:
         _in_range("--robust", robust, 0.0, 0.9)
     try:
-        _, text = design_it2(epsilon, rho, as_json=as_json, robust=robust)
+        _, text = design_it2(
+            epsilon, rho, as_json=as_json, robust=robust, params=book_params("nominal", damping)
+        )
     except PDCInfeasibleError as exc:
         raise click.ClickException(str(exc)) from None
     click.echo(text)
@@ -617,6 +684,11 @@ def params_save(which: str, path: Path, damping: str) -> None:
 
 
 # ---------------------------------------------------------------------------------------------
+from mwip.hardware.twin_cli import twin as _twin_group  # noqa: E402 - a group of its own module
+
+cli.add_command(_twin_group)
+
+
 @cli.command("list")
 def list_cmd() -> None:
     """List the studies with their book sources."""
@@ -678,10 +750,12 @@ def _jobs(jobs: int) -> int:
 def _execute(
     names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params,
     verbose: bool = False, overrides: dict[str, dict[str, Any]] | None = None,
-    damping: str = "units",
+    damping: str = "units", summary: bool = True,
 ) -> None:  # fmt: skip
-    """Run ``names`` with a progress bar, then print the one-screen summary."""
+    """Run ``names`` with a progress bar, then print the one-screen summary (not
+    ``summary``: its headline only, on stderr); exits 1 if a study failed."""
     from mwip.report import load_results, summary_lines
+    from mwip.report.claims import find_compare, load_comparison
     from mwip.studies.runner import run_studies
 
     failed: list[str] = []
@@ -706,10 +780,15 @@ def _execute(
     import shutil
 
     width = max(100, shutil.get_terminal_size((120, 40)).columns)
-    for line in summary_lines(load_results(out, names), width=width, verbose=verbose):
-        click.echo(line)
+    compare = find_compare(out) if summary else None
+    cmp = load_comparison(compare) if compare is not None else None
+    lines = summary_lines(load_results(out, names), width=width, verbose=verbose,
+                          damping=damping, compare=cmp)  # fmt: skip
+    for line in lines if summary else [f"{out.name}: {lines[0]}"]:
+        click.echo(line, err=not summary)
     click.echo(f"{len(names) - len(failed)}/{len(names)} studies done in "
-               f"{record['wall_s']:.1f} s; report: {out / 'index.html'}")  # fmt: skip
+               f"{record['wall_s']:.1f} s; report: {out / 'index.html'}",
+               err=not summary)  # fmt: skip
     if failed:
         sys.exit(1)
 
@@ -796,6 +875,13 @@ def run_cmd(
 @_VERBOSE
 @_FORCE
 @click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
+@click.option(
+    "--compare/--no-compare",
+    default=True,
+    show_default=True,
+    help="Also run every study under the other damping reading into OUT/compare-<reading>/; "
+    "the report shows each book claim's verdict under both.",
+)
 def reproduce(
     out: Path,
     quick: bool,
@@ -806,6 +892,7 @@ def reproduce(
     verbose: bool,
     force: bool,
     list_only: bool,
+    compare: bool,
 ) -> None:
     """Run every study on built-in defaults; write OUT/<study>/, OUT/index.html, OUT/run.json.
 
@@ -821,7 +908,23 @@ def reproduce(
         return
     _out_ok(out, force)
     plant, design = _robot(params_file, nominal_file, damping)
+    code = 0
+    if compare:  # first the other reading, so that the main report finds it
+        from mwip.outdir import claim
+
+        claim(out)  # OUT holds the comparison (and its staging) from now on: mark it as mwip's
+        other = next(d for d in DAMPING_READINGS if d != damping)
+        click.echo(f"under the {other} damping reading, into {out / f'compare-{other}'}:",
+                   err=True)  # fmt: skip
+        try:
+            _execute(list(STUDIES), out / f"compare-{other}", quick, _jobs(jobs),
+                     *_robot(params_file, nominal_file, other), damping=other,
+                     summary=False)  # fmt: skip
+        except SystemExit as exc:
+            code = int(exc.code or 0)
     _execute(list(STUDIES), out, quick, _jobs(jobs), plant, design, verbose, damping=damping)
+    if code:
+        sys.exit(code)
 
 
 @cli.command()
@@ -861,18 +964,32 @@ def scenario(study: str, out: Path | None) -> None:
     show_default=True,
     help="Results folder to report on.",
 )
+@click.option(
+    "--compare",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="A second results folder (e.g. under the other damping reading) whose verdicts are "
+    "shown beside; default: OUT/compare-* if there is one.",
+)
 @_VERBOSE
-def report(out: Path, verbose: bool) -> None:
+def report(out: Path, compare: Path | None, verbose: bool) -> None:
     """Rebuild OUT/index.html from the results in OUT and print the summary."""
-    from mwip.report import load_results, summary_lines, write_report
+    from mwip.report import load_results, load_run_record, summary_lines, write_report
+    from mwip.report.claims import find_compare, load_comparison
     from mwip.studies import STUDIES
 
     names = [n for n in STUDIES if (out / n / "metrics.json").exists()]
     if not names:
         raise click.UsageError(f"--out: no study results in {out}")
-    path = write_report(out, names)
+    if compare is not None and not any((compare / n / "metrics.json").is_file() for n in STUDIES):
+        raise click.BadParameter(f"no study results in {compare}", param_hint="--compare")
+    compare = compare if compare is not None else find_compare(out)
+    path = write_report(out, names, compare)
+    cmp = load_comparison(compare) if compare is not None else None
     results = load_results(out, names)
-    for line in summary_lines(results, verbose=verbose):
+    for line in summary_lines(results, verbose=verbose,
+                              damping=load_run_record(out).get("damping"),
+                              compare=cmp):  # fmt: skip
         click.echo(line)
     click.echo(f"report: {path}")
     bad = [r.error for r in results if r.doc is None and r.error and "metrics.json" in r.error]
@@ -880,6 +997,21 @@ def report(out: Path, verbose: bool) -> None:
         click.echo(f"mwip: error: {message}", err=True)
     if bad:
         sys.exit(1)
+
+
+cli.add_command(_controllers_cmd)
+cli.add_command(_export_group)
+
+
+def _register() -> None:
+    from mwip.animate import animate_cmd
+    from mwip.plot.command import plot_cmd
+
+    cli.add_command(animate_cmd)
+    cli.add_command(plot_cmd)
+
+
+_register()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -28,7 +28,7 @@ def _umask() -> int:
 _MODE = 0o666 & ~_umask()  # what open() would give a new file
 
 
-def write_atomic(path: str | os.PathLike[str], writer: Callable[[IO[bytes]], None]) -> Path:
+def write_atomic(path: str | os.PathLike[str], writer: Callable[[IO[bytes]], object]) -> Path:
     """Call ``writer(fh)`` on a temporary binary file, then rename it onto ``path``.
 
     The file gets the permissions a plainly created file would (``0666`` less the umask),

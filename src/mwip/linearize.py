@@ -12,6 +12,8 @@ and ``v' = r psi''``. The pitch/wheel and yaw subsystems decouple at the equilib
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -23,12 +25,23 @@ STATE_NAMES: tuple[str, ...] = ("theta", "alpha", "theta_dot", "v", "alpha_dot")
 INPUT_NAMES: tuple[str, ...] = ("u_r", "u_l")
 
 
-def linearize(p: Params) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def linearize(p: Params, *, as_statespace: bool = False, Ts: float | None = None) -> Any:
     """Analytic Jacobians ``(A, B)`` at upright, shapes (..., 5, 5) and (..., 5, 2).
 
     Batched parameters give a leading batch axis. Checked against finite differences of
     :func:`mwip.models.reduced.accelerations` in the tests.
+
+    ``as_statespace=True`` returns a python-control ``StateSpace`` instead (optional
+    dependency, ``pip install mwip[control]``; one robot only) with the full state as output
+    (``C = I``, ``D = 0``) and named signals; with ``Ts`` the zero-order-hold model sampled at
+    ``Ts`` (the model :func:`mwip.control.lqr.dlqr` designs on).
     """
+    if as_statespace:
+        from mwip.pycontrol import statespace
+
+        return statespace(p, Ts=Ts)
+    if Ts is not None:
+        raise ValueError("Ts is only used with as_statespace=True (see mwip.control.lqr.zoh)")
     if not isinstance(p, Params):
         raise TypeError(f"p must be a mwip.params.Params, got {type(p).__name__}")
     shape = p.batch_shape

@@ -28,13 +28,24 @@ def rms(
 
 
 def settling_time(
-    t: ArrayLike, x: ArrayLike, band: float | None = None, *, rel: float = 0.02, atol: float = 1e-3
+    t: ArrayLike,
+    x: ArrayLike,
+    band: float | None = None,
+    *,
+    rel: float = 0.02,
+    atol: float = 1e-3,
+    status: str = "ok",
 ) -> float:
     """Time after which ``|x|`` stays within ``band`` until the end of the record.
 
     Default band: ``max(rel * max|x|, atol)`` (2 % of the peak, at least 1 mrad for angles).
-    Returns ``nan`` when the series never settles (it ends outside the band or is all NaN).
+    Returns ``nan`` (shown "n/a") when the series never settles (it ends outside the band or
+    is all NaN) and whenever the run did not end ``ok`` (``status`` ``"fell"`` or
+    ``"diverged"``): a run that stopped has not settled, even if the records it left (cut at
+    the stop) happen to lie inside the band, e.g. a diverged wheel mode under a small pitch.
     """
+    if status != "ok":
+        return float("nan")
     tt = np.asarray(t, dtype=float)
     xx = np.abs(np.asarray(x, dtype=float))
     ok = np.isfinite(xx)

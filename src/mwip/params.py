@@ -44,10 +44,11 @@ import os
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 import tomli_w
+from numpy.typing import NDArray
 
 from mwip.io import read_toml, write_text_atomic
 
@@ -66,9 +67,13 @@ __all__ = [
     "REAL_LITERAL",
     "NOMINAL_LITERAL",
     "steady_speed_cap",
+    "Value",
 ]
 
 GRAVITY = 9.81
+
+#: A parameter value: a number, or an (N,) array of numbers for a batch of N robots.
+Value: TypeAlias = float | NDArray[np.float64]
 
 #: (lower bound, upper bound, lower bound inclusive?) for each field: the allowed ranges.
 _RANGES: dict[str, tuple[float, float, bool]] = {
@@ -116,18 +121,18 @@ class Params:
     0.004856
     """
 
-    mb: float
-    mw: float
-    Iby: float
-    Ibz: float
-    Iwa: float
-    Iwd: float
-    l: float
-    b: float
-    r: float
-    Db: float
-    Dw: float
-    g: float = GRAVITY
+    mb: Value
+    mw: Value
+    Iby: Value
+    Ibz: Value
+    Iwa: Value
+    Iwd: Value
+    l: Value
+    b: Value
+    r: Value
+    Db: Value
+    Dw: Value
+    g: Value = GRAVITY
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -205,7 +210,7 @@ class Params:
     @property
     def batch_shape(self) -> tuple[int, ...]:
         """Common broadcast shape of the fields: ``()`` for a single robot."""
-        return self._batch_shape  # type: ignore[attr-defined, no-any-return]
+        return self._batch_shape  # type: ignore[attr-defined]
 
     # ---- conversions ----------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:

@@ -3,11 +3,17 @@
 Example (``examples/balance.toml``)::
 
     [scenario]
-    controller = "lqr"       # the control law
+    controller = "lqr"       # the control law: any name of `mwip controllers`
     duration = 10.0          # s
     Ts = 0.005               # sample period (s)
     mode = "sampled"         # or "continuous"
     # dt = 0.0005            # integration step (s), optional
+    # twin = true            # run on the digital twin (Chapter 6: IMU, encoders, drives)
+    # case = 2               # with twin: 1 robot, 2 with payload, 3 payload + stick at ~6 s
+    # seed = 0               # sensor-noise seed (twin)
+
+    [controller]             # optional: the controller's settings (`mwip controllers NAME`)
+    Q_diag = [1000.0, 100.0, 100.0, 100.0, 1000.0]
 
     [plant]                  # the simulated robot: a base set plus overrides
     base = "real"            # "real", "nominal", or a path to a parameter TOML
@@ -29,8 +35,9 @@ Example (``examples/balance.toml``)::
     omega = [2.0, 1.0, 1.0]
     phase = [1.5708, 0.0, 0.0]
 
-Unknown tables or keys are errors (a typo must not be silently ignored); every error is a
-one-line ``ValueError`` naming the field.
+Without a ``[controller]`` table the controller runs with the book's settings
+(:mod:`mwip.control.registry`). Unknown tables or keys are errors (a typo must not be
+silently ignored); every error is a one-line ``ValueError`` naming the field.
 """
 
 from __future__ import annotations
@@ -40,15 +47,20 @@ import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
+from mwip.control.registry import CONTROLLERS as _REGISTRY
+from mwip.control.registry import get as _get_controller
+from mwip.core import Controller
 from mwip.io import read_toml
 from mwip.params import NOMINAL, REAL, Params, load_params
 from mwip.sim.disturbance import Disturbance, disturbance_from_dict
+from mwip.sim.result import SimResult
 
 __all__ = ["Scenario", "load_scenario", "CONTROLLERS"]
 
-CONTROLLERS = ("lqr",)
+#: The controller names a scenario may use (the registry's).
+CONTROLLERS = tuple(_REGISTRY)
 _INITIAL = ("theta", "alpha", "v", "theta_dot", "alpha_dot", "psi", "x", "y")
 
 
@@ -96,21 +108,36 @@ class Scenario:
     """A closed-loop run described as data (see module docstring)."""
 
     controller: str = "lqr"
+    settings: Mapping[str, Any] = field(default_factory=dict)
     duration: float = 10.0
     Ts: float = 0.005
     dt: float | None = None
-    mode: str = "sampled"
+    mode: Literal["sampled", "continuous"] = "sampled"
     plant: Params = REAL
     design: Params = NOMINAL
     initial: Mapping[str, float] = field(default_factory=dict)
     disturbance: Disturbance | None = None
+    twin: bool = False
+    case: int = 1
+    seed: int = 0
 
     def __post_init__(self) -> None:
-        if self.controller not in CONTROLLERS:
-            raise ValueError(
-                f"[scenario] controller must be one of {', '.join(CONTROLLERS)}, "
-                f"got {self.controller!r}"
-            )
+        try:
+            spec = _get_controller(self.controller)
+        except ValueError as exc:
+            raise ValueError(f"[scenario] {exc}") from None
+        try:
+            spec.resolve(self.settings)
+        except ValueError as exc:
+            raise ValueError(f"[controller] {exc}") from None
+        if not isinstance(self.twin, bool):
+            raise ValueError(f"[scenario] twin must be true or false, got {self.twin!r}")
+        if self.case not in (1, 2, 3) or isinstance(self.case, bool):
+            raise ValueError(f"[scenario] case must be 1, 2 or 3, got {self.case!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ValueError(f"[scenario] seed must be an integer >= 0, got {self.seed!r}")
+        if self.twin and self.mode != "sampled":
+            raise ValueError("[scenario] mode must be 'sampled' on the twin (twin = true)")
         if self.mode not in ("sampled", "continuous"):
             raise ValueError(
                 f"[scenario] mode must be 'sampled' or 'continuous', got {self.mode!r}"
@@ -140,20 +167,34 @@ class Scenario:
             "pos0": (g["x"], g["y"]),
         }
 
-    def build_controller(self) -> Any:
-        """The controller, designed on :attr:`design` for this scenario's sampling."""
-        from mwip.control.lqr import LQR, design_lqr
+    def build_controller(self) -> Controller:
+        """The controller (registry name and settings), designed on :attr:`design` for this
+        scenario's sampling (continuous mode: ``Ts = None``)."""
+        Ts = None if self.mode == "continuous" else self.Ts
+        return _get_controller(self.controller).build(self.design, self.settings, Ts)
 
-        return LQR(design_lqr(self.design, Ts=None if self.mode == "continuous" else self.Ts))
+    def run(self, **kwargs: Any) -> SimResult:
+        """Simulate the scenario; extra keyword arguments go to :func:`mwip.sim.simulate`
+        (plain runs) or :func:`mwip.hardware.twin.run_on_twin` (``twin``)."""
+        init = self.initial_state()
+        if self.twin:
+            from mwip.hardware.twin import Twin, case_plant, run_on_twin
 
-    def run(self, **kwargs: Any) -> Any:
-        """Simulate the scenario; extra keyword arguments go to :func:`mwip.sim.simulate`."""
+            tw = Twin(Ts=self.Ts) if self.dt is None else Twin(Ts=self.Ts, dt=self.dt)
+            kwargs.pop("progress", None)  # the twin's runner reports no progress
+            kwargs.pop("budget", None)  # the twin's fixed Ts, dt: the default budget applies
+            return run_on_twin(
+                self.build_controller(), self.case, twin=tw,
+                plant=case_plant(self.case, base=self.plant), q0=init["q0"],
+                qdot0=init["qdot0"], duration=self.duration, record_every=1, seed=self.seed,
+                disturbance=self.disturbance, **kwargs,
+            )  # fmt: skip
         from mwip.sim import simulate
 
         return simulate(
             self.build_controller(), self.plant, duration=self.duration, Ts=self.Ts, dt=self.dt,
-            mode=self.mode, disturbance=self.disturbance,  # type: ignore[arg-type]
-            **self.initial_state(), **kwargs,
+            mode=self.mode, disturbance=self.disturbance, q0=init["q0"], qdot0=init["qdot0"],
+            pos0=init["pos0"], seed=self.seed, **kwargs,
         )  # fmt: skip
 
     def with_overrides(self, **changes: Any) -> Scenario:
@@ -172,7 +213,7 @@ def load_scenario(path: str | Path) -> Scenario:
 
 
 def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
-    allowed = {"scenario", "plant", "design", "initial", "disturbance"}
+    allowed = {"scenario", "controller", "plant", "design", "initial", "disturbance"}
     unknown = sorted(set(data) - allowed)
     if unknown:
         raise ValueError(f"unknown table [{unknown[0]}]; allowed: {sorted(allowed)}")
@@ -180,7 +221,7 @@ def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
         if table in data and not isinstance(data[table], dict):
             raise ValueError(f"[{table}] must be a table, got {data[table]!r}")
     sc = dict(data.get("scenario", {}))
-    known = {"controller", "duration", "Ts", "dt", "mode"}
+    known = {"controller", "duration", "Ts", "dt", "mode", "twin", "case", "seed"}
     extra = sorted(set(sc) - known)
     if extra:
         raise ValueError(f"[scenario] unknown key {extra[0]!r}; allowed: {sorted(known)}")
@@ -188,6 +229,7 @@ def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
         if key in sc and not isinstance(sc[key], str):
             raise ValueError(f"[scenario] {key} must be a string, got {sc[key]!r}")
     kwargs: dict[str, Any] = dict(sc)
+    kwargs["settings"] = dict(data.get("controller", {}))
     kwargs["plant"] = _params_table("plant", data.get("plant", {}), REAL, p)
     kwargs["design"] = _params_table("design", data.get("design", {}), NOMINAL, p)
     kwargs["initial"] = dict(data.get("initial", {}))

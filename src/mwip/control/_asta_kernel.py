@@ -1,9 +1,11 @@
 """Compiled sample-time terms of the adaptive super-twisting family: the sliding variables
 (4.1) and ``sigma' = a + b [u_A, u_B]`` (4.10)-(4.11) on the nominal model, for a batch.
 
-The same equations as :func:`mwip.control.asta.asta_surface` and
-:func:`mwip.control.asta.surface_dynamics`, with ``F, G`` from the closed forms of (2.36)
-(:func:`mwip.models.reduced.f_g_terms`), in one loop. Equality is tested (tests/test_asta.py).
+The one implementation of (4.1) and (4.10)-(4.11) (:class:`mwip.control.asta.ASTA`,
+:class:`~mwip.control.asta.ASMC` and :func:`~mwip.control.asta.asta_surface` call it), with
+``F, G`` from the closed forms of (2.36) (:func:`mwip.models.reduced.f_g_terms`). Its oracle
+is in tests/oracle_laws.py; tests/test_kernels.py holds the two equal on random non-zero
+inputs, and benchmarks/mutate_kernels.py checks that a sign flip here fails them.
 """
 
 from __future__ import annotations

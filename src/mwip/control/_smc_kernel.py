@@ -1,10 +1,11 @@
 """Compiled sample-time evaluation of the sliding-mode law (3.49)-(3.50) for a batch.
 
-The same equations as :func:`mwip.control.smc.sliding_surface` and
-:func:`mwip.control.smc.smc_law` with ``F, G`` from the closed forms of (2.36)
-(:func:`mwip.models.reduced.f_g_terms`, the one source of the model), fused into one loop so
-that a controller call costs microseconds rather than a chain of small NumPy calls. Equality
-with the NumPy functions is tested (tests/test_smc.py).
+The one implementation of the law (:class:`mwip.control.smc.SlidingModeController` calls it),
+with ``F, G`` from the closed forms of (2.36) (:func:`mwip.models.reduced.f_g_terms`, the one
+source of the model), in one loop so that a controller call costs microseconds rather than a
+chain of small NumPy calls. Its oracle, the NumPy form written from (3.49)-(3.50), is in
+tests/oracle_laws.py; tests/test_kernels.py holds the two equal on random non-zero inputs
+for every term, and benchmarks/mutate_kernels.py checks that a sign flip here fails them.
 """
 
 from __future__ import annotations

@@ -1,10 +1,11 @@
 """Compiled sample-time evaluation of the terminal SMC (4.30)-(4.32), (4.43) for a batch.
 
-The same equations as :func:`mwip.control.tsmc.subsystem`, :func:`~mwip.control.tsmc.augmenting`,
-:func:`~mwip.control.tsmc.tsmc_surface`, :func:`~mwip.control.tsmc.tsmc_gain` and
-:func:`~mwip.control.tsmc.tsmc_law`, fused into one loop; ``F, G`` from the closed forms of
-(2.36) (:func:`mwip.models.reduced.f_g_terms`). Equality with the NumPy functions is tested
-(tests/test_tsmc.py).
+The one implementation of the law (:class:`mwip.control.tsmc.TSMC` calls it): subsystem
+(4.26)-(4.27), augmenting cubics (4.43), surface (4.30), gain and law (4.32) in one loop;
+``F, G`` from the closed forms of (2.36) (:func:`mwip.models.reduced.f_g_terms`). Its oracle,
+the NumPy forms written from the equations, is in tests/oracle_laws.py; tests/test_kernels.py
+holds the two equal on random non-zero inputs for every term, and
+benchmarks/mutate_kernels.py checks that a sign flip here fails them.
 """
 
 from __future__ import annotations

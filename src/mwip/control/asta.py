@@ -52,15 +52,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.control._asta_kernel import asta_terms
-from mwip.models.reduced import coefficients, f_g
+from mwip.core import Measurement
+from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
 
 __all__ = [
     "check_constraints",
     "sliding_jacobian",
     "asta_surface",
-    "surface_dynamics",
     "sta_term",
     "adaptive_rate",
     "asta_law",
@@ -92,28 +91,27 @@ def sliding_jacobian(p: Params, lam: ArrayLike) -> NDArray[np.float64]:
 def asta_surface(
     q: ArrayLike, qdot: ArrayLike, lam: ArrayLike, ref: ArrayLike = (0.0, 0.0, 0.0, 0.0)
 ) -> NDArray[np.float64]:
-    """Sliding variables (4.1), (..., 2). ``ref = (psi'_d, theta_d, alpha_d, alpha'_d)``."""
-    q, qd = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
-    l1, l2, l3 = np.asarray(lam, dtype=float)
-    psid_d, th_d, al_d, ald_d = np.asarray(ref, dtype=float)
-    s1 = qd[..., 1] + l1 * (q[..., 1] - th_d) + l2 * (qd[..., 0] - psid_d)
-    s2 = (qd[..., 2] - ald_d) + l3 * (q[..., 2] - al_d)
-    return np.stack([s1, s2], axis=-1)
+    """Sliding variables (4.1), (..., 2). ``ref = (psi'_d, theta_d, alpha_d, alpha'_d)``::
 
+        sigma_1 = theta' + lambda_1 (theta - theta_d) + lambda_2 (psi' - psi'_d)
+        sigma_2 = (alpha' - alpha'_d) + lambda_3 (alpha - alpha_d)
 
-def surface_dynamics(
-    p: Params, q: ArrayLike, qdot: ArrayLike, lam: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``a`` (..., 2) and ``b`` (..., 2) of ``sigma' = a + b [u_A, u_B]`` (4.10)-(4.11), nominal.
-
-    Constant references (``psi'_d``, ``theta_d``, ``alpha_d``) are assumed, as in the book.
+    Evaluated by the controllers' compiled kernel (:func:`mwip.control._asta_kernel.
+    asta_terms`, the one implementation; its ``a, b`` are not needed here and use the nominal
+    coefficients).
     """
-    F, G = f_g(p, q, qdot)
-    qd = np.asarray(qdot, dtype=float)
-    l1, l2, l3 = np.asarray(lam, dtype=float)
-    a = np.stack([F[..., 1] + l2 * F[..., 0] + l1 * qd[..., 1], F[..., 2] + l3 * qd[..., 2]], -1)
-    b = np.stack([G[..., 1, 0] + l2 * G[..., 0, 0], G[..., 2, 1]], axis=-1)
-    return a, b
+    q, qd = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
+    shape = np.broadcast_shapes(q.shape, qd.shape)
+    q2 = np.ascontiguousarray(np.broadcast_to(q, shape).reshape(-1, 3))
+    qd2 = np.ascontiguousarray(np.broadcast_to(qd, shape).reshape(-1, 3))
+    n = q2.shape[0]
+    s, a, b = np.empty((n, 2)), np.empty((n, 2)), np.empty((n, 2))
+    asta_terms(_NOMINAL_COEF, q2, qd2, np.asarray(lam, dtype=float).reshape(3),
+               np.asarray(ref, dtype=float).reshape(4), s, a, b)  # fmt: skip
+    return s.reshape(*shape[:-1], 2)
+
+
+_NOMINAL_COEF = np.ascontiguousarray(coefficients(NOMINAL).reshape(-1), dtype=float)
 
 
 def sta_term(sigma: ArrayLike, K: ArrayLike) -> NDArray[np.float64]:
@@ -218,7 +216,8 @@ class _AdaptiveSliding:
             self.reset(meas)
         n = meas.y.shape[0]
         s, a, b = np.empty((n, 2)), np.empty((n, 2)), np.empty((n, 2))
-        # (4.1) and (4.10)-(4.11) in one compiled loop (= asta_surface, surface_dynamics)
+        # (4.1) and (4.10)-(4.11) in one compiled loop (the one implementation; the NumPy
+        # oracle is tests/oracle_laws.py)
         asta_terms(self._coef, np.ascontiguousarray(meas.q), np.ascontiguousarray(meas.qdot),
                    self.lam, self.ref, s, a, b)  # fmt: skip
         u = self._control(a, b, s)

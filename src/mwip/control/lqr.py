@@ -26,9 +26,9 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.core import Measurement
 from mwip.linearize import linearize
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
 from mwip.validate import finite_array, real
 
 __all__ = [

@@ -31,22 +31,19 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.control._smc_kernel import smc_step
 from mwip.control.switching import Switching
+from mwip.core import Measurement, Observer
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
 
 __all__ = [
     "SMCGains",
     "gains_from_bounds",
-    "sliding_surface",
-    "smc_law",
     "SlidingModeController",
     "SMCDesignWarning",
 ]
@@ -94,43 +91,6 @@ def gains_from_bounds(
     return SMCGains(lam, round(d[1] + lam[2] * d[0] + g[0], 12), d[2] + g[1])  # type: ignore[arg-type]
 
 
-def sliding_surface(
-    q: NDArray[np.float64],
-    qdot: NDArray[np.float64],
-    t: float,
-    lambdas: Sequence[float],
-    q1d_dot: float = 0.0,
-    q3d: float = 0.0,
-) -> NDArray[np.float64]:
-    """``[S1, S2]`` of (3.49), shape (N, 2)."""
-    l1, l2, l3, l4 = lambdas
-    s1 = qdot[:, 1] + l1 * q[:, 1] + l2 * (q[:, 0] - q1d_dot * t) + l3 * (qdot[:, 0] - q1d_dot)
-    s2 = qdot[:, 2] + l4 * (q[:, 2] - q3d)
-    return np.column_stack([s1, s2])
-
-
-def smc_law(
-    F: NDArray[np.float64],
-    G: NDArray[np.float64],
-    qdot: NDArray[np.float64],
-    S: NDArray[np.float64],
-    tau_hat: NDArray[np.float64],
-    gains: SMCGains,
-    switching: Switching,
-    q1d_dot: float = 0.0,
-) -> NDArray[np.float64]:
-    """``[u_A, u_B]`` of (3.50), shape (N, 2), from ``F`` (N,3), ``G`` (N,3,2) of (2.36)."""
-    l1, l2, l3, l4 = gains.lambdas
-    f1, f2, f3 = F[:, 0], F[:, 1], F[:, 2]
-    g1, g2, g3 = G[:, 0, 0], G[:, 1, 0], G[:, 2, 1]
-    uA = (
-        -f2 - l3 * f1 - l1 * qdot[:, 1] - l2 * (qdot[:, 0] - q1d_dot)
-        - tau_hat[:, 1] - l3 * tau_hat[:, 0] - gains.K1 * switching(S[:, 0])
-    ) / (g2 + l3 * g1)  # fmt: skip
-    uB = (-f3 - l4 * qdot[:, 2] - tau_hat[:, 2] - gains.K2 * switching(S[:, 1])) / g3
-    return np.column_stack([uA, uB])
-
-
 class SlidingModeController:
     """SMC / DOnSMC / HODOSMC of (3.49)-(3.51), sampled at ``Ts``.
 
@@ -158,7 +118,7 @@ class SlidingModeController:
     def __init__(
         self,
         gains: SMCGains,
-        observer: Any | None = None,
+        observer: Observer | None = None,
         params: Params = NOMINAL,
         Ts: float = 0.005,
         switching: Switching | None = None,
@@ -209,8 +169,8 @@ class SlidingModeController:
         self._u = None
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
-        """(3.49)-(3.50) at a sample, in one compiled loop (:mod:`mwip.control._smc_kernel`;
-        the same equations as :func:`sliding_surface` and :func:`smc_law`)."""
+        """(3.49)-(3.50) at a sample, in one compiled loop (:mod:`mwip.control._smc_kernel`,
+        the law's one implementation)."""
         q = np.ascontiguousarray(meas.q)
         qd = np.ascontiguousarray(meas.qdot)
         tau_hat = np.ascontiguousarray(self.disturbance_estimate(t, meas), dtype=float)

@@ -1,7 +1,7 @@
 """Terminal sliding-mode control (TSMC) with augmented sliding surfaces, Section 4.3.
 
 The model (2.31)/(4.24) in ``x = [theta', v, alpha']`` is obtained from the reduced model
-(2.36) by the change of variables ``v = r psi'`` (nominal parameters, :func:`model_2_31`)::
+(2.36) by the change of variables ``v = r psi'`` (nominal parameters)::
 
     theta'' = f2 + g2 u_A,   v' = r (f1 + g1 u_A),   alpha'' = f3 + g3 u_B,
 
@@ -34,12 +34,14 @@ everything nominal. ``F~`` bounds ``|F - F^|`` (4.28); the book sets ``F~ = 0.8 
 ``D`` bounds the input-gain uncertainty ``G = (I + Delta) G^``, ``|Delta_ij| <= D_ij`` (4.29).
 ``sw`` is the saturation ``sat(s / phi)`` (the book's simulations, Section 4.4.2) or ``sgn``.
 
-Speed. The TSMC does not act on ``v``: ``v`` obeys the internal dynamics (4.35)/(4.37). On
-this plant (``Dw`` used as rotational damping, SPEC.md section 2) summing the wheel and pitch
-rows of (2.33) gives at any steady motion ``2 Dw psi' = sin(theta) (Gb + (m12 + Ibl cos
-theta) alpha'^2)``: a non-zero speed needs a lean. :func:`lean_for_speed` gives that lean (the
-equilibrium of (4.40)); ``TSMC(..., v_ref=...)`` uses it as the pitch target (``speed="lean"``).
-See docs/chapter4.md for why the book's ``v -> v*`` with ``theta -> 0`` cannot hold here.
+Speed. The TSMC does not act on ``v``: ``v`` obeys the internal dynamics (4.35)/(4.37).
+Summing the wheel and pitch rows of (2.33) gives at any steady motion ``2 Dw psi' =
+sin(theta) (Gb + (m12 + Ibl cos theta) alpha'^2)``: with any ``Dw > 0`` a non-zero speed
+needs a lean (about 0.041 rad for 1 m/s on the real plant, ``Dw`` read as ``D r^2``, SPEC.md
+sections 2-3), and with ``theta -> 0`` (4.38) makes ``v`` decay. :func:`lean_for_speed` gives
+that lean (the equilibrium of (4.40)); ``TSMC(..., v_ref=..., speed="lean")`` uses it as the
+pitch target (our extension). See docs/chapter4.md for why the book's ``v -> v*`` with
+``theta -> 0`` cannot hold as worded.
 """
 
 from __future__ import annotations
@@ -52,49 +54,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.switching import Switching
-from mwip.models.reduced import coefficients, f_g
+from mwip.core import Measurement
+from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
 
 __all__ = [
-    "model_2_31",
-    "subsystem",
     "cubic_coefficients",
-    "augmenting",
-    "tsmc_surface",
-    "tsmc_gain",
-    "tsmc_law",
     "lean_for_speed",
     "TSMC",
 ]
-
-
-def model_2_31(
-    p: Params, q: ArrayLike, qdot: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``F`` (..., 3) and ``G`` (..., 3, 2) of (2.31)/(4.24) in ``x = [theta', v, alpha']``.
-
-    ``x' = F + G tau`` with ``tau = [u_r, u_l]``; derived from (2.36) with ``v = r psi'``.
-    """
-    F36, G36 = f_g(p, q, qdot)
-    f1, f2, f3 = F36[..., 0], F36[..., 1], F36[..., 2]
-    g1, g2, g3 = G36[..., 0, 0], G36[..., 1, 0], G36[..., 2, 1]
-    r = p.r
-    F = np.stack([f2, r * f1, f3], axis=-1)
-    G = np.zeros((*F.shape[:-1], 3, 2))
-    G[..., 0, 0] = G[..., 0, 1] = g2
-    G[..., 1, 0] = G[..., 1, 1] = r * g1
-    G[..., 2, 0] = g3
-    G[..., 2, 1] = -g3
-    return F, G
-
-
-def subsystem(
-    p: Params, q: ArrayLike, qdot: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``F1`` (..., 2), ``G1`` (..., 2, 2) of subsystem (4.26)/(4.27), ``[theta', alpha']``."""
-    F, G = model_2_31(p, q, qdot)
-    return F[..., [0, 2]], G[..., [0, 2], :]
 
 
 def cubic_coefficients(e0: ArrayLike, ed0: ArrayLike, Tf: float) -> NDArray[np.float64]:
@@ -115,55 +83,6 @@ def cubic_coefficients(e0: ArrayLike, ed0: ArrayLike, Tf: float) -> NDArray[np.f
     )
 
 
-def augmenting(
-    t: float, coeffs: ArrayLike, Tf: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Augmenting function (4.43) and its first two derivatives at time ``t``: ``(a, a', a'')``.
-
-    Zero for ``t > T_f`` (the cubic and its slope reach zero at ``T_f``; ``a''`` jumps there).
-    """
-    c = np.asarray(coeffs, dtype=float)
-    if t > Tf:
-        z = np.zeros(c.shape[:-1])
-        return z, z.copy(), z.copy()
-    a0, a1, a2, a3 = c[..., 0], c[..., 1], c[..., 2], c[..., 3]
-    return (
-        a0 + a1 * t + a2 * t**2 + a3 * t**3,
-        a1 + 2.0 * a2 * t + 3.0 * a3 * t**2,
-        2.0 * a2 + 6.0 * a3 * t,
-    )
-
-
-def tsmc_surface(
-    e: ArrayLike, e_dot: ArrayLike, a: ArrayLike, a_dot: ArrayLike, C: ArrayLike
-) -> NDArray[np.float64]:
-    """Augmented sliding surface (4.30)/(4.31): ``s = e' + C e - a' - C a``, shape (..., 2).
-
-    ``C`` is the diagonal ``[c1, c2]``.
-    """
-    C = np.asarray(C, dtype=float)
-    e, e_dot = np.asarray(e, dtype=float), np.asarray(e_dot, dtype=float)
-    return e_dot + C * e - np.asarray(a_dot, dtype=float) - C * np.asarray(a, dtype=float)
-
-
-def tsmc_gain(
-    F1: ArrayLike, nominal_term: ArrayLike, Ftilde_ratio: float, D: ArrayLike, Gamma: ArrayLike
-) -> NDArray[np.float64]:
-    """Switching gain of (4.32): ``k = (I - D)^-1 (F~ + D |F1 + C e' - a'' - C a'| + Gamma)``.
-
-    ``nominal_term`` is ``F1 + C e' - a'' - C a'`` (..., 2); ``F~ = Ftilde_ratio |F1|``;
-    ``D`` is (2, 2) with ``||D|| < 1`` (4.29); ``Gamma`` is (2,). Returns (..., 2).
-    """
-    D = np.asarray(D, dtype=float)
-    F1 = np.asarray(F1, dtype=float)
-    rhs = (
-        Ftilde_ratio * np.abs(F1)
-        + np.abs(np.asarray(nominal_term, dtype=float)) @ D.T
-        + np.asarray(Gamma, dtype=float)
-    )
-    return rhs @ _inv2(np.eye(2) - D).T
-
-
 def _inv2(A: NDArray[np.float64]) -> NDArray[np.float64]:
     """Closed-form inverse of (..., 2, 2) matrices."""
     a, b, c, d = A[..., 0, 0], A[..., 0, 1], A[..., 1, 0], A[..., 1, 1]
@@ -172,34 +91,6 @@ def _inv2(A: NDArray[np.float64]) -> NDArray[np.float64]:
     out[..., 0, 0], out[..., 0, 1] = d / det, -b / det
     out[..., 1, 0], out[..., 1, 1] = -c / det, a / det
     return out
-
-
-def tsmc_law(
-    F1: ArrayLike,
-    G1: ArrayLike,
-    e_dot: ArrayLike,
-    a_dot: ArrayLike,
-    a_ddot: ArrayLike,
-    xd_ddot: ArrayLike,
-    C: ArrayLike,
-    k: ArrayLike,
-    switch: ArrayLike,
-) -> NDArray[np.float64]:
-    """Control law (4.32): ``tau = G1^-1 [-F1 - C e' + a'' + C a' + x_d'' - k sw(s)]``.
-
-    ``switch`` is ``sw(s)`` (..., 2); ``x_d''`` the target accelerations (zero for constant
-    targets). Returns the wheel torques ``[u_r, u_l]`` (..., 2).
-    """
-    C = np.asarray(C, dtype=float)
-    w = (
-        -np.asarray(F1, dtype=float)
-        - C * np.asarray(e_dot, dtype=float)
-        + np.asarray(a_ddot, dtype=float)
-        + C * np.asarray(a_dot, dtype=float)
-        + np.asarray(xd_ddot, dtype=float)
-        - np.asarray(k, dtype=float) * np.asarray(switch, dtype=float)
-    )
-    return np.einsum("...ij,...j->...i", _inv2(np.asarray(G1, dtype=float)), w)
 
 
 def lean_for_speed(p: Params, v: float, alpha_dot: float = 0.0) -> float:
@@ -312,8 +203,7 @@ class TSMC:
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         """(4.30)-(4.32) at ``(t, meas)`` in one compiled loop (:mod:`mwip.control._tsmc_kernel`;
-        the same equations as :func:`subsystem`, :func:`augmenting`, :func:`tsmc_surface`,
-        :func:`tsmc_gain` and :func:`tsmc_law`)."""
+        the law's one implementation; NumPy oracle in tests/oracle_laws.py)."""
         if self._coeffs is None:
             self.reset(meas)
         assert self._coeffs is not None

@@ -3,9 +3,11 @@
 :func:`design_it2` solves the LMIs of Lemma 5.1 with the input bound of Lemma 5.2 ((5.12),
 (5.19), (5.20)) on the nominal parameters and returns ``(document, text)``: a JSON-friendly
 dict and the human-readable report (G1, G2, P, solver status, LMI checks, and the book's
-printed gains for comparison). An infeasible problem raises
-:class:`~mwip.fuzzy.pdc.PDCInfeasibleError` whose one-line message the CLI should print
-(exit status 1).
+printed gains for comparison). An infeasible problem, a solver failure or a solved point
+that fails its check (:func:`~mwip.fuzzy.pdc.verify_design`: LMI residuals, vertex
+closed-loop stability; whatever the solver's status) raises
+:class:`~mwip.fuzzy.pdc.PDCInfeasibleError` whose one-line message the CLI prints (exit
+status 1).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import numpy as np
 
 from mwip.fuzzy.pdc import BOOK_G1, BOOK_G2, check_design, design_pdc, uncertainty_models
 from mwip.fuzzy.ts_model import Reading
-from mwip.params import NOMINAL
+from mwip.params import NOMINAL, Params
 
 __all__ = ["design_it2"]
 
@@ -31,14 +33,16 @@ def design_it2(
     reading: Reading = "sector",
     decay: float = 0.0,
     solver: str = "CLARABEL",
+    params: Params = NOMINAL,
 ) -> tuple[dict[str, Any], str]:
-    """Design the IT2 PDC gains; ``robust`` (e.g. 0.35) adds the +-rel parameter models.
+    """Design the IT2 PDC gains on ``params`` (the design model, default the book's nominal
+    set, units damping reading); ``robust`` (e.g. 0.35) adds the +-rel parameter models.
 
     Returns ``(doc, text)``; ``text`` is JSON when ``as_json``.
     """
-    model = uncertainty_models(NOMINAL, robust, reading=reading) if robust else None
+    model = uncertainty_models(params, robust, reading=reading) if robust else None
     d = design_pdc(model, epsilon=epsilon, rho=rho, reading=reading, decay=decay, solver=solver,
-                   params=NOMINAL)  # fmt: skip
+                   params=params)  # fmt: skip
     checks = check_design(d)
     doc: dict[str, Any] = {
         "state": ["theta", "theta_dot", "psi", "psi_dot"],

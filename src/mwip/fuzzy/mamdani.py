@@ -31,11 +31,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.core import Measurement
 from mwip.fuzzy.pdc import PDCBalance, PDCDesign
 from mwip.fuzzy.reducers import bmm, weighted_average
 from mwip.fuzzy.sets import LABELS7, UniformPartition, firing_grid
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
 
 __all__ = [
     "RuleBase",

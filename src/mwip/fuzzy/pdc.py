@@ -28,11 +28,20 @@ Strict inequalities carry an explicit margin (``margin`` times the identity). Th
 homogeneous in ``(Q, N, Y)``; without (5.20) we normalise by ``Q >= I`` (any feasible point
 can be scaled to it), so the margin has a meaning. Solved with cvxpy, Clarabel by default;
 the status is reported; infeasibility raises :class:`PDCInfeasibleError` (one-line message).
+
+Every returned design is verified, whatever the solver's status (``optimal_inaccurate``
+included): :func:`verify_design` recomputes the LMI residuals at the solved point
+(:func:`check_design`) and the vertex closed loops ``K_ii = A_i + B_i G_i`` of every model,
+and raises :class:`PDCInfeasibleError` naming what fails. (A status is the solver's opinion:
+near the edge of feasibility, e.g. epsilon = 0.2, rho = 0.47097 on the literal-damping
+nominal model, Clarabel reports ``optimal_inaccurate`` for a point whose (5.12) residual is
+positive and whose vertex loop 1 is unstable.)
 """
 
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -41,9 +50,9 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.core import Measurement
 from mwip.fuzzy.ts_model import Reading, TSModel, first_weight, vertex_matrices
 from mwip.params import NOMINAL, Params
-from mwip.sim.sensors import Measurement
 
 __all__ = [
     "PDCInfeasibleError",
@@ -53,6 +62,7 @@ __all__ = [
     "design_pdc",
     "uncertainty_models",
     "check_design",
+    "verify_design",
     "pdc_gain",
     "PDCBalance",
 ]
@@ -147,7 +157,7 @@ def design_pdc(
     ``decay > 0`` (our option, not the book's) replaces ``A_i`` by ``A_i + decay I`` in the
     LMIs, which certifies ``V' <= -2 decay V``; the default 0 is Lemma 5.1 as printed.
     Raises :class:`PDCInfeasibleError` when the solver does not report an optimal (feasible)
-    point, and ``ValueError`` for bad arguments.
+    point or the point fails :func:`verify_design`, and ``ValueError`` for bad arguments.
     """
     for name, val in (("epsilon", epsilon), ("rho", rho)):
         if val is not None and not (np.isfinite(val) and val > 0):
@@ -193,7 +203,9 @@ def design_pdc(
             cons.append(cp.bmat([[Qv, Nv[i].T], [Nv[i], np.array([[rho**2]])]]) >> 0)
     prob = cp.Problem(cp.Minimize(0), cons)
     try:
-        prob.solve(solver=solver, **solver_options)
+        with warnings.catch_warnings():  # "may be inaccurate": verify_design decides below
+            warnings.filterwarnings("ignore", message="Solution may be inaccurate")
+            prob.solve(solver=solver, **solver_options)
     except cp.error.SolverError as exc:
         raise PDCInfeasibleError(f"solver {solver} failed: {exc}".splitlines()[0]) from None
     status = str(prob.status)
@@ -204,16 +216,55 @@ def design_pdc(
     Q = 0.5 * (Qv.value + Qv.value.T)
     P = np.linalg.inv(Q)
     P = 0.5 * (P + P.T)
-    N = np.vstack([Nv[0].value, Nv[1].value])
+    N = np.vstack([np.asarray(Nv[0].value), np.asarray(Nv[1].value)])
     G = -N @ P
-    Y = 0.5 * (Ys[0].value + Ys[0].value.T)
+    Y0 = np.asarray(Ys[0].value)
+    Y = 0.5 * (Y0 + Y0.T)
     T = np.kron(np.eye(2), P)
     W = T @ Y @ T
-    return PDCDesign(
+    design = PDCDesign(
         G=G, P=P, Q=Q, N=N, Y=Y, W=0.5 * (W + W.T), status=status, solver=solver,
         epsilon=epsilon, rho=rho, margin=margin, model=ts, decay=decay,
         n_models=len(models),
     )  # fmt: skip
+    verify_design(design, models)
+    return design
+
+
+#: Feasibility tolerance of the non-strict LMIs in :func:`verify_design` (relative, as
+#: :func:`check_design` scales them): what an interior-point solver's "optimal" leaves.
+CHECK_TOL = 1e-7
+
+
+def verify_design(d: PDCDesign, models: Sequence[TSModel] | None = None) -> None:
+    """Check a solved design; raise :class:`PDCInfeasibleError` (one line) if it fails.
+
+    At the solved point (:func:`check_design`): ``P > 0``, ``W > 0`` and the diagonal LMIs of
+    (5.12) negative definite (strict: ``< 0``); the cross LMIs of (5.12), the ball
+    ``epsilon^2 I <= Q`` and the input bound (5.20) within :data:`CHECK_TOL`. And the vertex
+    closed loops ``K_ii = A_i + B_i G_i`` (5.11) Hurwitz for every model in ``models``
+    (default: the design's own). The status does not exempt a point from these checks.
+    """
+    c = check_design(d)
+    bad = [f"{k} = {c[k]:.3g} (must be > 0)" for k in ("P_min", "W_min") if not c[k] > 0]
+    if not c["lmi_ii"] < 0:
+        bad.append(f"lmi_ii = {c['lmi_ii']:.3g} (must be < 0)")
+    for k in ("lmi_ij", "input"):
+        if k in c and not c[k] <= CHECK_TOL:
+            bad.append(f"{k} = {c[k]:.3g} (must be <= {CHECK_TOL:g})")
+    if "eps_ball" in c and not c["eps_ball"] <= CHECK_TOL * d.epsilon**2:  # type: ignore[operator]
+        bad.append(f"eps_ball = {c['eps_ball']:.3g} (must be <= 0)")
+    for m, mdl in enumerate(models if models is not None else [d.model]):
+        for i in range(2):
+            lam = float(np.linalg.eigvals(mdl.A[i] + np.outer(mdl.B[i], d.G[i])).real.max())
+            if not lam < 0:
+                which = f"vertex loop {i + 1}" + (f" of model {m + 1}" if m else "")
+                bad.append(f"{which} unstable (max Re eig = {lam:.3g})")
+    if bad:
+        what = "" if d.epsilon is None else f" (epsilon={d.epsilon:g}, rho={d.rho:g})"
+        raise PDCInfeasibleError(
+            f"PDC design{what} fails its check (solver status {d.status}): " + "; ".join(bad)
+        )
 
 
 def check_design(d: PDCDesign) -> dict[str, float]:
@@ -233,11 +284,12 @@ def check_design(d: PDCDesign) -> dict[str, float]:
         "P_min": float(np.linalg.eigvalsh(d.P)[0]),
         "W_min": float(np.linalg.eigvalsh(d.W)[0]),
     }
-    ii, ij = [], []
+    ii: list[float] = []
+    ij: list[float] = []
     for i in range(2):
         for j in range(2):
             M = K[i, j].T @ d.P + d.P @ K[i, j] + (Wb[i][i] if i == j else Wb[0][1])
-            lam = float(np.linalg.eigvalsh(0.5 * (M + M.T))[-1]) / scale
+            lam = float(np.linalg.eigvalsh(0.5 * (M + M.T))[-1] / scale)
             (ii if i == j else ij).append(lam)
     out["lmi_ii"] = max(ii)
     out["lmi_ij"] = max(ij)
@@ -245,9 +297,10 @@ def check_design(d: PDCDesign) -> dict[str, float]:
                                for j in range(2)))  # fmt: skip
     if d.epsilon is not None and d.rho is not None:
         out["eps_ball"] = float(d.epsilon**2 - np.linalg.eigvalsh(d.Q)[0])
-        out["input"] = max(
-            float(np.linalg.eigvalsh(np.outer(g, g) - d.rho**2 * d.P)[-1]) for g in d.G
-        ) / (d.rho**2 * scale)
+        out["input"] = float(
+            max(float(np.linalg.eigvalsh(np.outer(g, g) - d.rho**2 * d.P)[-1]) for g in d.G)
+            / (d.rho**2 * scale)
+        )
     return out
 
 

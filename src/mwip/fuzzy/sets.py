@@ -25,7 +25,8 @@ classic partition of unity.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -117,15 +118,74 @@ class TriangularIT2Set:
 
     @property
     def centroid_interval(self) -> tuple[float, float]:
-        """Centroid interval; both MFs symmetric about the apex give ``(b, b)``.
+        """Centroid interval ``[c_l, c_r]`` of the continuous IT2 set, exact (Karnik-Mendel).
 
-        Only symmetric sets are supported here (all of Chapter 5's are); asymmetric ones would
-        need the Karnik-Mendel centroid over a discretised domain.
+        The centroid of an IT2 set is the interval of the centroids of its embedded type-1
+        sets (Karnik and Mendel, 2001). Its ends switch between the MFs at one point ``y``:
+
+        ``c_l = min_y (int_{x<y} x U + int_{x>y} x L) / (int_{x<y} U + int_{x>y} L)``
+
+        and ``c_r`` the same with ``L`` and ``U`` exchanged (max). At the optimum the switch
+        point equals the centroid, ``y = c_l`` (the continuous Karnik-Mendel fixed point), which
+        is solved here with the moments of the piecewise-linear MFs in closed form and a
+        bracketing root finder. Symmetric sets give ``c_r = -c_l`` about the apex (e.g.
+        lower ``(-0.5, 0, 0.5)``, upper ``(-1, 0, 1)``: ``(-0.167715, 0.167715)``). A lower MF
+        of zero area (a singleton) leaves the whole upper support: ``(upper.a, upper.c)``.
         """
-        for s in (self.lower, self.upper):
-            if not np.isclose(s.b - s.a, s.c - s.b):
-                raise NotImplementedError("centroid interval of an asymmetric IT2 triangle")
-        return (self.lower.b, self.lower.b)
+        lo, up = self.lower, self.upper
+        if up.a == up.c:
+            return (up.b, up.b)
+        L0, L1 = _moments(lo, math.inf)
+        U0, U1 = _moments(up, math.inf)
+        if L0 == 0.0:
+            return (up.a, up.c)
+
+        def left(y: float) -> float:  # y - centroid of "U left of y, L right of y"
+            u0, u1 = _moments(up, y)
+            l0, l1 = _moments(lo, y)
+            return y - (u1 + L1 - l1) / (u0 + L0 - l0)
+
+        def right(y: float) -> float:  # y - centroid of "L left of y, U right of y"
+            u0, u1 = _moments(up, y)
+            l0, l1 = _moments(lo, y)
+            return y - (l1 + U1 - u1) / (l0 + U0 - u0)
+
+        return (_root(left, up.a, up.c), _root(right, up.a, up.c))
+
+
+def _moments(s: TriangularSet, y: float) -> tuple[float, float]:
+    """``(int_{-inf}^{y} mu, int_{-inf}^{y} x mu)`` of a triangular set, in closed form."""
+    m0 = m1 = 0.0
+    for x0, h0, x1, h1 in ((s.a, 0.0, s.b, s.height), (s.b, s.height, s.c, 0.0)):
+        if x1 <= x0 or y <= x0:
+            continue
+        z = min(y, x1)
+        k = (h1 - h0) / (x1 - x0)  # mu = h0 + k (x - x0) on [x0, x1]
+        m0 += h0 * (z - x0) + k * (z - x0) ** 2 / 2.0
+        m1 += h0 * (z * z - x0 * x0) / 2.0 + k * (
+            (z**3 - x0**3) / 3.0 - x0 * (z * z - x0 * x0) / 2.0
+        )
+    return m0, m1
+
+
+def _root(g: Callable[[float], float], a: float, b: float) -> float:
+    """The single root of ``g`` on ``[a, b]`` by bisection to machine precision. ``g(y)`` is
+    ``y`` minus a Karnik-Mendel centroid that stays inside ``[a, b]``: ``g(a) <= 0 <= g(b)``,
+    negative below the fixed point and positive above it."""
+    ga, gb = g(a), g(b)
+    if ga >= 0.0:
+        return a
+    if gb <= 0.0:
+        return b
+    for _ in range(200):
+        m = 0.5 * (a + b)
+        if m in (a, b):
+            break
+        if g(m) > 0.0:
+            b = m
+        else:
+            a = m
+    return 0.5 * (a + b)
 
 
 @dataclass(frozen=True)

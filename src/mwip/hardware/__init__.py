@@ -1,20 +1,28 @@
-"""The robot's hardware (Sec. 2.5) and the digital twin of Chapter 6.
+"""The robot's hardware (Sec. 2.5) and the digital twin of Chapter 6 (docs/twin_model.md).
 
 - :mod:`mwip.hardware.imu`: accelerometer tilt (2.37)/(2.39), gyro with zero drift (2.40),
   complementary and Kalman fusion;
 - :mod:`mwip.hardware.encoder`: quadrature encoders on the motor shafts;
-- :mod:`mwip.hardware.motor`: MAXON RE25 (Table 2.1), gearbox and PWM driver;
+- :mod:`mwip.hardware.motor`: MAXON RE25 (Table 2.1) and the H-bridge PWM driver;
+- :mod:`mwip.hardware.drivetrain`: reflected rotor inertia, gearbox friction and backlash;
 - :mod:`mwip.hardware.obstacle`: the Case 3 stick;
-- :mod:`mwip.hardware.twin`: the composition and :func:`run_on_twin`.
+- :mod:`mwip.hardware.elements`: the switchable physical elements (one registry);
+- :mod:`mwip.hardware.twin`: the composition and :func:`run_on_twin`;
+- :mod:`mwip.hardware.twin_config`: the twin as ``[twin]`` TOML tables (``mwip twin show``);
+- :mod:`mwip.hardware.ablation`: the ideal robot, then each element added in turn;
+- :mod:`mwip.hardware.sensitivity`: payload, stick and gear-ratio sensitivities.
 """
 
+from mwip.hardware.drivetrain import GearboxSpec, TwinPlant
+from mwip.hardware.elements import ELEMENTS
 from mwip.hardware.encoder import EncoderSpec
 from mwip.hardware.imu import FusionSpec, ImuNoise
 from mwip.hardware.motor import RE25, DriveActuator, DriveSpec, MotorData
 from mwip.hardware.obstacle import StickObstacle
-from mwip.hardware.twin import CASES, Twin, TwinSensor, case_plant, run_on_twin
+from mwip.hardware.twin import CASES, Twin, TwinActuator, TwinSensor, case_plant, run_on_twin
 
 __all__ = [
     "EncoderSpec", "FusionSpec", "ImuNoise", "RE25", "MotorData", "DriveSpec", "DriveActuator",
-    "StickObstacle", "Twin", "TwinSensor", "CASES", "case_plant", "run_on_twin",
+    "GearboxSpec", "TwinPlant", "ELEMENTS", "StickObstacle", "Twin", "TwinSensor",
+    "TwinActuator", "CASES", "case_plant", "run_on_twin",
 ]  # fmt: skip

@@ -7,7 +7,10 @@ body* through the gearbox: ``counts_i = floor(cpr * N_gear (psi_i - theta) / 2 p
 and the rates by differences over the sample period ("the number of pulses measured per unit
 time is the angular velocity", Sec. 2.5.1).
 
-Defaults: HED-5540 with 500 lines, x4 quadrature decoding = 2000 counts per motor turn.
+Defaults: the book's HED-5540-C06 (Fig. 2.6): in the HEDS-5540 ordering code the letter is
+the resolution, ``C`` = 100 lines per turn (``A`` would be 500), and the LM3S2965's
+quadrature encoder interface counts all four edges: 400 counts per motor turn, 9200 per wheel
+turn behind the 23:1 gearbox (docs/twin_model.md; 2000 with 500 lines is the sensitivity).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ class EncoderSpec:
     """``cpr`` counts per motor revolution (after quadrature decoding), ``gear_ratio`` motor
     turns per wheel turn (the encoder is on the motor shaft)."""
 
-    cpr: int = 2000
+    cpr: int = 400
     gear_ratio: float = 23.0
 
     def __post_init__(self) -> None:

@@ -197,10 +197,17 @@ def kalman_step(
 
 
 class Imu:
-    """Stateful IMU of N robots: the gyro's zero drift is a random walk (seeded)."""
+    """Stateful IMU of N robots: the gyro's zero drift is a random walk (seeded).
 
-    def __init__(self, noise: ImuNoise = ImuNoise()) -> None:
+    Every call draws the same normal variates whatever is switched on (bias walk, accel x,
+    accel y, gyro: ``n`` each, or one each broadcast to all rows when ``common``), so switching
+    an element on or off leaves the others' noise unchanged, and with ``common`` every row of
+    a batch sees the noise of a single run with the same seed.
+    """
+
+    def __init__(self, noise: ImuNoise = ImuNoise(), *, common: bool = False) -> None:
         self.noise = noise
+        self.common = common
         self.bias = np.zeros(0)
         self._rng = np.random.default_rng(0)
 
@@ -209,6 +216,11 @@ class Imu:
         self._rng = np.random.default_rng(seed)
         self.bias = np.full(n, self.noise.gyro_bias)
 
+    def _normal(self, n: int) -> NDArray[np.float64]:
+        if self.common:
+            return np.broadcast_to(self._rng.standard_normal(1), (n,))
+        return self._rng.standard_normal(n)
+
     def read(
         self,
         theta: NDArray[np.float64],
@@ -216,20 +228,29 @@ class Imu:
         theta_ddot: NDArray[np.float64],
         x_ddot: NDArray[np.float64],
         dt: float,
+        *,
+        noise: ArrayLike = True,
+        bias: ArrayLike = True,
+        motion: ArrayLike = True,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """``(a_x, a_y, omega*)`` for true motion; advances the drift by ``dt`` first."""
+        """``(a_x, a_y, omega*)`` for true motion; advances the drift by ``dt`` first.
+
+        ``noise``, ``bias``, ``motion`` (bool, per row) switch the white noise, the offsets
+        and drift, and the body-acceleration terms of :func:`specific_force`."""
         nz = self.noise
         n = theta.shape[0]
-        if nz.gyro_bias_walk > 0 and dt > 0:
-            self.bias = self.bias + nz.gyro_bias_walk * np.sqrt(dt) * self._rng.standard_normal(n)
-        ax, ay = specific_force(theta, theta_dot, theta_ddot, x_ddot, nz.height)
-        if nz.accel_sigma > 0:
-            ax = ax + nz.accel_sigma * self._rng.standard_normal(n)
-            ay = ay + nz.accel_sigma * self._rng.standard_normal(n)
-        ax = ax + nz.accel_bias
-        omega = theta_dot + self.bias
-        if nz.gyro_sigma > 0:
-            omega = omega + nz.gyro_sigma * self._rng.standard_normal(n)
+        on_n = np.broadcast_to(np.asarray(noise, dtype=float), (n,))
+        on_b = np.broadcast_to(np.asarray(bias, dtype=float), (n,))
+        on_m = np.broadcast_to(np.asarray(motion, dtype=float), (n,))
+        walk = self._normal(n)
+        if dt > 0:
+            self.bias = self.bias + nz.gyro_bias_walk * np.sqrt(dt) * walk
+        ax, ay = specific_force(theta, on_m * theta_dot, on_m * theta_ddot, on_m * x_ddot,
+                                nz.height)  # fmt: skip
+        ax = ax + on_n * nz.accel_sigma * self._normal(n)
+        ay = ay + on_n * nz.accel_sigma * self._normal(n)
+        ax = ax + on_b * nz.accel_bias
+        omega = theta_dot + on_b * self.bias + on_n * nz.gyro_sigma * self._normal(n)
         return ax, ay, omega
 
 

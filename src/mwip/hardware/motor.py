@@ -18,13 +18,14 @@ Why 23 (docs/twin.md): wheel stall torque 5.6 N m and continuous 0.60 N m per wh
 transients reach ~1 N m), while the wheel no-load speed 43.5 rad/s leaves ample headroom over
 the 7 rad/s speed target.
 
-Driver: the controller's torque command is turned into a PWM duty. ``mode="torque"``
-(default) is a current-mode servo driver: ``V* = R i* + k_e omega_m`` with
-``i* = tau_cmd / (N eta k_t)`` (back-EMF feed-forward), so the wheel gets the commanded torque
-until a limit bites; ``mode="voltage"`` maps torque to duty open-loop
-(``V* = R i*``), so back-EMF acts as extra damping. Then the limits, in this order: current
-limit (``|i_ss| <= I_max``), supply (``|V| <= 24 V``), duty quantisation to ``pwm_levels``
-(rounded, but never across the current limit).
+Driver (Sec. 2.5.2: a MOSFET H-bridge, "the PWM technique is used to realize speed
+regulation"): ``mode="voltage"`` (default) maps the torque command to a duty open-loop,
+``V* = R tau / (N eta k_t)``, so back-EMF acts on the motor as the physical damping
+``eta N^2 k_t k_e / R`` per wheel (0.096 N m s/rad); ``mode="torque"`` is a current-mode
+servo driver, ``V* = R i* + k_e omega_m`` (back-EMF feed-forward). Then, as the hardware does
+it: duty clipped to [-1, 1] against the nominal 24 V, quantised to ``pwm_levels``, reduced by
+the dead-band, times the (sagging) battery voltage, and the driver's current limit
+``|V - k_e omega_m| <= R I_max`` (:class:`DriveActuator`).
 The current is integrated exactly over the sample (``V``, ``omega_m`` held), and the torque
 held over the sample is the one produced by the *mean* current.
 """
@@ -46,6 +47,7 @@ __all__ = [
     "quantise_duty",
     "steady_speed",
     "simulate_motor",
+    "apply_deadband",
     "DriveActuator",
 ]
 
@@ -59,7 +61,12 @@ def _check(name: str, value: float, lo: float, hi: float) -> None:
 
 @dataclass(frozen=True)
 class MotorData:
-    """Motor data sheet (Table 2.1 defaults, MAXON RE25 20 W 24 V), SI units."""
+    """Motor data sheet (Table 2.1 defaults, MAXON RE25 20 W 24 V), SI units.
+
+    ``torque_constant`` and ``terminal_resistance`` are derived from Table 2.1 when 0 (the
+    default): ``k_t = k_e = V / omega_0``, ``R = k_t V / tau_stall``; a positive value sets
+    them directly (e.g. from a catalogue or a measurement).
+    """
 
     rated_power: float = 20.0
     rated_voltage: float = 24.0
@@ -70,6 +77,8 @@ class MotorData:
     max_efficiency: float = 0.85
     rotor_inertia: float = 10.8e-7  # 10.8 g cm^2
     inductance: float = 0.238e-3
+    torque_constant: float = 0.0
+    terminal_resistance: float = 0.0
 
     def __post_init__(self) -> None:
         _check("rated_power", self.rated_power, 0.0, 1e4)
@@ -81,10 +90,19 @@ class MotorData:
         _check("max_efficiency", self.max_efficiency, 0.0, 1.0)
         _check("rotor_inertia", self.rotor_inertia, 0.0, 1.0)
         _check("inductance", self.inductance, 0.0, 1.0)
+        for name in ("torque_constant", "terminal_resistance"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and 0.0 <= v <= 1e3):
+                raise ValueError(
+                    f"{name!r} must be finite and in [0, 1000] (0: from Table 2.1), got {v!r}"
+                )
 
     @property
     def k_e(self) -> float:
-        """Back-EMF constant (V s/rad) = rated voltage / no-load speed."""
+        """Back-EMF constant (V s/rad) = rated voltage / no-load speed (or
+        ``torque_constant``)."""
+        if self.torque_constant > 0:
+            return self.torque_constant
         return self.rated_voltage / (self.no_load_speed_rpm * RPM)
 
     @property
@@ -94,7 +112,9 @@ class MotorData:
 
     @property
     def resistance(self) -> float:
-        """Terminal resistance (Ohm) = ``k_t V / tau_stall``."""
+        """Terminal resistance (Ohm) = ``k_t V / tau_stall`` (or ``terminal_resistance``)."""
+        if self.terminal_resistance > 0:
+            return self.terminal_resistance
         return self.k_t * self.rated_voltage / self.stall_torque
 
     @property
@@ -113,15 +133,34 @@ RE25 = MotorData()
 
 @dataclass(frozen=True)
 class DriveSpec:
-    """Gearbox and PWM driver. ``current_limit`` is the driver's (A), ``pwm_levels`` the
-    number of duty steps over [0, 1] (LM3S2965 PWM at 20 kHz: 1250 counts; 1000 default)."""
+    """Gearbox ratio and efficiency, battery and H-bridge PWM driver (docs/twin_model.md).
+
+    gear_ratio : motor turns per wheel turn (23: MAXON GP 32 A 23:1; the book names none).
+    gear_efficiency : torque efficiency of the gearbox (0.75: GP 32 A, 2 stages, catalogue).
+    supply_voltage : battery voltage (24 V, Sec. 2.5).
+    supply_resistance : battery + wiring resistance (Ohm) for the sag ``V = V_0 - R_s I_bat``
+        (assumed 0.2 Ohm; the book gives none).
+    current_limit : driver's current limit (A), steady current ``|V - e| / R <= I_max``.
+    pwm_levels : duty steps over [0, 1] (0: not quantised).
+    deadband : duty lost to the H-bridge's dead time / minimum pulse, ``d -> sign(d)
+        max(|d| - deadband, 0)`` (assumed 0.01: 0.5 us at 20 kHz).
+    mode : ``"voltage"`` (default, the book's PWM speed regulation: duty proportional to the
+        commanded torque, ``V* = R tau / (N eta k_t)``, back-EMF acting on the motor) or
+        ``"torque"`` (a current-controlled driver: ``V* = R i* + k_e omega_m``).
+    emf_feedforward : voltage mode only: the firmware adds the back-EMF of the wheel speed at
+        the sample instant, ``V* = R i* + k_e omega_m`` (default off: the book's "the control
+        signal modulates a pulse signal of a certain width", Sec. 6.1).
+    """
 
     gear_ratio: float = 23.0
-    gear_efficiency: float = 1.0
+    gear_efficiency: float = 0.75
     supply_voltage: float = 24.0
     current_limit: float = 4.0
     pwm_levels: int = 1000
-    mode: Literal["torque", "voltage"] = "torque"
+    mode: Literal["torque", "voltage"] = "voltage"
+    deadband: float = 0.01
+    supply_resistance: float = 0.2
+    emf_feedforward: bool = False
 
     def __post_init__(self) -> None:
         _check("gear_ratio", self.gear_ratio, 0.0, 1000.0)
@@ -134,11 +173,24 @@ class DriveSpec:
             )
         if self.mode not in ("torque", "voltage"):
             raise ValueError(f"'mode' must be 'torque' or 'voltage', got {self.mode!r}")
+        if not (np.isfinite(self.deadband) and 0.0 <= self.deadband < 1.0):
+            raise ValueError(f"'deadband' must be finite and in [0, 1), got {self.deadband!r}")
+        if not (np.isfinite(self.supply_resistance) and 0.0 <= self.supply_resistance <= 100.0):
+            raise ValueError(
+                f"'supply_resistance' must be finite and in [0, 100], "
+                f"got {self.supply_resistance!r}"
+            )
 
     def wheel_torque_limit(self, motor: MotorData = RE25) -> float:
         """Largest wheel torque at standstill (N m): current limit or supply, whichever binds."""
         i = min(self.current_limit, self.supply_voltage / motor.resistance)
         return self.gear_ratio * self.gear_efficiency * motor.k_t * i
+
+    def emf_damping(self, motor: MotorData = RE25) -> float:
+        """Back-EMF damping of a voltage drive at the wheel, ``eta N^2 k_t k_e / R``
+        (N m s/rad per wheel, on the wheel speed relative to the body)."""
+        n = self.gear_ratio
+        return self.gear_efficiency * n * n * motor.k_t * motor.k_e / motor.resistance
 
 
 def current_step(
@@ -181,6 +233,12 @@ def quantise_duty(v: ArrayLike, drive: DriveSpec) -> NDArray[np.float64]:
     return duty
 
 
+def apply_deadband(duty: ArrayLike, deadband: float) -> NDArray[np.float64]:
+    """Duty after the driver's dead-band: ``sign(d) max(|d| - deadband, 0)``."""
+    d = np.asarray(duty, dtype=float)
+    return np.sign(d) * np.maximum(np.abs(d) - deadband, 0.0)
+
+
 def steady_speed(v: ArrayLike, load_torque: ArrayLike, motor: MotorData = RE25) -> NDArray:
     """Steady shaft speed (rad/s) at voltage ``v`` and load torque (N m): the speed-torque line
     ``omega = (V - R tau / k_t) / k_e``."""
@@ -196,7 +254,7 @@ def simulate_motor(
     duration: float = 0.5,
     motor: MotorData = RE25,
     dt: float = 1e-5,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+) -> tuple[NDArray[np.floating], NDArray[np.float64], NDArray[np.float64]]:
     """Free motor run from rest (electrical and mechanical model): ``(t, omega, i)``.
 
     Semi-implicit Euler on ``L i' = V - R i - k_e omega``, ``J omega' = k_t i - tau_load``
@@ -215,11 +273,25 @@ def simulate_motor(
 
 class DriveActuator:
     """Actuator protocol (:mod:`mwip.sim.sensors`): two RE25 motors through the gearbox and
-    the PWM driver. ``ideal=True`` passes the commanded torques through (plumbing checks).
+    the H-bridge PWM driver. ``ideal=True`` passes the commanded torques through.
+
+    Per sample: the firmware turns the torque command into a duty against the nominal supply
+    (``mode``, :class:`DriveSpec`), clipped to [-1, 1], quantised and reduced by the dead-band
+    (``pwm``, per row); the bridge applies ``duty x V_s`` with the battery's sag
+    ``V_s = V_0 - R_s I_bat`` (``sag``, per row; ``I_bat = sum duty i`` of the previous
+    sample); the driver's current limit clips the voltage to ``|V - k_e omega_m| <= R I_max``
+    within the supply ``|V| <= V_s``.
+    The current is integrated exactly over the sample with ``V`` and ``omega_m`` held
+    (:func:`current_step`); the wheel torque is ``eta N k_t`` times the mean current.
+
+    ``emf_in_plant`` (voltage mode): the plant integrates the back-EMF's viscous torque
+    ``-eta N^2 k_t k_e w / R`` itself (:mod:`mwip.hardware.drivetrain`), so the torque returned
+    is the rest, ``eta N k_t (i_mean + k_e omega_m / R)``; ``last["torque"]`` is always the
+    whole motor torque at the sample's start speed.
 
     ``plant_b_over_r`` is the plant's ``b / r``, to get each wheel's speed from the state.
-    After each call ``last`` holds ``duty``, ``current`` (mean, A), ``voltage`` and
-    ``limited`` (N, 2) for the logs.
+    After each call ``last`` holds ``duty``, ``current`` (mean, A), ``voltage``, ``supply``,
+    ``torque`` and ``limited`` for the logs.
     """
 
     def __init__(
@@ -230,18 +302,26 @@ class DriveActuator:
         plant_b_over_r: float = 0.15 / 0.04,
         Ts: float = 0.005,
         ideal: bool = False,
+        pwm: ArrayLike = True,
+        sag: ArrayLike = True,
+        emf_in_plant: bool = False,
     ) -> None:
         self.motor = motor
         self.drive = drive
         self.b_over_r = float(plant_b_over_r)
         self.Ts = float(Ts)
         self.ideal = ideal
+        self.pwm = np.asarray(pwm, dtype=bool)
+        self.sag = np.asarray(sag, dtype=bool)
+        self.emf_in_plant = bool(emf_in_plant)
         self.i = np.zeros((0, 2))
+        self.i_bat = np.zeros(0)
         self.last: dict[str, NDArray[np.float64]] = {}
 
     def reset(self, n: int, seed: int | None = None) -> None:
         """Currents to zero."""
         self.i = np.zeros((n, 2))
+        self.i_bat = np.zeros(n)
         self.last = {}
 
     def motor_speed(self, state: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -258,22 +338,38 @@ class DriveActuator:
         if self.ideal:
             self.last = {"limited": np.zeros_like(u_cmd)}
             return u_cmd
+        n = u_cmd.shape[0]
         if self.i.shape != u_cmd.shape:
-            self.reset(u_cmd.shape[0])
+            self.reset(n)
+        m, d = self.motor, self.drive
+        R = m.resistance
+        gain = d.gear_ratio * d.gear_efficiency * m.k_t
         om = self.motor_speed(state)
-        v, limited = driver_voltage(np.nan_to_num(u_cmd), om, self.motor, self.drive)
-        duty = quantise_duty(v, self.drive)
-        if self.drive.pwm_levels > 0:  # rounding must not step over the current limit
-            lv, vs = self.drive.pwm_levels, self.drive.supply_voltage
-            emf = self.motor.k_e * om
-            band = self.motor.resistance * self.drive.current_limit
-            lo = np.ceil(np.clip((emf - band) / vs, -1.0, 1.0) * lv) / lv
-            hi = np.floor(np.clip((emf + band) / vs, -1.0, 1.0) * lv) / lv
-            duty = np.clip(duty, lo, np.maximum(hi, lo))
-        v_q = duty * self.drive.supply_voltage
-        self.i, i_mean = current_step(self.i, v_q, om, self.motor, self.Ts)
-        gain = self.drive.gear_ratio * self.drive.gear_efficiency * self.motor.k_t
-        u = gain * i_mean
-        self.last = {"duty": duty, "current": i_mean, "voltage": v_q,
+        emf = m.k_e * om
+        ff = d.mode == "torque" or d.emf_feedforward
+        v_ref = R * np.nan_to_num(u_cmd) / gain + (emf if ff else 0.0)
+        duty_ref = v_ref / d.supply_voltage
+        duty = np.clip(duty_ref, -1.0, 1.0)
+        shaped = duty
+        if d.pwm_levels > 0:
+            shaped = np.round(shaped * d.pwm_levels) / d.pwm_levels
+        shaped = apply_deadband(shaped, d.deadband)
+        pwm = np.broadcast_to(self.pwm, (n,))[:, None]
+        duty = np.where(pwm, shaped, duty)
+        sag = np.broadcast_to(self.sag, (n,))
+        vs = d.supply_voltage - np.where(sag, d.supply_resistance * self.i_bat, 0.0)
+        vs = np.maximum(vs, 0.0)[:, None]
+        v = duty * vs
+        band = R * d.current_limit
+        v_lim = np.clip(np.clip(v, emf - band, emf + band), -vs, vs)
+        limited = (np.abs(duty_ref) > 1.0) | (np.abs(v_lim - v) > 1e-12)
+        self.i, i_mean = current_step(self.i, v_lim, om, m, self.Ts)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            duty_eff = np.where(vs > 0, v_lim / vs, 0.0)
+        self.i_bat = np.sum(duty_eff * i_mean, axis=1)
+        torque = gain * i_mean
+        u = torque + gain * emf / R if (self.emf_in_plant and d.mode == "voltage") else torque
+        self.last = {"duty": duty_eff, "current": i_mean, "voltage": v_lim,
+                     "supply": vs[:, 0], "torque": torque,
                      "limited": limited.astype(float)}  # fmt: skip
         return u

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.params import Params
+from mwip.params import Params, Value
 
 __all__ = ["PlanarParams", "mass_matrix", "bias_forces", "accelerations", "energy"]
 
@@ -32,15 +32,15 @@ __all__ = ["PlanarParams", "mass_matrix", "bias_forces", "accelerations", "energ
 class PlanarParams:
     """Parameters of the planar model (2.12): body ``mb, Ib, l``, wheel set ``mw, Iw, r``."""
 
-    mb: float
-    mw: float
-    Ib: float
-    Iw: float
-    l: float
-    r: float
-    Db: float
-    Dw: float
-    g: float = 9.81
+    mb: Value
+    mw: Value
+    Ib: Value
+    Iw: Value
+    l: Value
+    r: Value
+    Db: Value
+    Dw: Value
+    g: Value = 9.81
 
     @classmethod
     def from_params(cls, p: Params) -> PlanarParams:
@@ -86,7 +86,7 @@ def accelerations(
     """``q2''`` from (2.12) for total wheel torque ``tau`` (...,), shape (..., 2)."""
     t = np.asarray(tau, dtype=float)
     rhs = np.stack(np.broadcast_arrays(t, -t), axis=-1) - bias_forces(pp, q2, q2d, slope)
-    return np.linalg.solve(mass_matrix(pp, q2, slope), rhs[..., None])[..., 0]
+    return np.asarray(np.linalg.solve(mass_matrix(pp, q2, slope), rhs[..., None])[..., 0], float)
 
 
 def energy(

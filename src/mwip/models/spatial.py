@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.params import Params
+from mwip.params import Params, Value
 
 __all__ = [
     "SpatialParams",
@@ -60,19 +60,19 @@ class SpatialParams:
     ``b``; damping ``Db, Dw`` of (2.22).
     """
 
-    m1: float
-    l1: float
-    Ixx: float
-    Iyy: float
-    Izz: float
-    mw: float
-    Iwa: float
-    Iwd: float
-    rw: float
-    b: float
-    Db: float
-    Dw: float
-    g: float = 9.81
+    m1: Value
+    l1: Value
+    Ixx: Value
+    Iyy: Value
+    Izz: Value
+    mw: Value
+    Iwa: Value
+    Iwd: Value
+    rw: Value
+    b: Value
+    Db: Value
+    Dw: Value
+    g: Value = 9.81
 
     @classmethod
     def from_params(cls, p: Params, *, Izz: float = 0.0) -> SpatialParams:

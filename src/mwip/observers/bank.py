@@ -11,34 +11,18 @@ disturbance (2.36) of a running robot.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from mwip.sim.sensors import Measurement
+from mwip.core import Controller, Measurement, Observer
 
 __all__ = ["ObservedController", "SampledObserver"]
 
 
-class SampledObserver(Protocol):
-    """What :class:`ObservedController` needs of an observer (e.g. ``HighOrderDO``)."""
-
-    Ts: float
-
-    def reset(
-        self,
-        qdot0: NDArray[np.float64],
-        estimates0: None = None,
-        q0: NDArray[np.float64] | None = None,
-    ) -> None: ...
-
-    def update(
-        self, q: NDArray[np.float64], qdot: NDArray[np.float64], u: NDArray[np.float64]
-    ) -> NDArray[np.float64]: ...
-
-    @property
-    def tau_hat(self) -> NDArray[np.float64]: ...
+#: What :class:`ObservedController` needs of an observer: the :class:`mwip.core.Observer`
+#: protocol (e.g. ``HighOrderDO``); the old name, kept.
+SampledObserver = Observer
 
 
 class ObservedController:
@@ -46,10 +30,10 @@ class ObservedController:
 
     static = False
 
-    def __init__(self, controller: object, observers: Mapping[str, SampledObserver]) -> None:
+    def __init__(self, controller: Controller, observers: Mapping[str, Observer]) -> None:
         self.controller = controller
         self.observers = dict(observers)
-        self.Ts = getattr(controller, "Ts", None)
+        self.Ts: float | None = controller.Ts
         for name, obs in self.observers.items():
             if self.Ts is not None and abs(obs.Ts - self.Ts) > 1e-12:
                 raise ValueError(
@@ -62,19 +46,19 @@ class ObservedController:
     def reset(self, meas: Measurement) -> None:
         for obs in self.observers.values():
             obs.reset(meas.qdot, q0=meas.q)
-        self.controller.reset(meas)  # type: ignore[attr-defined]
+        self.controller.reset(meas)
         self._u = None
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         if self._u is not None:
             for obs in self.observers.values():
                 obs.update(meas.q, meas.qdot, self._u)
-        u = np.asarray(self.controller(t, meas), dtype=float)  # type: ignore[operator]
+        u = np.asarray(self.controller(t, meas), dtype=np.float64)
         self._u = u
         return u
 
     def log(self) -> dict[str, NDArray[np.float64]]:
-        out = dict(getattr(self.controller, "log", dict)())
+        out = dict(self.controller.log())
         for name, obs in self.observers.items():
             out[name] = obs.tau_hat
         return out

@@ -293,7 +293,7 @@ def _scaling(n: int, m: int, rho: float) -> tuple[NDArray[np.float64], float]:
     ``rho^-1 .. rho^-(2n-1)``).
     """
     t = rho ** -np.arange(n, dtype=float)
-    return np.kron(np.diag(t), np.eye(m)), float(rho ** (2 * (n - 1)))
+    return np.asarray(np.kron(np.diag(t), np.eye(m)), float), float(rho ** (2 * (n - 1)))
 
 
 def _build_problem(
@@ -351,8 +351,8 @@ def _finish(
     ``Ph, Wh`` are the scaled variables of :func:`_build_problem`.
     """
     if m == 1:  # lift the scalar-channel solution:  P = P_s (x) I3,  W = W_s (x) I3
-        Ph = np.kron(Ph, np.eye(3))
-        Wh = np.kron(Wh, np.eye(3))
+        Ph = np.asarray(np.kron(Ph, np.eye(3)), float)
+        Wh = np.asarray(np.kron(Wh, np.eye(3)), float)
     Ph = 0.5 * (Ph + Ph.T)
     if not (np.all(np.isfinite(Ph)) and np.all(np.isfinite(Wh)) and math.isfinite(alpha)):
         raise ObserverDesignError(f"{what}: the solver returned non-finite values")
@@ -365,7 +365,7 @@ def _finish(
     if not all(np.all(np.isfinite(g)) for g in gains):
         raise ObserverDesignError(f"{what}: non-finite gains")
     D, _ = error_dynamics(gains)
-    eig = np.linalg.eigvals(D)
+    eig = np.asarray(np.linalg.eigvals(D), complex)
     if not np.max(eig.real) < 0.0:
         raise ObserverDesignError(
             f"{what}: the returned gains do not make D_n Hurwitz (max Re = {np.max(eig.real):.3g})"
@@ -435,7 +435,7 @@ def _solve_scaled(
         raise ObserverDesignError(f"{what}: solver {solver} failed ({exc})") from None
     if prob.status not in _OK_STATUS or P.value is None or W.value is None:
         raise ObserverDesignError(f"{what}: solver {solver} returned status {prob.status!r}")
-    return str(prob.status), np.asarray(P.value), np.asarray(W.value), float(alpha.value)
+    return str(prob.status), np.asarray(P.value), np.asarray(W.value), float(alpha.value)  # type: ignore[arg-type]
 
 
 def solve_ie_lmi(

@@ -49,12 +49,11 @@ sample mean of the model term) and
 ``model_hold`` chooses where ``F, G`` are evaluated for ``f_k`` (always with the held
 ``u_k``): ``"end"`` (default: the new measurement ``q_{k+1}, q'_{k+1}``), ``"start"`` (the
 previous one, ``q_k, q'_k``) or ``"trapezoid"`` (the mean of both). All three are first- or
-second-order accurate in ``Ts`` for a smooth model; they differ on the stiff MWIP plant
-(SPEC.md section 2: damping modes near -3000 rad/s relax within ~1 ms of a 5 ms sample),
-where the state at the end of the sample describes the sample far better than the state at
-its start. Open loop on the real-parameter plant with smooth torques, the 4th-order DO at
-``Ts = 5 ms`` had an RMS error 4-40x smaller with ``"end"`` than with ``"start"``, close
-to the quasi-continuous observer (docs/observers.md).
+second-order accurate in ``Ts`` for a smooth model. Under the default damping reading
+(SPEC.md section 2) the plant is not stiff and ``"end"`` is only somewhat better at 5 ms
+(1.3x for the book's 4th-order DO, closed loop); under the literal reading, whose damping
+modes near -3000 rad/s relax within ~1 ms of a 5 ms sample, it was 4-40x better than
+``"start"`` (docs/observers.md).
 
 ``p_i`` of the book is available as :attr:`HighOrderDO.auxiliary` ``= z_i - L_i q'``.
 """

@@ -23,13 +23,14 @@ code: the per-step work is compiled and the per-sample controller work is vector
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.budget import DEFAULT as DEFAULT_BUDGET
 from mwip.budget import Budget, estimate
+from mwip.core import Actuator, Controller, Sensor
 from mwip.models.reduced import coefficients
 from mwip.params import REAL, Params
 from mwip.sim.disturbance import Disturbance
@@ -43,11 +44,8 @@ from mwip.sim.kernel import (
     ros2_update,
 )
 from mwip.sim.result import SimResult
-from mwip.sim.sensors import Actuator, IdealSensor, Sensor
+from mwip.sim.sensors import IdealSensor
 from mwip.validate import finite_array, integer, real
-
-if TYPE_CHECKING:
-    from mwip.control.base import Controller
 
 __all__ = ["simulate", "DEFAULT_TS", "DEFAULT_DT", "initial_state"]
 

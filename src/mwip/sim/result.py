@@ -210,11 +210,13 @@ class SimResult:
             )  # fmt: skip
 
     def summary(self) -> Mapping[str, Any]:
-        """Status, settling time of theta, max |u| (per plant for a batch)."""
+        """Status, settling time of theta (``nan`` for a plant that fell or diverged), max |u|
+        (per plant for a batch)."""
         from mwip.metrics import settling_time
 
         th = self.states[..., 1]
-        st = np.array([settling_time(self.t, th[i]) for i in range(self.n_plants)])
+        st = np.array([settling_time(self.t, th[i], status=str(self.status[i]))
+                       for i in range(self.n_plants)])  # fmt: skip
         umax = np.nanmax(np.abs(self.inputs), axis=(1, 2))
         out = {"status": self.status, "t_end": self.t_end, "settling_time": st, "max_abs_u": umax}
         if not self.batched:

@@ -41,27 +41,26 @@ the twin's sensing floor for the lean (the complementary filter's gyro-bias erro
 ``POS_TOL = 0.1`` m and ``ALPHA_TOL = 0.1`` rad are 10-15 % of the commanded moves (the book
 calls the IT2 results "accurate" from plots; no numbers are printed).
 
-Extra runs, keys prefixed ``alt.``: the same experiments under the *alternative damping
-reading* (Db, Dw as linear damping, rotational ``D r^2``, in the plant and in the nominal
-model the PDC is designed on; docs/twin.md). Under the SPEC reading the wheel-ground damping
-``Dw = 0.8 N m s/rad`` caps the steady rolling speed at ``Gb sin(theta) / (2 Dw)``, about
-0.08 rad/s (3 mm/s) at the position FLS's largest lean ``pi/40``: the 0.7 m and 1 m targets
-cannot be reached in 15 s under that reading, whatever the controller.
+The book's claim per experiment is one claim (``"book": true``); its two halves are reported
+as extras. A failing one names its cause with evidence computed from the runs (the largest
+IT2-T1 pitch difference, the position error left and what the position FLS still commands).
+The plant is the robot's plant (Table 6.1 by default, ``Db, Dw`` as SPEC.md section 2 reads
+them; nothing here chooses a reading).
 
-All runs are one batch on the twin (rows with their own parameters and controllers,
-:class:`BatchFuzzyController`), which costs about as much as two single runs. Outputs:
-``metrics.json``, one ``.npz`` per run, ``exp-it2.png`` (Figs. 6.17-6.19's layout) and, full
-run only, ``exp-it2-alt.png``.
+All runs are one batch on the twin (:class:`BatchFuzzyController`), which costs about as much
+as two single runs. Outputs: ``metrics.json``, one ``.npz`` per run, ``exp-it2.png``
+(Figs. 6.17-6.19's layout).
 
 Settings (``scenarios/exp-it2.toml``, :mod:`mwip.studies.settings`): ``theta0``,
 ``epsilon``, ``rho``, ``uncertainty``, ``exp2_p_d``, ``exp3_p_d``, ``exp3_alpha_d``,
-``duration``, ``rms_start``, ``Ts``, ``record_every``, ``seed``.
+``duration``, ``rms_start``, ``Ts``, ``record_every``, ``seed`` and the twin's
+:data:`~mwip.studies.twin_settings.TWIN_KEYS`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -79,7 +78,7 @@ from mwip.sim import SimResult
 from mwip.sim.sensors import Measurement
 from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
-from mwip.studies.exp_hodosmc import READINGS, alt_damping
+from mwip.studies.twin_settings import robot_label, twin_doc, twin_from
 
 SOURCE = "Sec. 6.2.3, Figs. 6.17-6.19"
 NAME = "exp-it2"
@@ -115,28 +114,24 @@ def targets(cfg: Mapping[str, Any] | None = None) -> dict[int, tuple[float | Non
     return {1: (None, None), 2: (c["exp2_p_d"], None), 3: (c["exp3_p_d"], c["exp3_alpha_d"])}
 
 
-def design(reading: str = "spec", cfg: Mapping[str, Any] | None = None) -> PDCDesign:
+def design(cfg: Mapping[str, Any] | None = None) -> PDCDesign:
     """The PDC gains (Lemma 5.1/5.2 on the nominal model and the ``+-uncertainty`` models,
     ``epsilon``, ``rho`` of the settings ``cfg``, default: the study's current settings) of
-    the robot's nominal model (:func:`mwip.studies.robot.nominal`); ``reading="alt"`` designs
-    on its alternative-damping model."""
+    the robot's nominal model (:func:`mwip.studies.robot.nominal`)."""
     c = _cfg(cfg)
     nominal = robot.nominal()
-    if reading == "alt":
-        nominal = alt_damping(nominal)
     return design_pdc(uncertainty_models(nominal, c["uncertainty"]), epsilon=c["epsilon"],
                       rho=c["rho"])  # fmt: skip
 
 
 @dataclass(frozen=True)
 class Row:
-    """One run of the batch: controller ``kind``, targets, and the damping ``reading``."""
+    """One run of the batch: controller ``kind`` and targets."""
 
     name: str
     kind: str
     p_d: float | None
     alpha_d: float | None
-    reading: str = "spec"
 
 
 class BatchFuzzyController:
@@ -232,14 +227,11 @@ def _direction_as_position(c: FuzzyMWIPController) -> tuple[float, float, float]
             d.out.half_range / p.out.half_range)  # fmt: skip
 
 
-def rows_for(
-    readings: Sequence[str] = ("spec",), cfg: Mapping[str, Any] | None = None
-) -> list[Row]:
-    """The batch: every reading x experiment x kind, named ``{pre}{kind}.exp{e}`` (targets
-    from the settings ``cfg``, default: the study's current settings)."""
+def rows_for(cfg: Mapping[str, Any] | None = None) -> list[Row]:
+    """The batch: every experiment x kind, named ``{kind}.exp{e}`` (targets from the settings
+    ``cfg``, default: the study's current settings)."""
     return [
-        Row(f"{READINGS[rd][0]}{kind}.exp{e}", kind, pd, ad, rd)
-        for rd in readings
+        Row(f"{kind}.exp{e}", kind, pd, ad)
         for e, (pd, ad) in targets(cfg).items()
         for kind in KINDS
     ]
@@ -247,26 +239,21 @@ def rows_for(
 
 def run_batch(
     rows: Sequence[Row], *, duration: float | None = None, seed: int | None = None,
-    twin: Twin | None = None, designs: Mapping[str, PDCDesign] | None = None,
+    twin: Twin | None = None, pdc: PDCDesign | None = None,
     cfg: Mapping[str, Any] | None = None,
 ) -> dict[str, SimResult]:  # fmt: skip
-    """Run ``rows`` as one batch on the twin (Case 1 plant, alt rows with alt damping); the
-    initial lean, sampling, records, and the defaults of ``duration`` and ``seed`` from the
-    settings ``cfg`` (default: the study's current settings)."""
+    """Run ``rows`` as one batch on the twin (Case 1 plant, the PDC design ``pdc``, default
+    :func:`design`; the twin of the settings by default); the initial lean, sampling, records,
+    and the defaults of ``duration`` and ``seed`` from the settings ``cfg`` (default: the
+    study's current settings)."""
     c = _cfg(cfg)
-    des = dict(designs) if designs is not None else {}
-    for rd in {r.reading for r in rows} - set(des):
-        des[rd] = design(rd, c)
-    plant1 = case_plant(1, base=robot.plant())
-    per_row = [alt_damping(plant1) if r.reading == "alt" else plant1 for r in rows]
-    # only the damping differs between rows; r, b stay scalars (the twin's sensor needs them)
-    plant = replace(plant1, Db=np.array([p.Db for p in per_row]),
-                    Dw=np.array([p.Dw for p in per_row]))  # fmt: skip
-    ctrl = BatchFuzzyController([des[r.reading] for r in rows], [r.kind for r in rows],
+    des = design(c) if pdc is None else pdc
+    plant = case_plant(1, base=robot.plant())
+    ctrl = BatchFuzzyController([des] * len(rows), [r.kind for r in rows],
                                 [r.p_d for r in rows], [r.alpha_d for r in rows],
                                 Ts=c["Ts"])  # fmt: skip
     q0 = np.tile([0.0, c["theta0"], 0.0], (len(rows), 1))
-    res = run_on_twin(ctrl, 1, twin=Twin(Ts=c["Ts"]) if twin is None else twin, plant=plant,
+    res = run_on_twin(ctrl, 1, twin=twin_from(c) if twin is None else twin, plant=plant,
                       q0=q0, duration=c["duration"] if duration is None else duration,
                       record_every=c["record_every"],
                       seed=c["seed"] if seed is None else seed)  # fmt: skip
@@ -305,6 +292,10 @@ def run_metrics(
         out["final_pos_err"] = float(abs(p[-1] - row.p_d)) if ok else nan
         out["final_pos_err_true"] = float(abs(res.r[0] * psi[-1] - row.p_d)) if ok else nan
         out["pos_osc"] = float(np.ptp(p[tail])) if ok else nan
+        out["pos_progress"] = float(p[-1] - p[tail][0]) if ok else nan
+        off = res.series().get("theta_off")
+        if off is not None:
+            out["theta_off_tail"] = float(np.mean(off[tail])) if ok else nan
     else:
         out["final_abs_psi"] = float(abs(psi[-1])) if ok else nan
     if row.alpha_d is not None:
@@ -350,22 +341,69 @@ def fails(m: Mapping[str, Any], name: str) -> bool:
     return not _errors_within(m, name)
 
 
-def claims_from(m: Mapping[str, Any], readings: Sequence[str]) -> list[dict[str, Any]]:
-    """The book's claims per experiment (and reading), computed from the metrics."""
+def claims_from(m: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The book's claim per experiment (``"book": true``, with cause and evidence when it
+    fails) and its two halves (extras), computed from the metrics."""
     out = []
-    for rd in readings:
-        pre, label = READINGS[rd]
-        for e in EXPERIMENTS:
-            t1 = f"Exp {e}: T1 oscillates persistently or keeps a steady-state error"
-            t1_holds = fails(m, f"{pre}t1.exp{e}")
-            it2_holds = stable_and_accurate(m, f"{pre}it2.exp{e}")
-            out += [
-                {"text": f"{t1}; IT2 stable and accurate (book){label}",
-                 "holds": t1_holds and it2_holds},
-                {"text": f"{t1} (book){label}", "holds": t1_holds},
-                {"text": f"Exp {e}: IT2 stable and accurate (book){label}", "holds": it2_holds},
-            ]  # fmt: skip
+    for e in EXPERIMENTS:
+        t1 = f"Exp {e}: T1 oscillates persistently or keeps a steady-state error"
+        t1_holds = fails(m, f"t1.exp{e}")
+        it2_holds = stable_and_accurate(m, f"it2.exp{e}")
+        book = {"id": f"exp{e}", "text": f"{t1}; IT2 stable and accurate (Figs. 6.17-6.19)",
+                "holds": t1_holds and it2_holds, "book": True,
+                "keys": [f"{k}.exp{e}.osc_amp" for k in KINDS]}  # fmt: skip
+        if not book["holds"]:
+            book["cause"], book["evidence"] = _why(m, e, t1_holds, it2_holds)
+        out += [
+            book,
+            {"id": f"exp{e}.t1", "text": f"{t1} [extra: half of the book's claim]",
+             "holds": t1_holds, "book": False},
+            {"id": f"exp{e}.it2", "text": f"Exp {e}: IT2 stable and accurate [extra: half of "
+             "the book's claim]", "holds": it2_holds, "book": False},
+        ]  # fmt: skip
     return out
+
+
+def _fmt(v: Any, spec: str = ".4f") -> str:
+    return "fell" if not _finite(v) else format(float(v), spec)
+
+
+def _why(m: Mapping[str, Any], e: int, t1_holds: bool, it2_holds: bool) -> tuple[str, str]:
+    """Cause and evidence of the book's claim failing in experiment ``e``."""
+    parts = []
+    if not t1_holds:
+        parts.append(
+            f"T1 neither oscillates nor keeps an error: osc_amp {_fmt(m[f't1.exp{e}.osc_amp'])}"
+            f" rad (IT2 {_fmt(m[f'it2.exp{e}.osc_amp'])}, threshold {OSC_TOL} rad), and the "
+            f"two pitch traces differ by at most {_fmt(m.get(f'diff.exp{e}.max_abs_dtheta'))} "
+            "rad: our T1 counterpart shares the PDC gains and rules, and the book does not say "
+            "how its T1 FLS was built"
+        )
+    if not it2_holds:
+        name = f"it2.exp{e}"
+        if not _finite(m[f"{name}.osc_amp"]):
+            parts.append("IT2 fell")
+        elif f"{name}.final_pos_err" in m and not _errors_within(m, name):
+            pd = targets()[e][0]
+            parts.append(
+                f"IT2 ends {_fmt(m[f'{name}.final_pos_err'], '.3f')} m short of p_d = {pd:g} m "
+                f"(T1 {_fmt(m[f't1.exp{e}.final_pos_err'], '.3f')} m), moving "
+                f"{_fmt(m.get(f'{name}.pos_progress'), '+.3f')} m over the final window: the "
+                f"position FLS (input range +-3 m, Table 5.1) commands a lean offset of only "
+                f"{_fmt(m.get(f'{name}.theta_off_tail'))} rad there and the PDC gains that set "
+                "the wheel-rate braking are our LMI design (the printed G1, G2 are unusable, "
+                "SPEC section 3)"
+            )
+            if f"{name}.final_alpha_err" in m:
+                parts.append(f"heading error {_fmt(m[f'{name}.final_alpha_err'])} rad")
+        else:
+            parts.append(
+                f"IT2 osc_amp {_fmt(m[f'{name}.osc_amp'])} rad, final lean "
+                f"{_fmt(m.get(f'{name}.final_abs_theta'))} rad"
+            )
+    if "IT2 fell" in parts:
+        return "implementation", "; ".join(parts) + " (not explained)"
+    return "unprinted-setting", "; ".join(parts)
 
 
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
@@ -376,47 +414,43 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     duration = min(QUICK_DURATION, cfg["duration"]) if quick else cfg["duration"]
     osc_window = duration / 2 if quick else OSC_WINDOW
     rms_window = (1.0 if quick else cfg["rms_start"], duration)
-    readings = ("spec", "alt")
-    designs = {rd: design(rd, cfg) for rd in readings}
+    pdc = design(cfg)
     experiments = targets(cfg)
-    rows = rows_for(readings, cfg)
-    runs = run_batch(rows, duration=duration, designs=designs, cfg=cfg)
+    rows = rows_for(cfg)
+    runs = run_batch(rows, duration=duration, pdc=pdc, cfg=cfg)
     metrics: dict[str, float] = {}
     for row in rows:
         for k, v in run_metrics(runs[row.name], row, osc_window=osc_window,
                                 rms_window=rms_window).items():  # fmt: skip
             metrics[f"{row.name}.{k}"] = v
-    for rd in readings:
-        pre = READINGS[rd][0]
-        for e in EXPERIMENTS:
-            a, b = runs[f"{pre}it2.exp{e}"], runs[f"{pre}t1.exp{e}"]
-            same = _ok(a) and _ok(b)
-            metrics[f"{pre}diff.exp{e}.max_abs_dtheta"] = (
-                float(np.max(np.abs(a.theta - b.theta))) if same else float("nan")
-            )
-    claims = claims_from(metrics, readings)
+    for e in EXPERIMENTS:
+        a, b = runs[f"it2.exp{e}"], runs[f"t1.exp{e}"]
+        same = _ok(a) and _ok(b)
+        metrics[f"diff.exp{e}.max_abs_dtheta"] = (
+            float(np.max(np.abs(a.theta - b.theta))) if same else float("nan")
+        )
+    claims = claims_from(metrics)
     used = {
         "x0": [cfg["theta0"], 0.0, 0.0, 0.0],
         "x0_reading": "[theta, theta', psi, psi'] (Sec. 5.2)", "duration": duration,
-        "Ts": cfg["Ts"], "dt": Twin().dt, "record_every": cfg["record_every"],
+        "Ts": cfg["Ts"], "dt": cfg["dt"], "record_every": cfg["record_every"],
         "record_period": cfg["Ts"] * cfg["record_every"], "seed": cfg["seed"],
-        "plant": "real (Table 6.1, Case 1)", "design": "nominal (Table 6.2)",
+        "plant": f"the robot's plant, Case 1 ({robot_label(robot.plant())})",
+        "design": "the robot's nominal model",
         "mode": f"sampled on the digital twin ({cfg['Ts'] * 1e3:g} ms)",
         "batch": [r.name for r in rows],
         "batch_note": "one batched twin run; each row's sensor noise depends on its row index",
         "experiments": {f"exp{e}": {"p_d": pd, "alpha_d": ad} for e, (pd, ad) in
                         experiments.items()},
         "epsilon": cfg["epsilon"], "rho": cfg["rho"], "uncertainty": cfg["uncertainty"],
-        "G": {rd: d.G for rd, d in designs.items()},
-        "lmi": {rd: check_design(d) for rd, d in designs.items()},
+        "G": pdc.G, "lmi": check_design(pdc),
         "position": f"p = r_nom psi (r_nom = {float(robot.nominal().r):g} m); "
                     "final_pos_err_true uses the plant's r",
         "osc_window": osc_window, "rms_window": list(rms_window),
         "tolerances": {"osc": OSC_TOL, "pos": POS_TOL, "alpha": ALPHA_TOL, "theta": THETA_TOL},
         "criteria": CRITERIA,
         "t1": "same PDC gains and Mamdani rules, type-1 sets at the middle of each footprint",
-        "twin": "complementary fusion (tau 0.5 s), HED-5540 2000 cpr, RE25 + 23:1, 24 V, 4 A",
-        "alt": "extra runs: Db, Dw read as linear damping (rotational D r^2) in plant and model",
+        "twin": twin_doc(cfg),
     }  # fmt: skip
     doc = metrics_document(
         study, SOURCE, metrics, {}, claims,
@@ -424,12 +458,9 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         used,
     )  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)
-    for rd in readings[:1] if quick else readings:
-        pre = READINGS[rd][0]
-        _figure(runs, pre, folder / f"{study}{'-' + rd if pre else ''}.png",
-                f"{study}: IT2 vs T1 on the digital twin, x0 = [{cfg['theta0']:g}, 0, 0, 0] "
-                f"({'SPEC' if not pre else 'alternative'} damping reading)",
-                experiments, 5 if not pre else 3)  # fmt: skip
+    _figure(runs, folder / f"{study}.png",
+            f"{study}: IT2 vs T1 on the digital twin, x0 = [{cfg['theta0']:g}, 0, 0, 0] "
+            f"({robot_label(robot.plant())})", experiments)  # fmt: skip
     for name, res in runs.items():
         res.to_npz(folder / f"{name}.npz")
     write_metrics(folder, doc)
@@ -437,12 +468,12 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
 
 
 def _figure(
-    runs: Mapping[str, SimResult], pre: str, path: Path, title: str,
+    runs: Mapping[str, SimResult], path: Path, title: str,
     experiments: Mapping[int, tuple[float | None, float | None]], n_rows: int = 5,
 ) -> None:  # fmt: skip
     """Figs. 6.17-6.19's layout, one column per experiment: theta, distance, heading, wheel
     torque (the book plots PWM) and wheel rate against time in s (as the book's axes);
-    ``n_rows`` keeps the first rows only (the extra runs' figure: 3)."""
+    ``n_rows`` keeps the first rows only."""
     r_nom = float(robot.nominal().r)
     panels = (
         ("θ [rad]", lambda r: r.theta),
@@ -466,7 +497,7 @@ def _figure(
     goal_index = {1: 0, 2: 1}  # panel row -> index of the target in the experiments' tuples
     for j, (e, goal) in enumerate(experiments.items()):
         for kind in KINDS:
-            res = runs[f"{pre}{kind}.exp{e}"]
+            res = runs[f"{kind}.exp{e}"]
             for i, (_, f) in enumerate(panels):
                 axes[i, j].plot(res.t, f(res), lw=0.9, **style[kind])
         for i, k in goal_index.items():

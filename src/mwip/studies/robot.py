@@ -15,7 +15,7 @@ from contextlib import contextmanager
 
 from mwip.params import NOMINAL, REAL, Params
 
-__all__ = ["nominal", "plant", "using"]
+__all__ = ["label", "nominal", "plant", "using"]
 
 _current: dict[str, Params] = {"plant": REAL, "nominal": NOMINAL}
 
@@ -44,3 +44,23 @@ def using(plant: Params | None = None, nominal: Params | None = None) -> Iterato
     finally:
         _current.clear()
         _current.update(saved)
+
+
+def label(p: Params | None = None) -> str:
+    """Which robot ``p`` (default: the current plant) is, for figure titles and settings:
+    ``"real plant"`` (Table 3.1, units damping reading: the default), ``"nominal plant"``,
+    their ``"... (literal damping)"`` variants (SPEC.md section 2) or ``"user's plant"``."""
+    from mwip.params import NOMINAL_LITERAL, REAL_LITERAL
+
+    p = plant() if p is None else p
+    named = (
+        (REAL, "real plant"),
+        (NOMINAL, "nominal plant"),
+        (REAL_LITERAL, "real plant (literal damping)"),
+        (NOMINAL_LITERAL, "nominal plant (literal damping)"),
+    )
+    if p.batch_shape == ():
+        for q, text in named:
+            if p == q:
+                return text
+    return "user's plant"

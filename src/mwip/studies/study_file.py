@@ -32,8 +32,13 @@ from mwip.studies.settings import validate
 
 __all__ = ["StudyFile", "load_study_file"]
 
-_TABLES = {"study": ("name", "quick"), "robot": ("params", "nominal", "damping"), "settings": (),
-           "ranges": ()}  # fmt: skip
+_TABLES = {
+    "study": ("name", "quick"),
+    "robot": ("params", "nominal", "damping"),
+    "settings": (),
+    "open": (),  # documentation of the settings the book leaves open (settings.open_settings)
+    "ranges": (),  # the study's allowed values (settings.ranges), accepted unchanged
+}
 
 
 @dataclass(frozen=True)
@@ -83,7 +88,7 @@ def _parse(path: Path, data: dict[str, Any], damping: str | None) -> StudyFile:
         if not isinstance(body, dict):
             raise ValueError(f"{path.name}: [{table}] must be a table")
         for key in body:
-            if table not in ("settings", "ranges") and key not in _TABLES[table]:
+            if table not in ("settings", "open", "ranges") and key not in _TABLES[table]:
                 allowed = ", ".join(_TABLES[table])
                 raise ValueError(f"[{table}] {key}: unknown key; allowed: {allowed}")
     study = data.get("study", {})

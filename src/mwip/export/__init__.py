@@ -1,0 +1,13 @@
+"""Code for the robot: controllers as plain C99, verified in the loop.
+
+- :func:`generate_c` (:mod:`mwip.export.c_code`): header + source of a designed controller.
+- :class:`CController`, :func:`verify` (:mod:`mwip.export.sil`): the generated code compiled
+  with the system C compiler and run as a controller in simulations and on the twin.
+- ``mwip export c --controller NAME [--set k=v ...] --out DIR [--float] [--verify]``.
+"""
+
+from mwip.export.c_code import PRECISIONS, CCode, ExportError, generate_c
+from mwip.export.sil import CController, NoCompiler, VerifyReport, compile_c, verify
+
+__all__ = ["generate_c", "CCode", "ExportError", "PRECISIONS", "CController", "compile_c",
+           "verify", "VerifyReport", "NoCompiler"]  # fmt: skip

@@ -1,0 +1,201 @@
+"""The test oracles: the control laws' NumPy forms, written term by term from the book's
+equations, independent of the compiled kernels that are the library's one implementation
+(:mod:`mwip.control._smc_kernel`, :mod:`~mwip.control._tsmc_kernel`,
+:mod:`~mwip.control._asta_kernel`). ``F, G`` come from :func:`mwip.models.reduced.f_g`
+(the NumPy closed forms of (2.36)), not from the kernels' compiled ``f_g_scalar``.
+
+tests/test_kernels.py holds the kernels equal to these on random, non-zero inputs for every
+term; benchmarks/mutate_kernels.py checks that those tests catch every sign flip in the
+kernels.
+
+- SMC: sliding surface (3.49) and law (3.50) (Sec. 3.5);
+- ASTA/ASMC: sliding variables (4.1) and ``sigma' = a + b u`` (4.10)-(4.11) (Sec. 4.2);
+- TSMC: model (2.31)/(4.24), subsystem (4.26)-(4.27), augmenting cubics (4.43), surface
+  (4.30), switching gain and law (4.32) (Sec. 4.3).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mwip.control.smc import SMCGains
+from mwip.control.switching import Switching
+from mwip.models.reduced import f_g
+from mwip.params import Params
+
+__all__ = [
+    "sliding_surface", "smc_law", "asta_surface", "surface_dynamics", "model_2_31",
+    "subsystem", "augmenting", "tsmc_surface", "tsmc_gain", "tsmc_law",
+]  # fmt: skip
+
+
+def sliding_surface(
+    q: NDArray[np.float64],
+    qdot: NDArray[np.float64],
+    t: float,
+    lambdas: Sequence[float],
+    q1d_dot: float = 0.0,
+    q3d: float = 0.0,
+) -> NDArray[np.float64]:
+    """``[S1, S2]`` of (3.49), shape (N, 2)."""
+    l1, l2, l3, l4 = lambdas
+    s1 = qdot[:, 1] + l1 * q[:, 1] + l2 * (q[:, 0] - q1d_dot * t) + l3 * (qdot[:, 0] - q1d_dot)
+    s2 = qdot[:, 2] + l4 * (q[:, 2] - q3d)
+    return np.column_stack([s1, s2])
+
+
+def smc_law(
+    F: NDArray[np.float64],
+    G: NDArray[np.float64],
+    qdot: NDArray[np.float64],
+    S: NDArray[np.float64],
+    tau_hat: NDArray[np.float64],
+    gains: SMCGains,
+    switching: Switching,
+    q1d_dot: float = 0.0,
+) -> NDArray[np.float64]:
+    """``[u_A, u_B]`` of (3.50), shape (N, 2), from ``F`` (N,3), ``G`` (N,3,2) of (2.36)."""
+    l1, l2, l3, l4 = gains.lambdas
+    f1, f2, f3 = F[:, 0], F[:, 1], F[:, 2]
+    g1, g2, g3 = G[:, 0, 0], G[:, 1, 0], G[:, 2, 1]
+    uA = (
+        -f2 - l3 * f1 - l1 * qdot[:, 1] - l2 * (qdot[:, 0] - q1d_dot)
+        - tau_hat[:, 1] - l3 * tau_hat[:, 0] - gains.K1 * switching(S[:, 0])
+    ) / (g2 + l3 * g1)  # fmt: skip
+    uB = (-f3 - l4 * qdot[:, 2] - tau_hat[:, 2] - gains.K2 * switching(S[:, 1])) / g3
+    return np.column_stack([uA, uB])
+
+
+def asta_surface(
+    q: ArrayLike, qdot: ArrayLike, lam: ArrayLike, ref: ArrayLike = (0.0, 0.0, 0.0, 0.0)
+) -> NDArray[np.float64]:
+    """Sliding variables (4.1), (..., 2). ``ref = (psi'_d, theta_d, alpha_d, alpha'_d)``."""
+    q, qd = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
+    l1, l2, l3 = np.asarray(lam, dtype=float)
+    psid_d, th_d, al_d, ald_d = np.asarray(ref, dtype=float)
+    s1 = qd[..., 1] + l1 * (q[..., 1] - th_d) + l2 * (qd[..., 0] - psid_d)
+    s2 = (qd[..., 2] - ald_d) + l3 * (q[..., 2] - al_d)
+    return np.stack([s1, s2], axis=-1)
+
+
+def surface_dynamics(
+    p: Params, q: ArrayLike, qdot: ArrayLike, lam: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``a`` (..., 2) and ``b`` (..., 2) of ``sigma' = a + b [u_A, u_B]`` (4.10)-(4.11), nominal.
+
+    Constant references (``psi'_d``, ``theta_d``, ``alpha_d``) are assumed, as in the book.
+    """
+    F, G = f_g(p, q, qdot)
+    qd = np.asarray(qdot, dtype=float)
+    l1, l2, l3 = np.asarray(lam, dtype=float)
+    a = np.stack([F[..., 1] + l2 * F[..., 0] + l1 * qd[..., 1], F[..., 2] + l3 * qd[..., 2]], -1)
+    b = np.stack([G[..., 1, 0] + l2 * G[..., 0, 0], G[..., 2, 1]], axis=-1)
+    return a, b
+
+
+def model_2_31(
+    p: Params, q: ArrayLike, qdot: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``F`` (..., 3) and ``G`` (..., 3, 2) of (2.31)/(4.24) in ``x = [theta', v, alpha']``.
+
+    ``x' = F + G tau`` with ``tau = [u_r, u_l]``; derived from (2.36) with ``v = r psi'``.
+    """
+    F36, G36 = f_g(p, q, qdot)
+    f1, f2, f3 = F36[..., 0], F36[..., 1], F36[..., 2]
+    g1, g2, g3 = G36[..., 0, 0], G36[..., 1, 0], G36[..., 2, 1]
+    r = p.r
+    F = np.stack([f2, r * f1, f3], axis=-1)
+    G = np.zeros((*F.shape[:-1], 3, 2))
+    G[..., 0, 0] = G[..., 0, 1] = g2
+    G[..., 1, 0] = G[..., 1, 1] = r * g1
+    G[..., 2, 0] = g3
+    G[..., 2, 1] = -g3
+    return F, G
+
+
+def subsystem(
+    p: Params, q: ArrayLike, qdot: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``F1`` (..., 2), ``G1`` (..., 2, 2) of subsystem (4.26)/(4.27), ``[theta', alpha']``."""
+    F, G = model_2_31(p, q, qdot)
+    return F[..., [0, 2]], G[..., [0, 2], :]
+
+
+def augmenting(
+    t: float, coeffs: ArrayLike, Tf: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Augmenting function (4.43) and its first two derivatives at time ``t``: ``(a, a', a'')``.
+
+    Zero for ``t > T_f`` (the cubic and its slope reach zero at ``T_f``; ``a''`` jumps there).
+    """
+    c = np.asarray(coeffs, dtype=float)
+    if t > Tf:
+        z = np.zeros(c.shape[:-1])
+        return z, z.copy(), z.copy()
+    a0, a1, a2, a3 = c[..., 0], c[..., 1], c[..., 2], c[..., 3]
+    return (
+        a0 + a1 * t + a2 * t**2 + a3 * t**3,
+        a1 + 2.0 * a2 * t + 3.0 * a3 * t**2,
+        2.0 * a2 + 6.0 * a3 * t,
+    )
+
+
+def tsmc_surface(
+    e: ArrayLike, e_dot: ArrayLike, a: ArrayLike, a_dot: ArrayLike, C: ArrayLike
+) -> NDArray[np.float64]:
+    """Augmented sliding surface (4.30)/(4.31): ``s = e' + C e - a' - C a``, shape (..., 2).
+
+    ``C`` is the diagonal ``[c1, c2]``.
+    """
+    C = np.asarray(C, dtype=float)
+    e, e_dot = np.asarray(e, dtype=float), np.asarray(e_dot, dtype=float)
+    return e_dot + C * e - np.asarray(a_dot, dtype=float) - C * np.asarray(a, dtype=float)
+
+
+def tsmc_gain(
+    F1: ArrayLike, nominal_term: ArrayLike, Ftilde_ratio: float, D: ArrayLike, Gamma: ArrayLike
+) -> NDArray[np.float64]:
+    """Switching gain of (4.32): ``k = (I - D)^-1 (F~ + D |F1 + C e' - a'' - C a'| + Gamma)``.
+
+    ``nominal_term`` is ``F1 + C e' - a'' - C a'`` (..., 2); ``F~ = Ftilde_ratio |F1|``;
+    ``D`` is (2, 2) with ``||D|| < 1`` (4.29); ``Gamma`` is (2,). Returns (..., 2).
+    """
+    D = np.asarray(D, dtype=float)
+    F1 = np.asarray(F1, dtype=float)
+    rhs = (
+        Ftilde_ratio * np.abs(F1)
+        + np.abs(np.asarray(nominal_term, dtype=float)) @ D.T
+        + np.asarray(Gamma, dtype=float)
+    )
+    return rhs @ np.linalg.inv(np.eye(2) - D).T
+
+
+def tsmc_law(
+    F1: ArrayLike,
+    G1: ArrayLike,
+    e_dot: ArrayLike,
+    a_dot: ArrayLike,
+    a_ddot: ArrayLike,
+    xd_ddot: ArrayLike,
+    C: ArrayLike,
+    k: ArrayLike,
+    switch: ArrayLike,
+) -> NDArray[np.float64]:
+    """Control law (4.32): ``tau = G1^-1 [-F1 - C e' + a'' + C a' + x_d'' - k sw(s)]``.
+
+    ``switch`` is ``sw(s)`` (..., 2); ``x_d''`` the target accelerations (zero for constant
+    targets). Returns the wheel torques ``[u_r, u_l]`` (..., 2).
+    """
+    C = np.asarray(C, dtype=float)
+    w = (
+        -np.asarray(F1, dtype=float)
+        - C * np.asarray(e_dot, dtype=float)
+        + np.asarray(a_ddot, dtype=float)
+        + C * np.asarray(a_dot, dtype=float)
+        + np.asarray(xd_ddot, dtype=float)
+        - np.asarray(k, dtype=float) * np.asarray(switch, dtype=float)
+    )
+    return np.einsum("...ij,...j->...i", np.linalg.inv(np.asarray(G1, dtype=float)), w)
