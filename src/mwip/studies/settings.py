@@ -6,6 +6,18 @@ A study reads them at run time with :func:`current` (the packaged defaults, over
 (``mwip scenario STUDY --out FILE.toml``), edits it and runs it with
 ``mwip run --scenario FILE.toml``. Overrides are validated against the defaults: unknown keys
 and values of another type or length are one-line ``ValueError`` naming the field.
+
+Open settings. Some settings are not printed by the book (a boundary layer, a first-order
+observer gain, an initial adaptive gain, a noise level, the integration step). Each study file
+declares them in a table ``[open]``, one entry per such setting, with the plausible range the
+default was chosen from and why (from the book or physics)::
+
+    [open]
+    eps = { range = [0.001, 0.05], why = "boundary layer of (4.5): not printed; ..." }
+
+A list-valued setting's range applies to each element. The default is never changed after a
+verdict is seen (DEVELOPERS.md); the campaign tooling sweeps these ranges to measure how a
+claim depends on them. :func:`open_settings` reads the table.
 """
 
 from __future__ import annotations
@@ -18,7 +30,7 @@ from functools import cache
 from importlib import resources
 from typing import Any
 
-__all__ = ["current", "defaults", "packaged_text", "using", "validate"]
+__all__ = ["current", "defaults", "open_settings", "packaged_text", "using", "validate"]
 
 _overrides: dict[str, dict[str, Any]] = {}
 
@@ -36,6 +48,36 @@ def packaged_text(name: str) -> str:
 def _defaults(name: str) -> dict[str, Any]:
     data = tomllib.loads(packaged_text(name))
     return dict(data.get("settings", {}))
+
+
+@cache
+def _open(name: str) -> dict[str, dict[str, Any]]:
+    data = tomllib.loads(packaged_text(name))
+    table = data.get("open", {})
+    base = data.get("settings", {})
+    out: dict[str, dict[str, Any]] = {}
+    for key, entry in table.items():
+        where = f"study file of {name!r}: [open] {key}"
+        if key not in base:
+            raise ValueError(f"{where}: not a key of [settings]")
+        if not isinstance(entry, dict) or set(entry) != {"range", "why"}:
+            raise ValueError(f"{where} must be {{ range = [lo, hi], why = '...' }}")
+        lo, hi = entry["range"]
+        if not (isinstance(entry["why"], str) and entry["why"].strip()):
+            raise ValueError(f"{where}: 'why' must be non-empty text")
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+            raise ValueError(f"{where}: range must be finite with lo <= hi, got {entry['range']}")
+        values = base[key] if isinstance(base[key], list) else [base[key]]
+        if not all(lo <= v <= hi for v in values):
+            raise ValueError(f"{where}: the default {base[key]!r} is outside {entry['range']}")
+        out[key] = {"range": [float(lo), float(hi)], "why": entry["why"].strip()}
+    return out
+
+
+def open_settings(name: str) -> dict[str, dict[str, Any]]:
+    """The ``[open]`` table of study ``name``: setting -> ``{"range": [lo, hi], "why": str}``
+    for each setting the book leaves open ({} when the study declares none)."""
+    return {k: dict(v) for k, v in _open(name).items()}
 
 
 def defaults(name: str) -> dict[str, Any]:

@@ -32,7 +32,12 @@ from mwip.studies.settings import validate
 
 __all__ = ["StudyFile", "load_study_file"]
 
-_TABLES = {"study": ("name", "quick"), "robot": ("params", "nominal", "damping"), "settings": ()}
+_TABLES = {
+    "study": ("name", "quick"),
+    "robot": ("params", "nominal", "damping"),
+    "settings": (),
+    "open": (),  # documentation of the settings the book leaves open (settings.open_settings)
+}
 
 
 @dataclass(frozen=True)
@@ -69,13 +74,11 @@ def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
     data = read_toml(path, "study file")
     for table, body in data.items():
         if table not in _TABLES:
-            raise ValueError(
-                f"{path.name}: unknown table [{table}]; allowed: study, robot, settings"
-            )
+            raise ValueError(f"{path.name}: unknown table [{table}]; allowed: {', '.join(_TABLES)}")
         if not isinstance(body, dict):
             raise ValueError(f"{path.name}: [{table}] must be a table")
         for key in body:
-            if table != "settings" and key not in _TABLES[table]:
+            if table not in ("settings", "open") and key not in _TABLES[table]:
                 allowed = ", ".join(_TABLES[table])
                 raise ValueError(f"[{table}] {key}: unknown key; allowed: {allowed}")
     study = data.get("study", {})
