@@ -18,6 +18,7 @@ from typing import Any
 import click
 import numpy as np
 
+from mwip.cli_campaign import campaign as _campaign_cmd
 from mwip.cli_controllers import controllers as _controllers_cmd
 from mwip.params import DAMPING_READINGS, Params, book_params, load_params
 
@@ -847,6 +848,7 @@ def report(out: Path, verbose: bool) -> None:
 
 
 cli.add_command(_controllers_cmd)
+cli.add_command(_campaign_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:
