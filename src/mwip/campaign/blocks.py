@@ -86,8 +86,9 @@ def _v_ref(entry: ControllerEntry, design: Params) -> float:
 def run_block(
     campaign: Campaign, block: int, controllers: Mapping[str, Controller]
 ) -> list[dict[str, NDArray]]:
-    """The rows of ``block``, one table (column -> (B,) array) per controller: columns ``controller``, ``sample``, the
-    sample's inputs, ``noise_seed`` and the metrics (:mod:`mwip.campaign.metrics`)."""
+    """The rows of ``block``, one table (column -> (B,) array) per controller: columns
+    ``controller``, ``sample``, the sample's inputs, ``noise_seed`` and the metrics
+    (:mod:`mwip.campaign.metrics`)."""
     from mwip.hardware.twin import Twin
     from mwip.sim.engine import simulate
 
@@ -113,9 +114,16 @@ def run_block(
             sensor.r, sensor.b_over_r = pb["r"], pb["b"] / pb["r"]
             actuator.b_over_r = pb["b"] / pb["r"]
             kw = {"sensor": sensor, "actuator": actuator, "Ts": twin.Ts, "dt": twin.dt}
-        res = simulate(ctrl, plant if fields else _tile(plant, n), q0=q0, qdot0=qdot0,
-                       duration=campaign.duration, disturbance=dist, seed=seed,
-                       **kw)  # fmt: skip
+        res = simulate(
+            ctrl,
+            plant if fields else _tile(plant, n),
+            q0=q0,
+            qdot0=qdot0,
+            duration=campaign.duration,
+            disturbance=dist,
+            seed=seed,
+            **kw,
+        )
         met = sample_metrics(res, pb["b"], _v_ref(entry, campaign.design), campaign.success_theta)
         cols: dict[str, Any] = {"controller": np.full(n, entry.label, dtype=object)}
         cols.update(inputs)

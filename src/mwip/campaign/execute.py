@@ -58,8 +58,17 @@ class RunSummary:
 
 
 def n_blocks(campaign: Campaign) -> int:
-    """Blocks needed to cover the campaign's N samples."""
-    return math.ceil(campaign.samples / campaign.block)
+    """Blocks needed to cover the campaign's N samples (claims: N per study with open
+    settings, interleaved; see :mod:`mwip.campaign.claims`)."""
+    units = campaign.samples
+    if campaign.kind == "claims":
+        from mwip.campaign.claims import claim_studies
+
+        studies = claim_studies(campaign)
+        if not studies:
+            raise ValueError("campaign.studies: none of them declares open settings ([open])")
+        units *= len(studies)
+    return math.ceil(units / campaign.block)
 
 
 def _chunk_name(first: int, last: int) -> str:
@@ -152,8 +161,7 @@ def _check_out(campaign: Campaign, out: Path) -> None:
         except (OSError, ValueError):
             old = {}
         if old.get("identity") != campaign.identity():
-            raise ValueError(f"--out: {str(out)!r} holds a different campaign; "
-                             "use another folder")  # fmt: skip
+            raise ValueError(f"--out: {str(out)!r} holds a different campaign; use another folder")
     elif out.is_dir() and any(out.iterdir()):
         raise ValueError(f"--out: {str(out)!r} is not empty and holds no campaign")
 
@@ -233,12 +241,12 @@ def run_campaign(
         else max(1, math.ceil(len(todo) / (_CHUNKS_PER_WORKER * workers)))
     )
     chunks = _chunks(todo, per)
-    samples_total = min(total * campaign.block, campaign.samples)
-    samples_done = [min(len(done) * campaign.block, samples_total)]
+    samples_total = total * campaign.block
+    samples_done = [len(done & set(range(total))) * campaign.block]
 
     def finished(blocks: list[int], df: Any) -> None:
         _write_chunk(out, blocks, df)
-        samples_done[0] = min(samples_done[0] + len(blocks) * campaign.block, samples_total)
+        samples_done[0] += len(blocks) * campaign.block
         if progress is not None:
             progress(samples_done[0], samples_total, time.perf_counter() - t0)
 
@@ -258,8 +266,9 @@ def run_campaign(
     rec = _record(campaign)
     rec["finished_samples"] = campaign.samples
     write_json_atomic(out / "campaign.json", rec)
-    return RunSummary("done", ran, total, len(df), out / "results.parquet",
-                      time.perf_counter() - t0)  # fmt: skip
+    return RunSummary(
+        "done", ran, total, len(df), out / "results.parquet", time.perf_counter() - t0
+    )
 
 
 def _run_dask(
@@ -279,8 +288,9 @@ def _run_dask(
     logging.getLogger("distributed").setLevel(logging.ERROR)
     cluster = None
     if scheduler is None:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)  # fmt: skip
+        cluster = LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        )
         client = Client(cluster)
     else:
         try:

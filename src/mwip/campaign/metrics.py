@@ -28,9 +28,16 @@ __all__ = ["METRICS", "sample_metrics"]
 
 #: The metric columns, in table order.
 METRICS: tuple[str, ...] = (
-    "status", "success", "fall_time", "settling_time", "rms_theta", "rms_speed_error",
-    "peak_torque", "control_tv", "energy",
-)  # fmt: skip
+    "status",
+    "success",
+    "fall_time",
+    "settling_time",
+    "rms_theta",
+    "rms_speed_error",
+    "peak_torque",
+    "control_tv",
+    "energy",
+)
 
 
 def sample_metrics(
@@ -50,9 +57,12 @@ def sample_metrics(
     Ts = float(t[1] - t[0]) if t.size > 1 else float(res.settings.get("Ts", 0.005))
     b_over_r = (b / res.r)[:, None]
     omega = np.stack(
-        [st[..., 3] + b_over_r * st[..., 5] - st[..., 4],
-         st[..., 3] - b_over_r * st[..., 5] - st[..., 4]], axis=-1,
-    )  # fmt: skip
+        [
+            st[..., 3] + b_over_r * st[..., 5] - st[..., 4],
+            st[..., 3] - b_over_r * st[..., 5] - st[..., 4],
+        ],
+        axis=-1,
+    )
     with np.errstate(invalid="ignore"):
         power = np.where(valid[..., None], np.abs(applied * omega), 0.0)
         energy = power[:, :-1].sum(axis=(1, 2)) * Ts

@@ -7,7 +7,8 @@ Two kinds. ``kind = "robustness"`` (default)::
     samples = 1000          # N, >= 1 (mwip campaign run --samples overrides it)
     seed = 0                # every sample's randomness derives from (seed, sample index)
     duration = 10.0         # s of simulated time per sample
-    block = 50              # samples per engine batch: the numerical unit (see execute.py)
+    block = 100             # samples per engine batch: the numerical unit (see execute.py);
+                            # below 256 the engine steps the plants on one thread
     sensors = "twin"        # "twin" (the Chapter 6 digital twin: IMU, encoders, drive)
                             # or "ideal" (true state, commanded torque applied)
     success_theta = 0.1     # success: the robot did not fall and |theta(T)| < this (rad)
@@ -78,10 +79,18 @@ __all__ = [
 INITIAL_KEYS: tuple[str, ...] = ("psi", "theta", "alpha", "psi_dot", "theta_dot", "alpha_dot")
 
 _CAMPAIGN_KEYS = {
-    "robustness": {"kind", "title", "samples", "seed", "duration", "block", "sensors",
-                   "success_theta"},
+    "robustness": {
+        "kind",
+        "title",
+        "samples",
+        "seed",
+        "duration",
+        "block",
+        "sensors",
+        "success_theta",
+    },
     "claims": {"kind", "title", "samples", "seed", "block", "studies", "quick"},
-}  # fmt: skip
+}
 _TOP_KEYS = {
     "robustness": {"campaign", "controllers", "robot", "initial", "disturbances"},
     "claims": {"campaign"},
@@ -200,8 +209,9 @@ def _unknown(table: dict[str, Any], allowed: set[str], where: str) -> None:
         raise ValueError(f"{name}: unknown key; allowed: {', '.join(sorted(allowed))}")
 
 
-def _number(value: Any, where: str, lo: float = -math.inf, hi: float = math.inf,
-            lo_open: bool = False) -> float:  # fmt: skip
+def _number(
+    value: Any, where: str, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False
+) -> float:
     ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
     if ok:
         ok = (value > lo if lo_open else value >= lo) and value <= hi
@@ -223,8 +233,9 @@ def _dist(value: Any, where: str, relative: bool) -> Dist:
         return Dist("fixed", (_number(value, where),))
     kinds = ("uniform", "normal", "values", "grid")
     if len(value) != 1 or next(iter(value)) not in kinds:
-        raise ValueError(f"{where} must be a number or one of {{ {' | '.join(kinds)} = ... }}, "
-                         f"got {value!r}")  # fmt: skip
+        raise ValueError(
+            f"{where} must be a number or one of {{ {' | '.join(kinds)} = ... }}, got {value!r}"
+        )
     kind, arg = next(iter(value.items()))
     sub = f"{where}.{kind}"
     if kind in ("uniform", "normal") and relative:
@@ -341,7 +352,7 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
         raise ValueError("campaign.title must be text")
     samples = _integer(camp.get("samples", 100), "campaign.samples", 1)
     seed = _integer(camp.get("seed", 0), "campaign.seed", 0)
-    block = _integer(camp.get("block", 50 if kind == "robustness" else 1), "campaign.block", 1)
+    block = _integer(camp.get("block", 100 if kind == "robustness" else 1), "campaign.block", 1)
     if kind == "claims":
         from mwip.studies import study_names
 
@@ -352,13 +363,16 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
             studies = study_names()
         for s in studies:
             if s not in study_names():
-                raise ValueError(f"campaign.studies: unknown study {s!r}; choose from: "
-                                 f"{', '.join(study_names())}")  # fmt: skip
+                raise ValueError(
+                    f"campaign.studies: unknown study {s!r}; choose from: "
+                    f"{', '.join(study_names())}"
+                )
         quick = camp.get("quick", True)
         if not isinstance(quick, bool):
             raise ValueError(f"campaign.quick must be true or false, got {quick!r}")
-        return Campaign("claims", title, samples, seed, block, studies=tuple(studies),
-                        quick=quick, source=data)  # fmt: skip
+        return Campaign(
+            "claims", title, samples, seed, block, studies=tuple(studies), quick=quick, source=data
+        )
 
     duration = _number(camp.get("duration", 10.0), "campaign.duration", 0.0, 3600.0, True)
     sensors = camp.get("sensors", "twin")
@@ -389,8 +403,9 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
             try:
                 replace(centre, **{key: v})
             except ValueError:
-                raise ValueError(f"{where} reaches {v:g}, outside the parameter's valid range "
-                                 f"(centre {c:g})") from None  # fmt: skip
+                raise ValueError(
+                    f"{where} reaches {v:g}, outside the parameter's valid range (centre {c:g})"
+                ) from None
         uncertainty.append((key, d))
 
     init_table = data.get("initial", {})
@@ -403,14 +418,28 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
         lo, hi = d.support(0.0, relative=False)
         limit = 1.5 if key in ("theta",) else 1e3
         if lo < -limit or hi > limit:
-            raise ValueError(f"initial.{key} must lie in [-{limit:g}, {limit:g}], "
-                             f"got values from {lo:g} to {hi:g}")  # fmt: skip
+            raise ValueError(
+                f"initial.{key} must lie in [-{limit:g}, {limit:g}], "
+                f"got values from {lo:g} to {hi:g}"
+            )
         initial.append((key, d))
     return Campaign(
-        "robustness", title, samples, seed, block, duration, sensors, success, controllers,
-        centre, design, tuple(uncertainty), tuple(initial),
-        _disturbances(data.get("disturbances")), source=data,
-    )  # fmt: skip
+        "robustness",
+        title,
+        samples,
+        seed,
+        block,
+        duration,
+        sensors,
+        success,
+        controllers,
+        centre,
+        design,
+        tuple(uncertainty),
+        tuple(initial),
+        _disturbances(data.get("disturbances")),
+        source=data,
+    )
 
 
 def builtin_names() -> list[str]:
@@ -434,8 +463,10 @@ def load_campaign(name_or_path: str) -> Campaign:
     else:
         path = Path(name_or_path)
         if not path.is_file():
-            raise ValueError(f"campaign {name_or_path!r} is neither a built-in campaign "
-                             f"({', '.join(builtin_names())}) nor a file")  # fmt: skip
+            raise ValueError(
+                f"campaign {name_or_path!r} is neither a built-in campaign "
+                f"({', '.join(builtin_names())}) nor a file"
+            )
         text = path.read_text(encoding="utf-8")
     try:
         data = tomllib.loads(text)
