@@ -304,3 +304,94 @@ def test_report(tmp_path, reference):
         g = reference[reference["controller"] == row["controller"]]
         assert row["rate"] == g["success"].mean()
         assert (row["lo"], row["hi"]) == wilson(int(g["success"].sum()), len(g))
+
+
+# ---- claims over open settings --------------------------------------------------------------
+SYNTHETIC = """
+[settings]
+gain = 1.0
+seeds = [1, 2]
+[open]
+gain = { range = [0.0, 2.0], why = "test: not printed" }
+seeds = { range = [0, 9], why = "test: any seed" }
+"""
+
+
+@pytest.fixture
+def synthetic_study(monkeypatch):
+    """A study 'synthetic' whose file declares open settings and whose claims are decided on
+    them: 'gain-above' holds iff gain > 0.5; the second claim (no id) iff seeds[0] is even."""
+    from mwip import studies
+    from mwip.studies import settings
+
+    def run(out, *, quick=False):
+        s = settings.current("synthetic")
+        return {"claims": [
+            {"id": "gain-above", "book": "Sec. 0", "text": "gain above 0.5",
+             "holds": s["gain"] > 0.5},
+            {"text": "first seed even", "holds": s["seeds"][0] % 2 == 0},
+        ]}  # fmt: skip
+
+    real_text = settings.packaged_text
+    monkeypatch.setitem(studies.STUDIES, "synthetic", (run, "test"))
+    monkeypatch.setattr(
+        settings, "packaged_text", lambda n: SYNTHETIC if n == "synthetic" else real_text(n)
+    )
+    settings._defaults.cache_clear()
+    settings._open.cache_clear()
+    yield
+    settings._defaults.cache_clear()
+    settings._open.cache_clear()
+
+
+CLAIMS = """
+[campaign]
+kind = "claims"
+studies = ["synthetic"]
+samples = 30
+seed = 5
+block = 4
+"""
+
+
+def test_claims_campaign_over_open_settings(tmp_path, synthetic_study):
+    import json
+
+    from mwip.campaign.claims import claim_robustness, robustness_text
+
+    c = camp(CLAIMS)
+    run_campaign(c, tmp_path / "a", jobs=1, chunk=4, progress=quiet)
+    df = pd.read_parquet(tmp_path / "a" / "results.parquet")
+    assert set(df["study"]) == {"synthetic"}
+    syn = df[df["study"] == "synthetic"]
+    assert syn["sample"].nunique() == 30 and (syn["error"] == "").all()
+    drawn = [json.loads(s) for s in syn[syn["claim"] == "gain-above"]["settings"]]
+    gains = np.array([d["gain"] for d in drawn])
+    seeds = np.array([d["seeds"] for d in drawn])
+    assert np.all((gains >= 0) & (gains <= 2)) and gains.std() > 0.3
+    assert np.all((seeds >= 0) & (seeds <= 9)) and seeds.dtype.kind == "i"
+    table = claim_robustness(df)
+    r = table[("synthetic", "gain-above")]
+    assert r.book == "Sec. 0" and r.n == 30 and r.k == int((gains > 0.5).sum())
+    assert (r.lo, r.hi) == wilson(r.k, 30)
+    fallback = table[("synthetic", "first seed even")]  # no id: the text is the id
+    assert fallback.k == int((seeds[:, 0] % 2 == 0).sum())
+    text = robustness_text(table, "synthetic", {"id": "gain-above", "text": "gain above 0.5"})
+    assert text == (f"holds in {100 * r.k / 30:.0f} % of plausible settings (95 % interval "
+                    f"{100 * r.lo:.0f}-{100 * r.hi:.0f} %, n = 30)")  # fmt: skip
+    assert robustness_text(table, "synthetic", {"id": "unknown"}) == ""
+    run_campaign(c, tmp_path / "b", jobs=1, chunk=40, progress=quiet)
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "b" / "results.parquet"), df,
+                                  check_exact=True)  # fmt: skip
+    assert main(["campaign", "report", str(tmp_path / "a")]) == 0
+    assert "gain-above" in (tmp_path / "a" / "report.html").read_text()
+
+
+def test_claims_campaign_without_open_settings_is_refused(tmp_path, capsys, monkeypatch):
+    from mwip.campaign import claims
+
+    monkeypatch.setattr(claims, "claim_studies", lambda c: [])
+    path = tmp_path / "c.toml"
+    path.write_text(CLAIMS.replace('"synthetic"', '"lqr-gain"'))
+    assert main(["campaign", "run", str(path), "--out", str(tmp_path / "o"), "--jobs", "1"]) == 2
+    assert "open settings" in capsys.readouterr().err
