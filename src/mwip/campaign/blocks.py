@@ -4,7 +4,7 @@ Block ``b`` holds samples ``b B .. (b + 1) B - 1`` (``B`` = ``campaign.block``).
 controller, designed once on the design model (``campaign.design``), runs the whole block in
 one call of :func:`mwip.sim.simulate`: batched :class:`Params` with (B,) fields (the samples'
 robots), ``q0``/``qdot0`` (B, 3), a disturbance returning (K, B, 3) and, with twin sensors,
-the digital twin's sensor and drive for the batch (:mod:`mwip.hardware.twin`, Chapter 6),
+the digital twin's sensors and/or drive for the batch (:mod:`mwip.hardware.twin`, Chapter 6),
 seeded from (campaign seed, b). The block is the numerical unit: the same block is computed
 with the same batch size and noise stream wherever and with whatever chunk it runs, so every
 row is bit-identical across chunk sizes, job counts and schedulers.
@@ -106,8 +106,10 @@ def run_block(
     for entry in campaign.controllers:
         ctrl = copy.deepcopy(controllers[entry.label])
         kw: dict[str, Any] = {}
-        if campaign.sensors == "twin":
-            twin = Twin()
+        if "twin" in (campaign.sensors, campaign.drive):
+            twin = Twin(
+                ideal_sensors=campaign.sensors == "ideal", ideal_actuator=campaign.drive == "ideal"
+            )
             sensor = twin.sensor(campaign.centre)
             actuator = twin.actuator(campaign.centre)
             # each sample's own wheel geometry (the twin's sensor and drive take one robot's)

@@ -9,8 +9,10 @@ Two kinds. ``kind = "robustness"`` (default)::
     duration = 10.0         # s of simulated time per sample
     block = 100             # samples per engine batch: the numerical unit (see execute.py);
                             # below 256 the engine steps the plants on one thread
-    sensors = "twin"        # "twin" (the Chapter 6 digital twin: IMU, encoders, drive)
-                            # or "ideal" (true state, commanded torque applied)
+    sensors = "twin"        # "twin" (the Chapter 6 digital twin's IMU and encoders)
+                            # or "ideal" (the controller sees the true state)
+    drive = "twin"          # "twin" (the twin's motors: supply and current limits) or
+                            # "ideal" (the commanded torque is applied); default: = sensors
     success_theta = 0.1     # success: the robot did not fall and |theta(T)| < this (rad)
 
     [[controllers]]         # one entry per controller (registry name, settings, label)
@@ -87,6 +89,7 @@ _CAMPAIGN_KEYS = {
         "duration",
         "block",
         "sensors",
+        "drive",
         "success_theta",
     },
     "claims": {"kind", "title", "samples", "seed", "block", "studies", "quick"},
@@ -157,6 +160,7 @@ class Campaign:
     block: int
     duration: float = 10.0
     sensors: str = "twin"
+    drive: str = "twin"
     success_theta: float = 0.1
     controllers: tuple[ControllerEntry, ...] = ()
     centre: Params = field(default_factory=lambda: book_params("real"))
@@ -378,6 +382,9 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
     sensors = camp.get("sensors", "twin")
     if sensors not in ("twin", "ideal"):
         raise ValueError(f"campaign.sensors must be one of twin, ideal; got {sensors!r}")
+    drive = camp.get("drive", sensors)
+    if drive not in ("twin", "ideal"):
+        raise ValueError(f"campaign.drive must be one of twin, ideal; got {drive!r}")
     success = _number(camp.get("success_theta", 0.1), "campaign.success_theta", 0.0, 1.6, True)
     controllers = _controllers(data.get("controllers"))
 
@@ -431,6 +438,7 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
         block,
         duration,
         sensors,
+        drive,
         success,
         controllers,
         centre,
