@@ -112,13 +112,15 @@ def run_block(
             )
             sensor = twin.sensor(campaign.centre)
             actuator = twin.actuator(campaign.centre)
-            # each sample's own wheel geometry (the twin's sensor and drive take one robot's)
-            sensor.r, sensor.b_over_r = pb["r"], pb["b"] / pb["r"]
+            # each sample's own wheel geometry: the twin's sensor and drive are built for one
+            # robot, and use r and b/r only elementwise, so (B,) arrays give each its own
+            sensor.r = pb["r"]  # type: ignore[assignment]
+            sensor.b_over_r = pb["b"] / pb["r"]
             actuator.b_over_r = pb["b"] / pb["r"]
             kw = {"sensor": sensor, "actuator": actuator, "Ts": twin.Ts, "dt": twin.dt}
         res = simulate(
             ctrl,
-            plant if fields else _tile(plant, n),
+            plant,
             q0=q0,
             qdot0=qdot0,
             duration=campaign.duration,
@@ -133,8 +135,3 @@ def run_block(
         cols.update(met)
         rows.append(cols)
     return rows
-
-
-def _tile(p: Params, n: int) -> Params:
-    """``p`` as a batch of ``n`` identical robots."""
-    return replace(p, mb=np.full(n, float(p.mb)))
