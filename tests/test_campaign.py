@@ -395,3 +395,39 @@ def test_claims_campaign_without_open_settings_is_refused(tmp_path, capsys, monk
     path.write_text(CLAIMS.replace('"synthetic"', '"lqr-gain"'))
     assert main(["campaign", "run", str(path), "--out", str(tmp_path / "o"), "--jobs", "1"]) == 2
     assert "open settings" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_worker_killed_mid_chunk_loses_only_that_chunk(tmp_path, reference):
+    """SIGKILL the Dask worker process that is running a chunk: Dask reruns that chunk on a
+    (restarted) worker and the table is still complete and identical."""
+    import threading
+
+    from dask.distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:  # fmt: skip
+        pids = client.run(os.getpid)
+        result = {}
+
+        def go() -> None:
+            result["res"] = run_campaign(camp(), tmp_path, scheduler=cluster.scheduler_address,
+                                         chunk=4, progress=quiet)  # fmt: skip
+
+        th = threading.Thread(target=go)
+        th.start()
+        killed = None
+        deadline = time.time() + 240
+        while killed is None and time.time() < deadline and th.is_alive():
+            for addr, keys in client.processing().items():
+                if any(str(k).startswith("mwip-campaign") for k in keys) and addr in pids:
+                    if not done_blocks(tmp_path):  # mid-chunk: nothing saved yet
+                        os.kill(pids[addr], signal.SIGKILL)
+                        killed = addr
+                    break
+            time.sleep(0.02)
+        th.join(timeout=600)
+    assert killed is not None, "no chunk was seen running"
+    assert result["res"].status == "done"
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "results.parquet"), reference,
+                                  check_exact=True)  # fmt: skip
