@@ -48,15 +48,14 @@ class _PerSample:
     """A disturbance per sample: sample j gets ``parts[choice[j]]`` (or none)."""
 
     def __init__(self, parts: list[Disturbance | None], choice: NDArray[np.int64]) -> None:
-        self.parts = parts
-        self.choice = choice
+        self.n = choice.size
+        self.used = [(p, choice == k) for k, p in enumerate(parts) if p is not None]
+        self.used = [(p, m) for p, m in self.used if m.any()]
 
     def __call__(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        out = np.zeros((np.size(t), self.choice.size, 3))
-        for k, part in enumerate(self.parts):
-            mask = self.choice == k
-            if part is not None and mask.any():
-                out[:, mask, :] = np.asarray(part(t), dtype=float)[:, None, :]
+        out = np.zeros((np.size(t), self.n, 3))
+        for part, mask in self.used:
+            out[:, mask, :] = np.asarray(part(t), dtype=float)[:, None, :]
         return out
 
 
