@@ -218,6 +218,10 @@ def run_campaign(
     ``status="interrupted"``; the next run continues.
     """
     t0 = time.perf_counter()
+    if jobs is not None and jobs < 1:
+        raise ValueError(f"--jobs must be an integer >= 1, got {jobs!r}")
+    if chunk is not None and chunk < 1:
+        raise ValueError(f"--chunk must be an integer >= 1, got {chunk!r}")
     out = Path(out)
     _check_out(campaign, out)
     total = n_blocks(campaign)
@@ -231,10 +235,6 @@ def run_campaign(
     done = done_blocks(out)
     todo = [b for b in range(total) if b not in done]
     workers = jobs if jobs is not None else (os.cpu_count() or 1)
-    if jobs is not None and jobs < 1:
-        raise ValueError(f"--jobs must be an integer >= 1, got {jobs!r}")
-    if chunk is not None and chunk < 1:
-        raise ValueError(f"--chunk must be an integer >= 1, got {chunk!r}")
     per = (
         math.ceil(chunk / campaign.block)
         if chunk is not None
