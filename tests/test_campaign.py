@@ -282,13 +282,27 @@ def test_jobs_and_scheduler_do_not_change_the_table(tmp_path, reference):
     run_campaign(camp(), tmp_path / "jobs2", jobs=2, chunk=4, progress=quiet)
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "jobs2" / "results.parquet"),
                                   reference, check_exact=True)  # fmt: skip
+
+    def stop(*_a: object) -> None:
+        raise KeyboardInterrupt
+
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster:  # fmt: skip
+        first = run_campaign(camp(), tmp_path / "sched", scheduler=cluster.scheduler_address,
+                             chunk=4, progress=stop)  # fmt: skip
+        assert first.status == "interrupted"  # Ctrl-C on Dask: the chunk done is kept
+        assert 1 <= len(done_blocks(tmp_path / "sched")) < 3
         res = run_campaign(camp(), tmp_path / "sched", scheduler=cluster.scheduler_address,
                            chunk=8, progress=quiet)  # fmt: skip
     assert res.status == "done"
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "sched" / "results.parquet"),
                                   reference, check_exact=True)  # fmt: skip
+    path = tmp_path / "c.toml"
+    path.write_text(SMALL)
+    bad = ["campaign", "run", str(path), "--out", str(tmp_path / "x"), "--scheduler",
+           "tcp://127.0.0.1:9"]  # fmt: skip
+    assert main(bad) == 2
+    assert not (tmp_path / "x").exists()
 
 
 def test_report(tmp_path, reference):

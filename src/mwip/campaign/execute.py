@@ -23,7 +23,6 @@ installed; they send the rows back, so no shared file system is needed).
 
 from __future__ import annotations
 
-import copy
 import math
 import os
 import re
@@ -230,8 +229,6 @@ def run_campaign(
 
         rows = len(pd.read_parquet(out / "results.parquet", columns=["sample"]))
         return RunSummary("finished-before", 0, total, rows, out / "results.parquet", 0.0)
-    out.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(out / "campaign.json", _record(campaign))
     done = done_blocks(out)
     todo = [b for b in range(total) if b not in done]
     workers = jobs if jobs is not None else (os.cpu_count() or 1)
@@ -243,6 +240,9 @@ def run_campaign(
     chunks = _chunks(todo, per)
     samples_total = total * campaign.block
     samples_done = [len(done & set(range(total))) * campaign.block]
+    dask = _connect(workers, scheduler) if chunks and (scheduler or workers > 1) else None
+    out.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(out / "campaign.json", _record(campaign))
 
     def finished(blocks: list[int], df: Any) -> None:
         _write_chunk(out, blocks, df)
@@ -252,11 +252,11 @@ def run_campaign(
 
     interrupted = False
     try:
-        if chunks and scheduler is None and workers == 1:
+        if dask is not None:
+            _run_dask(campaign, chunks, *dask, finished)
+        else:
             for blocks in chunks:
                 finished(blocks, compute_chunk(campaign, blocks))
-        elif chunks:
-            _run_dask(campaign, chunks, workers, scheduler, finished)
     except KeyboardInterrupt:
         interrupted = True
     ran = len(done_blocks(out) - done)
@@ -271,35 +271,41 @@ def run_campaign(
     )
 
 
-def _run_dask(
-    campaign: Campaign,
-    chunks: list[list[int]],
-    workers: int,
-    scheduler: str | None,
-    finished: Callable[[list[int], Any], None],
-) -> None:
-    """Submit every chunk to Dask and save each as it completes (in any order)."""
+def _connect(workers: int, scheduler: str | None) -> tuple[Any, Any]:
+    """A Dask client: on the cluster at ``scheduler``, or on a new LocalCluster of
+    ``workers`` processes (one thread each). Returns ``(client, cluster or None)``."""
     try:
-        from dask.distributed import Client, LocalCluster, as_completed
+        from dask.distributed import Client, LocalCluster
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise ValueError("campaigns on Dask need the extra: pip install 'mwip[campaign]'") from exc
     import logging
 
     logging.getLogger("distributed").setLevel(logging.ERROR)
-    cluster = None
-    if scheduler is None:
-        cluster = LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
-        )
-        client = Client(cluster)
-    else:
+    if scheduler is not None:
         try:
-            client = Client(scheduler, timeout=10)
+            return Client(scheduler, timeout=10), None
         except (OSError, TimeoutError) as exc:
             raise ValueError(f"--scheduler: cannot reach {scheduler!r}: {exc}") from None
+    cluster = LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+    )
+    return Client(cluster), cluster
+
+
+def _run_dask(
+    campaign: Campaign,
+    chunks: list[list[int]],
+    client: Any,
+    cluster: Any,
+    finished: Callable[[list[int], Any], None],
+) -> None:
+    """Submit every chunk to Dask and save each as it completes (in any order); then close
+    the client (and the local cluster)."""
+    from dask.distributed import as_completed
+
     futures: list[Any] = []
     try:
-        camp = client.scatter(copy.copy(campaign), broadcast=True)
+        camp = client.scatter(campaign, broadcast=True)
         where = {}
         for blocks in chunks:
             key = f"mwip-campaign-{blocks[0]}-{uuid.uuid4().hex}"
