@@ -51,6 +51,18 @@ _LABELS = {
     "alpha0": "alpha0 (rad)",
     "alpha_dot0": "alpha_dot0 (rad/s)",
     "psi0": "psi0 (rad)",
+    "mb": "mb (kg)",
+    "mw": "mw (kg)",
+    "Iby": "Iby (kg m^2)",
+    "Ibz": "Ibz (kg m^2)",
+    "Iwa": "Iwa (kg m^2)",
+    "Iwd": "Iwd (kg m^2)",
+    "l": "l (m)",
+    "b": "b (m)",
+    "r": "r (m)",
+    "Db": "Db (N m s/rad)",
+    "Dw": "Dw (N m s/rad)",
+    "g": "g (m/s^2)",
 }
 
 
