@@ -172,6 +172,8 @@ def test_block_rows_match_single_runs_of_the_same_inputs():
             np.testing.assert_allclose(cols["energy"][i], work * 0.005, rtol=1e-7)
             tv = np.abs(np.diff(res.u, axis=0)).sum() / 2.0
             np.testing.assert_allclose(cols["control_tv"][i], tv, rtol=1e-7)
+            last = res.theta[res.t >= 2.0 - 1.0 - 1e-9]
+            assert cols["success"][i] == bool(np.abs(last).max() < c.success_theta)
             st = settling_time(res.t, res.theta)
             assert (np.isnan(st) and np.isnan(cols["settling_time"][i])) or abs(
                 st - cols["settling_time"][i]

@@ -272,8 +272,9 @@ def write_campaign_report(out: str | Path) -> Path:
     else:
         parts.append(
             f"<p>{df['sample'].nunique()} samples x {df['controller'].nunique()} "
-            "controllers. Success: did not fall and |theta| at the end below the "
-            "campaign's success_theta. Metrics over the samples that did not fall "
+            "controllers. Success: did not fall and |theta| stayed below the "
+            "campaign's success_theta throughout the last second. Metrics over the samples "
+            "that did not fall "
             "(fall time: over those that fell).</p>"
         )
         rows = league_table(df)

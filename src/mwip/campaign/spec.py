@@ -13,7 +13,8 @@ Two kinds. ``kind = "robustness"`` (default)::
                             # or "ideal" (the controller sees the true state)
     drive = "twin"          # "twin" (the twin's motors: supply and current limits) or
                             # "ideal" (the commanded torque is applied); default: = sensors
-    success_theta = 0.1     # success: the robot did not fall and |theta(T)| < this (rad)
+    success_theta = 0.2     # success: the robot did not fall and |theta| < this (rad)
+                            # throughout the last second
 
     [[controllers]]         # one entry per controller (registry name, settings, label)
     name = "hodosmc"
@@ -161,7 +162,7 @@ class Campaign:
     duration: float = 10.0
     sensors: str = "twin"
     drive: str = "twin"
-    success_theta: float = 0.1
+    success_theta: float = 0.2
     controllers: tuple[ControllerEntry, ...] = ()
     centre: Params = field(default_factory=lambda: book_params("real"))
     design: Params = field(default_factory=lambda: book_params("nominal"))
@@ -385,7 +386,7 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
     drive = camp.get("drive", sensors)
     if drive not in ("twin", "ideal"):
         raise ValueError(f"campaign.drive must be one of twin, ideal; got {drive!r}")
-    success = _number(camp.get("success_theta", 0.1), "campaign.success_theta", 0.0, 1.6, True)
+    success = _number(camp.get("success_theta", 0.2), "campaign.success_theta", 0.0, 1.6, True)
     controllers = _controllers(data.get("controllers"))
 
     robot = data.get("robot", {})
