@@ -447,3 +447,36 @@ def test_worker_killed_mid_chunk_loses_only_that_chunk(tmp_path, reference):
     assert result["res"].status == "done"
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "results.parquet"), reference,
                                   check_exact=True)  # fmt: skip
+
+
+GRID = """
+[campaign]
+samples = 12
+seed = 1
+duration = 1.0
+block = 6
+sensors = "ideal"
+drive = "ideal"
+success_theta = 0.5
+[[controllers]]
+name = "dlqr"
+[robot.uncertainty]
+Iby = { grid = [0.001, 0.003, 3] }
+[initial]
+theta = { grid = [-1.4, 1.4, 4] }
+"""
+
+
+def test_grid_campaign_report_plane(tmp_path):
+    from mwip.campaign.report import plane_rates
+
+    run_campaign(camp(GRID), tmp_path, jobs=1, progress=quiet)
+    df = pd.read_parquet(tmp_path / "results.parquet")
+    assert len(set(zip(df["Iby"], df["theta0"], strict=True))) == 12
+    cx, cy, maps = plane_rates(df, "Iby", "theta0")
+    assert list(cx) == [0.001, 0.002, 0.003] and list(cy) == list(np.linspace(-1.4, 1.4, 4))
+    pivot = df.pivot(index="theta0", columns="Iby", values="success").to_numpy(dtype=float)
+    np.testing.assert_array_equal(maps["dlqr"], pivot)
+    assert 0 < df["success"].sum() < 12  # +-1.4 rad is lost, +-0.47 rad is not
+    assert main(["campaign", "report", str(tmp_path)]) == 0
+    assert (tmp_path / "fig-roa-Iby-theta0.png").exists()

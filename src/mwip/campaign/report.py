@@ -286,11 +286,15 @@ def write_campaign_report(out: str | Path) -> Path:
             for col in inputs:
                 name = _fig_bins(df, col, out / f"fig-success-{col}.png")
                 parts.append(f"<h3>{html.escape(col)}</h3><img src='{name}' alt='{col}'>")
-        planes = [
-            (x, y)
-            for x, y in (("theta0", "theta_dot0"), ("mb", "l"))
-            if x in inputs and y in inputs
-        ]
+        src = rec.get("campaign", {})
+        unc = src.get("robot", {}).get("uncertainty", {})
+        grid = [k for k, v in unc.items() if isinstance(v, dict) and "grid" in v]
+        init = src.get("initial", {})
+        grid += [f"{k}0" for k, v in init.items() if isinstance(v, dict) and "grid" in v]
+        candidates = [("theta0", "theta_dot0"), ("mb", "l")]
+        if len(grid) >= 2 and set(grid[:2]) not in [set(c) for c in candidates]:
+            candidates.append((grid[0], grid[1]))
+        planes = [(x, y) for x, y in candidates if x in inputs and y in inputs]
         if planes:
             parts.append("<h2>Regions of attraction</h2>")
             for x, y in planes:
