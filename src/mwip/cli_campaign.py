@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import click
@@ -91,7 +92,7 @@ def run_cmd(
             "run the same command to continue",
             err=True,
         )
-        raise click.exceptions.Exit(130)
+        sys.exit(130)  # (click's Exit is swallowed by mwip.cli.main's non-standalone mode)
     else:
         click.echo(
             f"wrote {res.path} ({res.rows} rows; {res.blocks_run} of "
