@@ -18,6 +18,7 @@ from typing import Any
 import click
 import numpy as np
 
+from mwip.cli_campaign import campaign as _campaign_cmd
 from mwip.cli_controllers import controllers as _controllers_cmd
 from mwip.control.registry import ControllerSpec
 from mwip.export.cli import export as _export_group
@@ -910,6 +911,7 @@ def report(out: Path, compare: Path | None, verbose: bool) -> None:
 
 cli.add_command(_controllers_cmd)
 cli.add_command(_export_group)
+cli.add_command(_campaign_cmd)
 
 
 def _register() -> None:
