@@ -887,8 +887,16 @@ def scenario(study: str, out: Path | None) -> None:
     help="A second results folder (e.g. under the other damping reading) whose verdicts are "
     "shown beside; default: OUT/compare-* if there is one.",
 )
+@click.option(
+    "--claims",
+    "claims_campaign",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="A finished `mwip campaign run claims` folder: each claim shows how often it holds "
+    "over the settings the book leaves open; default: OUT/claims-campaign if present.",
+)
 @_VERBOSE
-def report(out: Path, compare: Path | None, verbose: bool) -> None:
+def report(out: Path, compare: Path | None, claims_campaign: Path | None, verbose: bool) -> None:
     """Rebuild OUT/index.html from the results in OUT and print the summary."""
     from mwip.report import load_results, load_run_record, summary_lines, write_report
     from mwip.report.claims import find_compare, load_comparison
@@ -900,7 +908,10 @@ def report(out: Path, compare: Path | None, verbose: bool) -> None:
     if compare is not None and not any((compare / n / "metrics.json").is_file() for n in STUDIES):
         raise click.BadParameter(f"no study results in {compare}", param_hint="--compare")
     compare = compare if compare is not None else find_compare(out)
-    path = write_report(out, names, compare)
+    if claims_campaign is not None and not (claims_campaign / "results.parquet").is_file():
+        raise click.BadParameter(f"no finished campaign (results.parquet) in {claims_campaign}",
+                                 param_hint="--claims")  # fmt: skip
+    path = write_report(out, names, compare, claims_campaign)
     cmp = load_comparison(compare) if compare is not None else None
     for line in summary_lines(load_results(out, names), verbose=verbose,
                               damping=load_run_record(out).get("damping"),
