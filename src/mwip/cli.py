@@ -98,8 +98,13 @@ def cli() -> None:
 )
 @click.option(
     "--twin",
-    is_flag=True,
-    help="Run on the digital twin (Chapter 6: IMU fusion, encoders, RE25 drives; sampled).",
+    "twin",
+    is_flag=False,
+    flag_value="default",
+    default=None,
+    metavar="[FILE]",
+    help="Run on the digital twin (Chapter 6: IMU fusion, encoders, RE25 drives; sampled); "
+    "with a twin file ([twin] TOML, `mwip twin show`) that twin.",
 )
 @click.option(
     "--case",
@@ -180,7 +185,8 @@ def cli() -> None:
 )
 @click.pass_context
 def simulate(
-    ctx: click.Context, controller: str, sets: tuple[str, ...], twin: bool, case: int, seed: int,
+    ctx: click.Context, controller: str, sets: tuple[str, ...], twin: str | None, case: int,
+    seed: int,
     theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
     disturbance: str, out: Path | None, as_json: bool, plot: bool, damping: str,
@@ -230,13 +236,18 @@ def simulate(
         ("Ts", "Ts", Ts),
         ("dt", "dt", dt),
         ("mode", "mode", mode),
-        ("twin", "twin", twin),
         ("case", "case", case),
         ("seed", "seed", seed),
     )
     for opt, key, val in fields:
         if given(opt):
             changes[key] = val
+    if twin is not None:
+        changes["twin"] = True
+        if twin != "default":
+            from mwip.hardware.twin_cli import load_twin_option
+
+            changes["twin_config"] = load_twin_option(Path(twin))
     if given("plant") or given("damping"):
         changes["plant"] = _params(plant, "--params", damping=damping)
     if given("design_params") or given("damping"):
