@@ -171,8 +171,15 @@ def test_a_commit_cut_short_leaves_index_matching_run_json(tmp_path, monkeypatch
     record = json.loads((out / "run.json").read_text())
     assert set(record["studies"]) == {"good", "other"}
     if (out / "index.html").exists():
-        assert (out / "index.html").read_text() == render_html(out)
+        assert (out / "index.html").read_text() == _page(out)
     assert (out / "good" / "metrics.json").is_file() and (out / "other" / "metrics.json").is_file()
+
+
+def _page(out: Path) -> str:
+    """The report page of OUT as it is now (with its comparison folder, as write_report)."""
+    from mwip.report.claims import find_compare
+
+    return render_html(out, None, find_compare(out))
 
 
 # ---- 2. Ctrl-C ----------------------------------------------------------------------------------
@@ -545,7 +552,7 @@ def test_concurrent_runs_into_one_folder_leave_it_consistent(tmp_path, fake_stud
     for t in threads:
         t.join()
     assert not errors
-    assert (out / "index.html").read_text() == render_html(out)
+    assert (out / "index.html").read_text() == _page(out)
     assert sorted(p.name for p in out.iterdir()) == [".mwip-output", "good", "index.html",
                                                      "other", "run.json"]  # fmt: skip
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]

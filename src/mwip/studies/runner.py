@@ -240,22 +240,25 @@ REPORT = "index.html"
 
 def _stage_report(stage: Path, out: Path, ok: list[str]) -> None:
     """Write the report of OUT as it will be after the commit into the staging folder: the
-    studies of ``ok`` from the staging folder, every other study from OUT (linked in while
-    the report is rendered)."""
+    studies of ``ok`` from the staging folder, everything else the report reads from OUT
+    (other studies, ``compare-*``, a claims campaign) linked in while it is rendered."""
     import shutil
 
     from mwip.studies import STUDIES
 
+    for name in STUDIES:
+        if name not in ok:
+            shutil.rmtree(stage / name, ignore_errors=True)  # a failed study's partial output
     links = []
     try:
-        for name in STUDIES:
-            if name in ok:
+        entries = sorted(out.iterdir()) if out.is_dir() else []
+        for old in entries:
+            dst = stage / old.name
+            if old.name.startswith(".") or old.name in ok or dst.exists() or dst.is_symlink():
                 continue
-            shutil.rmtree(stage / name, ignore_errors=True)  # a failed study's partial output
-            old = out / name
             if old.is_dir() and not old.is_symlink():
-                (stage / name).symlink_to(old.resolve(), target_is_directory=True)
-                links.append(stage / name)
+                dst.symlink_to(old.resolve(), target_is_directory=True)
+                links.append(dst)
         write_report(stage)
     finally:
         for link in links:
