@@ -1,5 +1,5 @@
 """Experiment ``exp-it2`` (Sec. 6.2.3): SPEC section 6 keys, claims from numbers, the IT2
-controller on the twin, the batched law equal to FuzzyMWIPController, determinism."""
+controller on the twin, determinism (the batched Fig. 5.3 law: tests/test_fig53.py)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from mwip.fuzzy.mamdani import FuzzyMWIPController
-from mwip.sim.sensors import Measurement
 from mwip.studies import exp_it2, settings
 from mwip.studies.common import CAUSES
 
@@ -97,26 +95,6 @@ def test_claims_computed_from_metrics(quick: tuple[Path, dict[str, Any]]) -> Non
     assert not exp_it2.stable_and_accurate(fake, "it2.exp3")
     fake["it2.exp2.osc_amp"] = None  # fell
     assert not exp_it2.stable_and_accurate(fake, "it2.exp2")
-
-
-def test_batched_law_equals_fuzzy_controller(pdc: Any) -> None:
-    """Row by row the batch controller is FuzzyMWIPController (Fig. 5.3) for that run."""
-    rows = exp_it2.rows_for()
-    ctrl = exp_it2.BatchFuzzyController([pdc] * len(rows),
-                                        [r.kind for r in rows], [r.p_d for r in rows],
-                                        [r.alpha_d for r in rows])  # fmt: skip
-    assert all(s is not None for s in ctrl._scale.values())  # the merged FLS call is used
-    rng = np.random.default_rng(3)
-    for scale in (0.05, 0.5, 3.0):  # small errors, mid-range, saturated inputs
-        y = rng.normal(size=(len(rows), 8)) * scale
-        y[:, 0] *= 20.0  # wheel angles large enough to span the position range
-        meas = Measurement(t=0.0, y=y)
-        u = ctrl(0.0, meas)
-        for i, r in enumerate(rows):
-            ref = FuzzyMWIPController(pdc, kind=r.kind, p_d=r.p_d,
-                                      alpha_d=r.alpha_d)  # fmt: skip
-            want = ref(0.0, Measurement(t=0.0, y=y[i : i + 1]))
-            np.testing.assert_allclose(u[i], want[0], rtol=1e-12, atol=1e-13)
 
 
 @pytest.fixture(scope="module")

@@ -47,8 +47,8 @@ IT2-T1 pitch difference, the position error left and what the position FLS still
 The plant is the robot's plant (Table 6.1 by default, ``Db, Dw`` as SPEC.md section 2 reads
 them; nothing here chooses a reading).
 
-All runs are one batch on the twin (:class:`BatchFuzzyController`), which costs about as much
-as two single runs. Outputs: ``metrics.json``, one ``.npz`` per run, ``exp-it2.png``
+All runs are one batch on the twin (the library's Fig. 5.3 controller for a batch,
+:class:`mwip.fuzzy.fig53.Fig53Controller`), which costs about as much as two single runs. Outputs: ``metrics.json``, one ``.npz`` per run, ``exp-it2.png``
 (Figs. 6.17-6.19's layout).
 
 Settings (``scenarios/exp-it2.toml``, :mod:`mwip.studies.settings`): ``theta0``,
@@ -66,16 +66,12 @@ from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
-from numpy.typing import NDArray
 
-from mwip.fuzzy.mamdani import FuzzyMWIPController
+from mwip.fuzzy.fig53 import Fig53Controller
 from mwip.fuzzy.pdc import PDCDesign, check_design, design_pdc, uncertainty_models
-from mwip.fuzzy.ts_model import nie_tan_weights, type1_weights
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms
-from mwip.params import Params
 from mwip.sim import SimResult
-from mwip.sim.sensors import Measurement
 from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 from mwip.studies.twin_settings import robot_label, twin_doc, twin_from
@@ -134,99 +130,6 @@ class Row:
     alpha_d: float | None
 
 
-class BatchFuzzyController:
-    """Fig. 5.3 for a batch: row ``i`` is ``FuzzyMWIPController(designs[i], kind=kinds[i],
-    p_d=p_d[i], alpha_d=alpha_d[i])``, evaluated for all rows at once (one call of each FLS per
-    kind and sample instead of one per run). Same law, term by term:
-
-    ``theta_off = FLS_p(r_nom psi - p_d, theta')`` (0 without a position target),
-    ``x = [theta - theta_off, theta', psi or 0, psi']`` (the wheel-angle feedback is dropped
-    when the position FLS closes that loop), ``u_p = (1/2) sum_i m_i(theta) G_i x`` (5.10),
-    ``u_alpha = FLS_alpha(alpha - alpha_d, alpha')``, ``u = [u_p + u_alpha, u_p - u_alpha]``.
-    Tested equal to :class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` row by row.
-    """
-
-    static = True
-
-    def __init__(
-        self,
-        designs: Sequence[PDCDesign],
-        kinds: Sequence[str],
-        p_d: Sequence[float | None],
-        alpha_d: Sequence[float | None],
-        *,
-        params: Params | None = None,
-        Ts: float | None = 0.005,
-    ) -> None:
-        if params is None:  # the robot's nominal model, at call time
-            params = robot.nominal()
-        n = len(designs)
-        if not (len(kinds) == len(p_d) == len(alpha_d) == n) or n == 0:
-            raise ValueError("designs, kinds, p_d and alpha_d must have the same length > 0")
-        # the FLSs are built by FuzzyMWIPController itself (Table 5.1 ranges, footprints)
-        self._ref = {k: FuzzyMWIPController(designs[0], kind=k, params=params) for k in
-                     sorted(set(kinds))}  # fmt: skip
-        self._groups = {k: np.array([i for i in range(n) if kinds[i] == k]) for k in self._ref}
-        self.G = np.stack([d.G for d in designs])
-        self.pos_on = np.array([v is not None for v in p_d])
-        self.dir_on = np.array([v is not None for v in alpha_d])
-        self.p_d = np.array([0.0 if v is None else float(v) for v in p_d])
-        self.alpha_d = np.array([0.0 if v is None else float(v) for v in alpha_d])
-        self.r = float(params.r)
-        self.Ts = Ts
-        self._scale = {k: _direction_as_position(c) for k, c in self._ref.items()}
-        self._log: dict[str, NDArray[np.float64]] = {}
-
-    def reset(self, meas: Measurement) -> None:
-        """Nothing to reset (static law)."""
-
-    def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
-        y = meas.y
-        n = y.shape[0]
-        theta_off, u_a, m = np.zeros(n), np.zeros(n), np.zeros((n, 2))
-        for kind, rows in self._groups.items():
-            ref, yr, sc = self._ref[kind], y[rows], self._scale[kind]
-            pe, thd = self.r * yr[:, 0] - self.p_d[rows], yr[:, 4]
-            ae, ad = yr[:, 2] - self.alpha_d[rows], yr[:, 5]
-            if sc is None:
-                theta_off[rows] = ref.position(pe, thd)
-                u_a[rows] = ref.direction(ae, ad)
-            else:  # one FLS call for both loops (the FLS cost dominates a twin run)
-                both = ref.position(np.concatenate([pe, sc[0] * ae]),
-                                    np.concatenate([thd, sc[1] * ad]))  # fmt: skip
-                theta_off[rows], u_a[rows] = both[: rows.size], sc[2] * both[rows.size :]
-            m[rows] = (nie_tan_weights if kind == "it2" else type1_weights)(yr[:, 1])
-        theta_off = np.where(self.pos_on, theta_off, 0.0)
-        u_a = np.where(self.dir_on, u_a, 0.0)
-        x = np.stack([y[:, 1] - theta_off, y[:, 4], np.where(self.pos_on, 0.0, y[:, 0]),
-                      y[:, 3]], -1)  # fmt: skip
-        u_p = 0.5 * np.einsum("ni,nij,nj->n", m, self.G, x)
-        self._log = {"theta_off": theta_off, "u_alpha": u_a}
-        return np.stack([u_p + u_a, u_p - u_a], -1)
-
-    def log(self) -> Mapping[str, NDArray[np.float64]]:
-        return self._log
-
-
-def _direction_as_position(c: FuzzyMWIPController) -> tuple[float, float, float] | None:
-    """``(a1, a2, b)`` with ``direction(x1, x2) = b * position(a1 x1, a2 x2)``, or ``None``.
-
-    Both FLSs are uniform partitions with the same number of sets, footprint, rules, kind and
-    reducer, only the ranges differ (Table 5.1); memberships of uniform triangular partitions
-    scale with the range and the outputs are linear in the consequent centroids, so the
-    direction FLS is the position FLS with scaled inputs and output (exact up to rounding;
-    tested).
-    """
-    p, d = c.position, c.direction
-    same = (p.rules == d.rules and p.kind == d.kind and (p.m, p.n) == (d.m, d.n)
-            and all((a.n, a.fou) == (b.n, b.fou) for a, b in
-                    ((p.in1, d.in1), (p.in2, d.in2), (p.out, d.out))))  # fmt: skip
-    if not same:
-        return None
-    return (p.in1.half_range / d.in1.half_range, p.in2.half_range / d.in2.half_range,
-            d.out.half_range / p.out.half_range)  # fmt: skip
-
-
 def rows_for(cfg: Mapping[str, Any] | None = None) -> list[Row]:
     """The batch: every experiment x kind, named ``{kind}.exp{e}`` (targets from the settings
     ``cfg``, default: the study's current settings)."""
@@ -249,9 +152,9 @@ def run_batch(
     c = _cfg(cfg)
     des = design(c) if pdc is None else pdc
     plant = case_plant(1, base=robot.plant())
-    ctrl = BatchFuzzyController([des] * len(rows), [r.kind for r in rows],
-                                [r.p_d for r in rows], [r.alpha_d for r in rows],
-                                Ts=c["Ts"])  # fmt: skip
+    ctrl = Fig53Controller([des] * len(rows), [r.kind for r in rows],
+                           [r.p_d for r in rows], [r.alpha_d for r in rows],
+                           params=robot.nominal(), Ts=c["Ts"])  # fmt: skip
     q0 = np.tile([0.0, c["theta0"], 0.0], (len(rows), 1))
     res = run_on_twin(ctrl, 1, twin=twin_from(c) if twin is None else twin, plant=plant,
                       q0=q0, duration=c["duration"] if duration is None else duration,
