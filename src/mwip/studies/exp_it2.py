@@ -48,8 +48,8 @@ The plant is the robot's plant (Table 6.1 by default, ``Db, Dw`` as SPEC.md sect
 them; nothing here chooses a reading).
 
 All runs are one batch on the twin (the library's Fig. 5.3 controller for a batch,
-:class:`mwip.fuzzy.fig53.Fig53Controller`), which costs about as much as two single runs. Outputs: ``metrics.json``, one ``.npz`` per run, ``exp-it2.png``
-(Figs. 6.17-6.19's layout).
+:class:`mwip.fuzzy.fig53.Fig53Controller`), which costs about as much as two single runs.
+Outputs: ``metrics.json``, one ``.npz`` per run, ``exp-it2.png`` (Figs. 6.17-6.19's layout).
 
 Settings (``scenarios/exp-it2.toml``, :mod:`mwip.studies.settings`): ``theta0``,
 ``epsilon``, ``rho``, ``uncertainty``, ``exp2_p_d``, ``exp3_p_d``, ``exp3_alpha_d``,
@@ -69,12 +69,21 @@ from matplotlib.figure import Figure
 
 from mwip.fuzzy.fig53 import Fig53Controller
 from mwip.fuzzy.pdc import PDCDesign, check_design, design_pdc, uncertainty_models
+from mwip.hardware.ablation import Ablation, run_ablation
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms
 from mwip.sim import SimResult
-from mwip.studies import robot, settings
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
-from mwip.studies.twin_settings import robot_label, twin_doc, twin_from
+from mwip.studies.twin_settings import (
+    ABLATION_FIELD,
+    fall_evidence,
+    first_fall,
+    robot_label,
+    study_settings,
+    twin_doc,
+    write_ablation,
+)
 
 SOURCE = "Sec. 6.2.3, Figs. 6.17-6.19"
 NAME = "exp-it2"
@@ -100,7 +109,7 @@ CRITERIA = {
 
 
 def _cfg(cfg: Mapping[str, Any] | None) -> Mapping[str, Any]:
-    return settings.current(NAME) if cfg is None else cfg
+    return study_settings(NAME)[0] if cfg is None else cfg
 
 
 def targets(cfg: Mapping[str, Any] | None = None) -> dict[int, tuple[float | None, float | None]]:
@@ -146,9 +155,9 @@ def run_batch(
     cfg: Mapping[str, Any] | None = None,
 ) -> dict[str, SimResult]:  # fmt: skip
     """Run ``rows`` as one batch on the twin (Case 1 plant, the PDC design ``pdc``, default
-    :func:`design`; the twin of the settings by default); the initial lean, sampling, records,
-    and the defaults of ``duration`` and ``seed`` from the settings ``cfg`` (default: the
-    study's current settings)."""
+    :func:`design`; the run's twin by default, :func:`mwip.studies.robot.twin`); the initial
+    lean, sampling (``Ts``: the twin's), records, and the defaults of ``duration`` and
+    ``seed`` from the settings ``cfg`` (default: the study's current settings)."""
     c = _cfg(cfg)
     des = design(c) if pdc is None else pdc
     plant = case_plant(1, base=robot.plant())
@@ -156,7 +165,7 @@ def run_batch(
                            [r.p_d for r in rows], [r.alpha_d for r in rows],
                            params=robot.nominal(), Ts=c["Ts"])  # fmt: skip
     q0 = np.tile([0.0, c["theta0"], 0.0], (len(rows), 1))
-    res = run_on_twin(ctrl, 1, twin=twin_from(c) if twin is None else twin, plant=plant,
+    res = run_on_twin(ctrl, 1, twin=robot.twin() if twin is None else twin, plant=plant,
                       q0=q0, duration=c["duration"] if duration is None else duration,
                       record_every=c["record_every"],
                       seed=c["seed"] if seed is None else seed)  # fmt: skip
@@ -244,9 +253,10 @@ def fails(m: Mapping[str, Any], name: str) -> bool:
     return not _errors_within(m, name)
 
 
-def claims_from(m: Mapping[str, Any]) -> list[dict[str, Any]]:
+def claims_from(m: Mapping[str, Any], ab: Ablation | None = None) -> list[dict[str, Any]]:
     """The book's claim per experiment (``"book": true``, with cause and evidence when it
-    fails) and its two halves (extras), computed from the metrics."""
+    fails) and its two halves (extras), computed from the metrics; a fall on the full twin is
+    located along the ablation ``ab``."""
     out = []
     for e in EXPERIMENTS:
         t1 = f"Exp {e}: T1 oscillates persistently or keeps a steady-state error"
@@ -256,7 +266,7 @@ def claims_from(m: Mapping[str, Any]) -> list[dict[str, Any]]:
                 "holds": t1_holds and it2_holds, "book": True,
                 "keys": [f"{k}.exp{e}.osc_amp" for k in KINDS]}  # fmt: skip
         if not book["holds"]:
-            book["cause"], book["evidence"] = _why(m, e, t1_holds, it2_holds)
+            book["cause"], book["evidence"] = _why(m, e, t1_holds, it2_holds, ab)
         out += [
             book,
             {"id": f"exp{e}.t1", "text": f"{t1} [extra: half of the book's claim]",
@@ -271,8 +281,19 @@ def _fmt(v: Any, spec: str = ".4f") -> str:
     return "fell" if not _finite(v) else format(float(v), spec)
 
 
-def _why(m: Mapping[str, Any], e: int, t1_holds: bool, it2_holds: bool) -> tuple[str, str]:
-    """Cause and evidence of the book's claim failing in experiment ``e``."""
+def _why(
+    m: Mapping[str, Any], e: int, t1_holds: bool, it2_holds: bool, ab: Ablation | None = None
+) -> tuple[str, str]:
+    """Cause and evidence of the book's claim failing in experiment ``e`` (an IT2 fall on the
+    full twin: where it stops balancing along the ablation ``ab``)."""
+    if not it2_holds and not _finite(m[f"it2.exp{e}.osc_amp"]) and ab is not None:
+        runs = [f"{k}.exp{e}" for k in KINDS]
+        text = "IT2 fell on the full twin; ablation: " + "; ".join(
+            fall_evidence(ab, r, 1, r.replace(".", " ").upper()) for r in runs
+        )
+        if first_fall(ab, f"it2.exp{e}", 1) == "ideal":
+            return "implementation", text + " (not explained)"
+        return "twin-model", text
     parts = []
     if not t1_holds:
         parts.append(
@@ -309,18 +330,45 @@ def _why(m: Mapping[str, Any], e: int, t1_holds: bool, it2_holds: bool) -> tuple
     return "unprinted-setting", "; ".join(parts)
 
 
+def _ablation(
+    cfg: Mapping[str, Any], tw: Twin, rows: Sequence[Row], pdc: PDCDesign, duration: float,
+    osc_window: float, rms_window: tuple[float, float],
+) -> Ablation:  # fmt: skip
+    """Every run of the batch: the ideal robot, then the twin's elements added in turn (one
+    batched run per run: its Fig. 5.3 law drives the 13 twins); quantities of
+    :func:`run_metrics` plus ``fell`` and ``t_end``."""
+    by_name = {r.name: r for r in rows}
+
+    def fn(res: SimResult, run: str, case: int) -> dict[str, float]:
+        out = run_metrics(res, by_name[run], osc_window=osc_window, rms_window=rms_window)
+        out["fell"] = 0.0 if _ok(res) else 1.0
+        out["t_end"] = float(res.t_end[0])
+        return out
+
+    def factory(r: Row) -> Any:
+        return lambda: Fig53Controller([pdc], [r.kind], [r.p_d], [r.alpha_d],
+                                       params=robot.nominal(), Ts=tw.Ts)  # fmt: skip
+
+    return run_ablation(
+        [(r.name, factory(r)) for r in rows], tw, cases=(1,), metrics=fn,
+        plant=lambda case: case_plant(1, base=robot.plant()),
+        run_kwargs={"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
+                    "record_every": cfg["record_every"], "seed": cfg["seed"]},
+    )  # fmt: skip
+
+
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the experiment into ``out/exp-it2``; returns the metrics document."""
     study = NAME
     folder = Path(out) / study
-    cfg = settings.current(NAME)
+    cfg, tw = study_settings(NAME)
     duration = min(QUICK_DURATION, cfg["duration"]) if quick else cfg["duration"]
     osc_window = duration / 2 if quick else OSC_WINDOW
     rms_window = (1.0 if quick else cfg["rms_start"], duration)
     pdc = design(cfg)
     experiments = targets(cfg)
     rows = rows_for(cfg)
-    runs = run_batch(rows, duration=duration, pdc=pdc, cfg=cfg)
+    runs = run_batch(rows, duration=duration, pdc=pdc, cfg=cfg, twin=tw)
     metrics: dict[str, float] = {}
     for row in rows:
         for k, v in run_metrics(runs[row.name], row, osc_window=osc_window,
@@ -332,15 +380,18 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         metrics[f"diff.exp{e}.max_abs_dtheta"] = (
             float(np.max(np.abs(a.theta - b.theta))) if same else float("nan")
         )
-    claims = claims_from(metrics)
+    ab = _ablation(cfg, tw, rows, pdc, duration, osc_window, rms_window)
+    metrics.update(ab.metrics)
+    claims = claims_from(metrics, ab)
+    tables = write_ablation(ab, folder, ("rms_theta", "osc_amp", "t_end"))
     used = {
         "x0": [cfg["theta0"], 0.0, 0.0, 0.0],
         "x0_reading": "[theta, theta', psi, psi'] (Sec. 5.2)", "duration": duration,
-        "Ts": cfg["Ts"], "dt": cfg["dt"], "record_every": cfg["record_every"],
-        "record_period": cfg["Ts"] * cfg["record_every"], "seed": cfg["seed"],
+        "Ts": tw.Ts, "dt": tw.dt, "record_every": cfg["record_every"],
+        "record_period": tw.Ts * cfg["record_every"], "seed": cfg["seed"],
         "plant": f"the robot's plant, Case 1 ({robot_label(robot.plant())})",
         "design": "the robot's nominal model",
-        "mode": f"sampled on the digital twin ({cfg['Ts'] * 1e3:g} ms)",
+        "mode": f"sampled on the digital twin ({tw.Ts * 1e3:g} ms)",
         "batch": [r.name for r in rows],
         "batch_note": "one batched twin run; each row's sensor noise depends on its row index",
         "experiments": {f"exp{e}": {"p_d": pd, "alpha_d": ad} for e, (pd, ad) in
@@ -353,7 +404,10 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         "tolerances": {"osc": OSC_TOL, "pos": POS_TOL, "alpha": ALPHA_TOL, "theta": THETA_TOL},
         "criteria": CRITERIA,
         "t1": "same PDC gains and Mamdani rules, type-1 sets at the middle of each footprint",
-        "twin": twin_doc(cfg),
+        "twin": twin_doc(tw),
+        "ablation": "each run on the ideal robot, then the twin's elements added in turn "
+                    "(keys ablation.<step>.<run>.case1.*; one batched run per run)",
+        ABLATION_FIELD: tables,
     }  # fmt: skip
     doc = metrics_document(
         study, SOURCE, metrics, {}, claims,
