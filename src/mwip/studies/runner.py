@@ -127,10 +127,10 @@ def run_studies(
     and design model (:mod:`mwip.studies.robot`); ``overrides[name]`` replaces some of study
     ``name``'s settings (:mod:`mwip.studies.settings`). ``damping`` names the reading of
     the book's tables the robot was built with (recorded in ``run.json``). ``twin``: the
-Chapter 6 studies' twin configuration (:func:`mwip.studies.robot.twin`; default the
-current one). ``on_done`` is
-    called as each study ends, ``on_run(study)`` as each of its simulation runs ends (for a
-    progress display).
+    Chapter 6 studies' twin configuration (:func:`mwip.studies.robot.twin`; default the
+    current one; recorded in ``run.json`` as its twin file). ``on_done`` is called as each
+    study ends, ``on_run(study)`` as each of its simulation runs ends (for a progress
+    display).
     """
     from mwip.studies import STUDIES
 
@@ -156,8 +156,9 @@ current one). ``on_done`` is
             for name in names:
                 hook = _counting_hook(name, on_run)
                 try:
-                    done(_run_one(name, stage.path, quick, plant, nominal, overrides.get(name),
-                                  twin))
+                    done(
+                        _run_one(name, stage.path, quick, plant, nominal, overrides.get(name), twin)
+                    )
                 finally:
                     if hook is not None:
                         RUN_END_HOOKS.remove(hook)
@@ -168,8 +169,9 @@ current one). ``on_done`` is
             )
             try:
                 pending = {
-                    pool.submit(_run_one, n, stage.path, quick, plant, nominal, overrides.get(n),
-                                twin)
+                    pool.submit(
+                        _run_one, n, stage.path, quick, plant, nominal, overrides.get(n), twin
+                    )
                     for n in _longest_first(names)
                 }
                 while pending:
