@@ -10,8 +10,10 @@ from typing import Any
 import numpy as np
 import pytest
 
+from mwip.hardware.twin import Twin
 from mwip.studies import exp_it2, settings
 from mwip.studies.common import CAUSES
+from mwip.studies.twin_settings import ABLATION_FIELD
 
 KINDS = ("it2", "t1")
 REQUIRED = (
@@ -49,9 +51,18 @@ def test_quick_outputs_and_schema(quick: tuple[Path, dict[str, Any]]) -> None:
     names = {r.name for r in exp_it2.rows_for()}
     assert set(doc["runs"]) == names
     assert {p.stem for p in folder.glob("*.npz")} == names
-    # every run stays up over the quick window, IT2 and T1
-    assert all(r["status"] == "ok" for r in doc["runs"].values())
-    assert all(r["t_end"] == pytest.approx(exp_it2.QUICK_DURATION) for r in doc["runs"].values())
+    # the full default twin: every run falls within the first second, IT2 and T1 (the drive
+    # train's elements, docs/twin.md); with the ideal robot (the ablation's first row) every
+    # run stays up over the quick window
+    assert all(r["status"] == "fell" and r["t_end"] < 1.0 for r in doc["runs"].values())
+    m = doc["metrics"]
+    for name in names:
+        assert m[f"ablation.ideal.{name}.case1.fell"] == 0.0
+        assert m[f"ablation.ideal.{name}.case1.t_end"] == pytest.approx(exp_it2.QUICK_DURATION)
+        assert m[f"ablation.imu_bias.{name}.case1.fell"] == 1.0  # the last row: the full twin
+    files = doc["settings"][ABLATION_FIELD]
+    assert "<table>" in (folder / files["html"]).read_text()
+    assert (folder / files["md"]).read_text().startswith("rms_theta")
     assert doc["settings"]["x0"] == [0.48, 0.0, 0.0, 0.0]
 
 
@@ -85,6 +96,10 @@ def test_claims_computed_from_metrics(quick: tuple[Path, dict[str, Any]]) -> Non
         assert claims[f"exp{e}.t1"]["book"] is False and claims[f"exp{e}.it2"]["book"] is False
         if not book["holds"]:
             assert book["cause"] in CAUSES and any(ch.isdigit() for ch in book["evidence"])
+        if m[f"{it2}.osc_amp"] is None:  # IT2 fell on the full twin: located by the ablation
+            up_ideal = m[f"ablation.ideal.{it2}.case1.fell"] == 0.0
+            assert book["cause"] == ("twin-model" if up_ideal else "implementation")
+            assert "ablation" in book["evidence"]
     # the claim functions follow the numbers
     fake = dict(m)
     fake["t1.exp1.osc_amp"] = 10 * tol["osc"]
@@ -99,13 +114,15 @@ def test_claims_computed_from_metrics(quick: tuple[Path, dict[str, Any]]) -> Non
 
 @pytest.fixture(scope="module")
 def it2_full(pdc: Any) -> dict[str, Any]:
-    """IT2 rows, 15 s, one batch."""
+    """IT2 rows, 15 s, one batch, with the ideal robot (no twin element: the ablation's first
+    row; on the full default twin every run falls, test_quick_outputs_and_schema)."""
     rows = [r for r in exp_it2.rows_for() if r.kind == "it2"]
-    return {"rows": rows, "runs": exp_it2.run_batch(rows, pdc=pdc)}
+    return {"rows": rows,
+            "runs": exp_it2.run_batch(rows, pdc=pdc, twin=Twin(elements=frozenset()))}  # fmt: skip
 
 
 def test_it2_full_duration_upright_and_converging(it2_full: dict[str, Any]) -> None:
-    """IT2 on the twin, 15 s from theta0 = 0.48: upright, no oscillation, moving toward the
+    """IT2 with the ideal robot, 15 s from theta0 = 0.48: upright, no oscillation, moving toward the
     targets (the position loop is slow: the errors sit near ZO of the +-3 m input range, so
     only progress and an error below 60 % of the move are required), heading within 0.02 rad.
     """
