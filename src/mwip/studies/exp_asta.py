@@ -1,6 +1,7 @@
 """Experiment ``exp-asta`` (Sec. 6.2.2, Figs. 6.9-6.16, Tables 6.7-6.8) on the digital twin.
 
-Set-up (SPEC.md section 5): the twin (:mod:`mwip.hardware.twin`), 5 ms sampling; ASTA and
+Set-up (SPEC.md section 5): the twin of the run (:func:`mwip.studies.robot.twin`, the twin
+file's configuration; default the default twin), controllers at its ``Ts`` (5 ms); ASTA and
 ASMC designed on the nominal parameters with (6.1)-(6.2): ``lambda = (10, 0.3, 3)``,
 ``K1 = K2 = 10``, ``Gamma1 = Gamma2 = 5`` read as the adaptation rates of (4.5) with
 ``Gamma(0) = 0`` (:mod:`mwip.control.asta`), boundary layer ``eps = 0.01``;
@@ -9,15 +10,20 @@ of ``q2`` and of the sliding variable ``S1`` (the controller's, from measurement
 2-10 s from 10 ms records.
 
 The plant is the robot's plant (Table 6.1 by default, ``Db, Dw`` as SPEC.md section 2 reads
-them; nothing here chooses a reading). Extra runs: keys prefixed ``ideal.``, the same with
-ideal sensors and actuator. A failing book claim names its cause with evidence computed here
-(the payload's cut of the input gain ``g2 + lambda_2 g1`` of (2.36) that (4.7) divides by,
-:func:`mwip.studies.exp_hodosmc.input_gain_ratio`).
+them; nothing here chooses a reading). The ablation (:mod:`mwip.hardware.ablation`): both
+controllers and cases on the ideal robot, then with the twin's elements added in turn, one
+batched run per controller and case (2 s in quick mode), keys
+``ablation.<step>.<run>.case<k>.<quantity>`` (those of
+:func:`~mwip.hardware.ablation.rms_metrics` and ``rms_s1``), tables ``ablation.md``/``.html``
+named in ``settings.ablation_table``. A failing book claim names its cause with evidence
+computed here: where a run that fell stops balancing along the ablation (``twin-model`` when
+it balances with the ideal robot), the payload's cut of the input gain ``g2 + lambda_2 g1`` of
+(2.36) that (4.7) divides by (:func:`mwip.studies.exp_hodosmc.input_gain_ratio`) when it falls
+with the ideal robot too in Case 2.
 
 Settings (``scenarios/exp-asta.toml``, :mod:`mwip.studies.settings`): ``theta0``,
 ``lambdas``, ``K``, ``Gamma_rate``, ``Gamma0``, ``eps``, ``duration``, ``rms_window``,
-``Ts``, ``record_every``, ``seed`` and the twin's
-:data:`~mwip.studies.twin_settings.TWIN_KEYS`.
+``record_every``, ``seed`` (the twin's numbers are the twin file's).
 """
 
 from __future__ import annotations

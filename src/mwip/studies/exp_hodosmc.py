@@ -1,8 +1,8 @@
 """Experiments ``exp-hodosmc-{balance,speed,obstacle}`` (Sec. 6.2.1) emulated on the twin.
 
-Set-up (SPEC.md section 5): the digital twin (:mod:`mwip.hardware.twin`, built from the
-study's settings by :func:`mwip.studies.twin_settings.twin_from`: IMU with complementary
-fusion, encoders, RE25 motors through the gearbox and the PWM driver, 5 ms sampling);
+Set-up (SPEC.md section 5): the digital twin of the run (:func:`mwip.studies.robot.twin`: the
+twin file's configuration, default the default twin with every element on; ``mwip run --twin
+FILE``; :mod:`mwip.studies.twin_settings`); controllers sampled at its ``Ts`` (5 ms);
 controllers designed on the robot's nominal model (Table 6.2 by default) with Table 6.3's
 gains: all ``lambda = (3, 0.01, 0.1, 3)``, ``gamma = 1``; SMC ``K = (25, 21)``, DO1SMC
 ``K = (17.3, 14)`` (first-order DO (3.2), gain ``do1_gain``: the book prints none), DO4SMC
@@ -17,22 +17,29 @@ under another reading is ``mwip run --damping ...``: nothing here chooses one).
 - obstacle (Table 6.6): ``q1d' = -7 rad/s``, Case 3 (payload + stick at 6 s); settling time
   after the stick until ``psi'`` stays in (-9, -5) rad/s.
 
-Runs whose plant falls get ``null`` metrics (status in ``runs``). Extra runs: keys prefixed
-``ideal.``, the same with ideal sensors and actuator (what the hardware adds); balance and
-speed also run DO1SMC on Case 1 at both ends of the ``do1_gain`` range of the study's
-``[open]`` table (keys ``sweep.do1smc_L<gain>.case1.*``), because that unprinted gain decides
-DO1SMC against DO4SMC; the obstacle study also runs ``case1_stick`` (the stick without the
-payload).
+Runs whose plant falls get ``null`` metrics (status in ``runs``). The ablation
+(:mod:`mwip.hardware.ablation`): each controller and case on the ideal robot, then with the
+twin's elements added in turn (cumulative, :data:`mwip.hardware.elements.ELEMENTS` order), one
+batched run per controller and case (2 s in quick mode), keys
+``ablation.<step>.<run>.case<k>.<quantity>`` (``rms_theta``, ``rms_theta_meas``,
+``rms_speed_err``, ``max_abs_u``, ``t_end``, ``fell``, ``final_speed``, obstacle also
+``settling_time``); its tables are ``ablation.md``/``ablation.html`` in the study's folder,
+named in metrics.json's ``settings.ablation_table``. Balance and speed also run DO1SMC on
+Case 1 at both ends of the ``do1_gain`` range of the study's ``[open]`` table (keys
+``sweep.do1smc_L<gain>.case1.*``), because that unprinted gain decides DO1SMC against DO4SMC;
+the obstacle study also runs ``case1_stick`` (the stick without the payload).
 
-Claims are data (:func:`mwip.studies.common.validate_claim`); a failing book claim names its
-cause with evidence computed here: the payload's cut of the input gain ``g2 + l3 g1`` of
-(2.36) that (3.50) divides by (:func:`input_gain_ratio`), the accelerometer reading the
-robot's own acceleration as tilt (:func:`accelerometer_evidence`), or the unprinted DO1 gain.
+Claims are data (:func:`mwip.studies.common.validate_claim`), judged on the twin of the run; a
+failing book claim names its cause with evidence computed here: where the runs that fell stop
+balancing along the ablation (:func:`mwip.studies.twin_settings.fall_evidence`; balancing with
+the ideal robot makes it ``twin-model``), the payload's cut of the input gain ``g2 + l3 g1`` of
+(2.36) that (3.50) divides by (:func:`input_gain_ratio`) when they fall with the ideal robot
+too, the steady-speed cap, or the unprinted DO1 gain.
 
 Settings (``scenarios/exp-hodosmc-{balance,speed,obstacle}.toml``, one file per study,
 :mod:`mwip.studies.settings`): ``theta0``, ``speed``, ``lambdas``, ``smc_K``, ``do1smc_K``,
-``do4smc_K``, ``do1_gain``, ``phi``, ``duration``, ``Ts``, ``record_every``, ``seed``, the
-twin's :data:`~mwip.studies.twin_settings.TWIN_KEYS`; balance and speed also ``rms_window``;
+``do4smc_K``, ``do1_gain``, ``phi``, ``duration``, ``record_every``, ``seed`` (the twin's
+numbers are the twin file's); balance and speed also ``rms_window``;
 obstacle also ``rms_start``, ``stick_start``, ``stick_height``, ``stick_speed``.
 """
 

@@ -3,8 +3,9 @@
 Set-up (SPEC.md section 5; book Sec. 6.2.3): the Chapter 5 controller of Fig. 5.3 - PDC
 balance law (5.10) ``u = sum_i m_i(theta) G_i x`` plus the Mamdani position and direction
 FLSs of Section 5.3.2 (Tables 5.1-5.2), :class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` -
-runs on the digital twin (:mod:`mwip.hardware.twin`, Case 1: the real robot of Table 6.1,
-complementary IMU fusion, encoders, RE25 drives, 5 ms sampling) against its type-1
+runs on the digital twin of the run (:func:`mwip.studies.robot.twin`, the twin file's
+configuration, default the default twin; Case 1: the real robot of Table 6.1, sampled at the
+twin's ``Ts``) against its type-1
 counterpart (same rules and gains, type-1 sets at the middle of each footprint, weighted
 average; docs/fuzzy.md). Initial condition ``x0 = [0.48, 0, 0, 0]``, 15 s:
 
@@ -53,8 +54,15 @@ Outputs: ``metrics.json``, one ``.npz`` per run, ``exp-it2.png`` (Figs. 6.17-6.1
 
 Settings (``scenarios/exp-it2.toml``, :mod:`mwip.studies.settings`): ``theta0``,
 ``epsilon``, ``rho``, ``uncertainty``, ``exp2_p_d``, ``exp3_p_d``, ``exp3_alpha_d``,
-``duration``, ``rms_start``, ``Ts``, ``record_every``, ``seed`` and the twin's
-:data:`~mwip.studies.twin_settings.TWIN_KEYS`.
+``duration``, ``rms_start``, ``record_every``, ``seed`` (the twin's numbers are the twin
+file's).
+
+The ablation (:mod:`mwip.hardware.ablation`): every run of the batch on the ideal robot, then
+with the twin's elements added in turn (one batched run per run), keys
+``ablation.<step>.<kind>.exp<e>.case1.<quantity>`` (those of :func:`run_metrics`, ``fell``,
+``t_end``), tables ``ablation.md``/``.html`` named in ``settings.ablation_table``; an IT2
+fall on the full twin is located along it (``twin-model`` when IT2 balances with the ideal
+robot).
 """
 
 from __future__ import annotations
