@@ -353,6 +353,13 @@ def _ablation(
         out["t_end"] = float(res.t_end[0])
         return out
 
+    def claim(e: int) -> tuple[str, Any]:
+        def test(m: Mapping[str, float]) -> bool:
+            m1 = {k.replace(".case1.", "."): v for k, v in m.items()}
+            return fails(m1, f"t1.exp{e}") and stable_and_accurate(m1, f"it2.exp{e}")
+
+        return f"Exp {e}: T1 oscillates or keeps an error; IT2 stable and accurate", test
+
     def factory(r: Row) -> Any:
         return lambda: Fig53Controller([pdc], [r.kind], [r.p_d], [r.alpha_d],
                                        params=robot.nominal(), Ts=tw.Ts)  # fmt: skip
@@ -362,6 +369,7 @@ def _ablation(
         plant=lambda case: case_plant(1, base=robot.plant()),
         run_kwargs={"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
                     "record_every": cfg["record_every"], "seed": cfg["seed"]},
+        claims=[claim(e) for e in EXPERIMENTS],
     )  # fmt: skip
 
 
