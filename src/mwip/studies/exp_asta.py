@@ -218,15 +218,24 @@ def _why(
 ) -> tuple[str, str]:  # fmt: skip
     """Cause and evidence of a failing book claim of Case ``case`` on quantity ``q``: a fall
     on the full twin is located along the ablation ``ab``."""
+
+    def num(v: float) -> str:
+        return f"{v:.4g}" if np.isfinite(v) else "fell"
+
     vals = (
         ""
         if q == "t_end"
-        else (f"ASTA {m[f'asta.case{case}.{q}']:.4g}, ASMC {m[f'asmc.case{case}.{q}']:.4g}; ")
+        else f"ASTA {num(m[f'asta.case{case}.{q}'])}, ASMC {num(m[f'asmc.case{case}.{q}'])}; "
     )
     fallen = [k for k in KINDS if runs[f"{k}.case{case}"].status[0] != "ok"]
     if fallen:
         text = (f"{vals}on the full twin {_fell(runs, '', case)}; ablation: "
                 + "; ".join(fall_evidence(ab, k, case, k.upper()) for k in fallen))  # fmt: skip
+        if q != "t_end":
+            a, b = (m.get(f"ablation.ideal.{k}.case{case}.{q}", float("nan")) for k in KINDS[::-1])
+            verdict = "holds" if np.isfinite(a) and np.isfinite(b) and a < b else "fails"
+            num = [f"{v:.3g}" if np.isfinite(v) else "fell" for v in (a, b)]
+            text += f"; with the ideal robot ASTA < ASMC {verdict}: ASTA {num[0]}, ASMC {num[1]}"
         if any(first_fall(ab, k, case) == "ideal" for k in fallen):
             if case == 2:
                 lam = cfg["lambdas"][1]

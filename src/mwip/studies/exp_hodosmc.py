@@ -221,7 +221,12 @@ def _ordered(vals: list[float]) -> bool:
 
 
 def _values_text(metrics: Mapping[str, float], fmt: str) -> str:
-    return ", ".join(f"{LABEL[k]} {metrics.get(fmt.format(k=k), float('nan')):.4g}"
+    """DO4SMC, DO1SMC, SMC values of ``fmt`` ("fell" where not finite)."""
+
+    def num(v: float) -> str:
+        return f"{v:.4g}" if np.isfinite(v) else "fell"
+
+    return ", ".join(f"{LABEL[k]} {num(metrics.get(fmt.format(k=k), float('nan')))}"
                      for k in ("do4smc", "do1smc", "smc"))  # fmt: skip
 
 
@@ -359,7 +364,10 @@ class _Evidence:
             return capped[0], f"{vals}; {capped[1]}"
         if self.fallen():
             cause, text = self.fall(case)
-            return cause, f"{vals}; {text}"
+            ideal = "ablation.ideal.{k}." + f"case{case}.{q}"
+            verdict = "holds" if _ordered(_order_values(self.m, ideal)) else "fails"
+            return cause, (f"{vals}; {text}; with the ideal robot the ordering {verdict}: "
+                           f"{_values_text(self.m, ideal)}")  # fmt: skip
         sweep = self.sweep(q, f"case{case}")
         if sweep is not None:
             return (

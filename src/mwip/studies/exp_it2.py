@@ -295,20 +295,31 @@ def _why(
     """Cause and evidence of the book's claim failing in experiment ``e`` (an IT2 fall on the
     full twin: where it stops balancing along the ablation ``ab``)."""
     if not it2_holds and not _finite(m[f"it2.exp{e}.osc_amp"]) and ab is not None:
-        runs = [f"{k}.exp{e}" for k in KINDS]
         text = "IT2 fell on the full twin; ablation: " + "; ".join(
-            fall_evidence(ab, r, 1, r.replace(".", " ").upper()) for r in runs
+            fall_evidence(ab, f"{k}.exp{e}", 1, f"{k.upper()} (exp {e})") for k in KINDS
         )
         if first_fall(ab, f"it2.exp{e}", 1) == "ideal":
             return "implementation", text + " (not explained)"
-        return "twin-model", text
+        pre = "ablation.ideal."
+        mi = {k[len(pre) :].replace(".case1.", "."): v for k, v in ab.metrics.items()
+              if k.startswith(pre)}  # fmt: skip
+        t1_i, it2_i = fails(mi, f"t1.exp{e}"), stable_and_accurate(mi, f"it2.exp{e}")
+        if t1_i and it2_i:
+            return "twin-model", text + "; with the ideal robot the claim holds"
+        _, ideal = _why(mi, e, t1_i, it2_i)
+        return "twin-model", f"{text}; with the ideal robot the claim fails too: {ideal}"
     parts = []
     if not t1_holds:
         parts.append(
             f"T1 neither oscillates nor keeps an error: osc_amp {_fmt(m[f't1.exp{e}.osc_amp'])}"
-            f" rad (IT2 {_fmt(m[f'it2.exp{e}.osc_amp'])}, threshold {OSC_TOL} rad), and the "
-            f"two pitch traces differ by at most {_fmt(m.get(f'diff.exp{e}.max_abs_dtheta'))} "
-            "rad: our T1 counterpart shares the PDC gains and rules, and the book does not say "
+            f" rad (IT2 {_fmt(m[f'it2.exp{e}.osc_amp'])}, threshold {OSC_TOL} rad)"
+            + (
+                f", and the two pitch traces differ by at most "
+                f"{_fmt(m[f'diff.exp{e}.max_abs_dtheta'])} rad"
+                if f"diff.exp{e}.max_abs_dtheta" in m
+                else ""
+            )
+            + ": our T1 counterpart shares the PDC gains and rules, and the book does not say "
             "how its T1 FLS was built"
         )
     if not it2_holds:
