@@ -29,6 +29,7 @@ Settings (``scenarios/exp-asta.toml``, :mod:`mwip.studies.settings`): ``theta0``
 from __future__ import annotations
 
 from collections.abc import Mapping
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -118,7 +119,7 @@ def _ablation(cfg: Mapping[str, Any], tw: Twin, duration: float,
                 lambda m: all(m[f"{k}.case{case}.fell"] != 1.0 for k in KINDS))  # fmt: skip
 
     return run_ablation(
-        [(k, lambda k=k: make_controller(k, cfg)) for k in KINDS], tw, cases=(1, 2),
+        [(k, partial(make_controller, k, cfg)) for k in KINDS], tw, cases=(1, 2),
         metrics=fn, plant=lambda case: case_plant(case, base=robot.plant()),
         run_kwargs={"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
                     "record_every": cfg["record_every"], "seed": cfg["seed"]},
@@ -234,8 +235,9 @@ def _why(
         if q != "t_end":
             a, b = (m.get(f"ablation.ideal.{k}.case{case}.{q}", float("nan")) for k in KINDS[::-1])
             verdict = "holds" if np.isfinite(a) and np.isfinite(b) and a < b else "fails"
-            num = [f"{v:.3g}" if np.isfinite(v) else "fell" for v in (a, b)]
-            text += f"; with the ideal robot ASTA < ASMC {verdict}: ASTA {num[0]}, ASMC {num[1]}"
+            shown = [f"{v:.3g}" if np.isfinite(v) else "fell" for v in (a, b)]
+            text += (f"; with the ideal robot ASTA < ASMC {verdict}: ASTA {shown[0]}, "
+                     f"ASMC {shown[1]}")  # fmt: skip
         if any(first_fall(ab, k, case) == "ideal" for k in fallen):
             if case == 2:
                 lam = cfg["lambdas"][1]

@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -55,7 +56,7 @@ from matplotlib.figure import Figure
 
 from mwip.control.smc import SMCDesignWarning, make_smc
 from mwip.control.switching import Switching
-from mwip.hardware.ablation import Ablation, rms_metrics, run_ablation
+from mwip.hardware.ablation import Ablation, MetricFn, rms_metrics, run_ablation
 from mwip.hardware.obstacle import StickObstacle
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
@@ -258,7 +259,9 @@ def _settings(
     return base
 
 
-def _ablation_metrics(window: tuple[float, float], q1d_dot: float, stick_start: float | None):
+def _ablation_metrics(
+    window: tuple[float, float], q1d_dot: float, stick_start: float | None
+) -> MetricFn:
     """The ablation's quantities of one run: :func:`mwip.hardware.ablation.rms_metrics` plus
     ``final_speed`` (mean ``psi'`` over the last :data:`TRACK_WINDOW`) and, with a stick,
     ``settling_time`` (:func:`obstacle_settling_time`)."""
@@ -294,7 +297,7 @@ def _run_ablation(
         return out
 
     return run_ablation(
-        [(k, lambda k=k: make_controller(k, cfg, q1d_dot)) for k in KINDS], tw, cases=cases,
+        [(k, partial(make_controller, k, cfg, q1d_dot)) for k in KINDS], tw, cases=cases,
         metrics=_ablation_metrics(window, q1d_dot, stick), run_kwargs=kw,
         plant=lambda case: case_plant(2 if case in (2, 3) else 1, base=robot.plant()),
         claims=claims,

@@ -29,12 +29,12 @@ _current: dict[str, Any] = {"plant": REAL, "nominal": NOMINAL, "twin": None}
 
 def plant() -> Params:
     """The simulated robot (the "truth")."""
-    return _current["plant"]  # type: ignore[no-any-return]
+    return _current["plant"]
 
 
 def nominal() -> Params:
     """The parameters controllers and observers are designed with."""
-    return _current["nominal"]  # type: ignore[no-any-return]
+    return _current["nominal"]
 
 
 def twin() -> Twin:
@@ -43,7 +43,7 @@ def twin() -> Twin:
     from mwip.hardware.twin import Twin
 
     tw = _current["twin"]
-    return Twin() if tw is None else tw  # type: ignore[no-any-return]
+    return Twin() if tw is None else tw
 
 
 @contextmanager
