@@ -216,7 +216,7 @@ def _twin_toml(twin: Any) -> str:
 # processes finish together.
 _COST = {
     "it2-balance": 15, "hodosmc-vs-smc": 10, "tsmc-velocity": 8, "exp-hodosmc-balance": 7,
-    "exp-it2": 20, "exp-hodosmc-obstacle": 6, "exp-hodosmc-speed": 6, "asta-balance": 5,
+    "exp-it2": 8, "exp-hodosmc-obstacle": 6, "exp-hodosmc-speed": 6, "asta-balance": 5,
     "asta-velocity": 5, "exp-asta": 5, "tsmc-equilibrium": 4, "tsmc-circle": 4,
 }  # fmt: skip
 
