@@ -310,7 +310,7 @@ def test_study_file_and_params_run_a_study_on_another_robot(tmp_path, capsys):
     assert main(["run", "--scenario", str(study), "--out", str(out)]) == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
         f"mwip: error: study file {str(study)!r}: [robot] parms: unknown key; "
-        "allowed: params, nominal, damping"
+        "allowed: params, nominal, damping, twin"
     )
 
 

@@ -53,6 +53,7 @@ def _run_one(
     plant: Params,
     nominal: Params,
     overrides: dict[str, Any] | None = None,
+    twin: Any = None,
 ) -> StudyOutcome:
     """Run one study (in a worker process or here), catching its failure."""
     from mwip.studies import run_study
@@ -62,7 +63,7 @@ def _run_one(
     try:
         with (
             warnings.catch_warnings(),
-            robot.using(plant, nominal),
+            robot.using(plant, nominal, twin),
             settings.using(name, overrides),
         ):
             warnings.simplefilter("ignore")
@@ -152,15 +153,18 @@ def run_studies(
     on_done: Callable[[StudyOutcome], None] | None = None,
     on_run: Callable[[str], None] | None = None,
     damping: str = "units",
+    twin: Any = None,
 ) -> dict[str, Any]:
     """Run ``names`` into ``out``; returns the run record (also written to ``out/run.json``).
 
     ``jobs`` processes (1: in this process). ``plant``/``nominal`` replace the book's robot
     and design model (:mod:`mwip.studies.robot`); ``overrides[name]`` replaces some of study
     ``name``'s settings (:mod:`mwip.studies.settings`). ``damping`` names the reading of
-    the book's tables the robot was built with (recorded in ``run.json``). ``on_done`` is
-    called as each study ends, ``on_run(study)`` as each of its simulation runs ends (for a
-    progress display).
+    the book's tables the robot was built with (recorded in ``run.json``). ``twin``: the
+    Chapter 6 studies' twin configuration (:func:`mwip.studies.robot.twin`; default the
+    current one; recorded in ``run.json`` as its twin file). ``on_done`` is called as each
+    study ends, ``on_run(study)`` as each of its simulation runs ends (for a progress
+    display).
     """
     from mwip.studies import STUDIES
 
@@ -170,6 +174,7 @@ def run_studies(
     overrides = {n: settings.validate(n, o) for n, o in (overrides or {}).items()}
     plant = plant if plant is not None else robot.plant()
     nominal = nominal if nominal is not None else robot.nominal()
+    twin = twin if twin is not None else robot.twin()
     started = datetime.now(UTC).isoformat(timespec="seconds")
     t0 = time.perf_counter()
     outcomes: dict[str, StudyOutcome] = {}
@@ -185,7 +190,9 @@ def run_studies(
             for name in names:
                 hook = _counting_hook(name, on_run)
                 try:
-                    done(_run_one(name, stage.path, quick, plant, nominal, overrides.get(name)))
+                    done(
+                        _run_one(name, stage.path, quick, plant, nominal, overrides.get(name), twin)
+                    )
                 finally:
                     if hook is not None:
                         RUN_END_HOOKS.remove(hook)
@@ -196,7 +203,9 @@ def run_studies(
             )
             try:
                 pending = {
-                    pool.submit(_run_one, n, stage.path, quick, plant, nominal, overrides.get(n))
+                    pool.submit(
+                        _run_one, n, stage.path, quick, plant, nominal, overrides.get(n), twin
+                    )
                     for n in _longest_first(names)
                 }
                 while pending:
@@ -221,7 +230,7 @@ def run_studies(
                 "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
                 "quick": quick, "studies": {n: studies[n] for n in STUDIES if n in studies},
                 "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
-                "damping": damping,
+                "damping": damping, "twin": _twin_toml(twin),
             })  # fmt: skip
             write_json_atomic(stage.path / RUN_RECORD, record)
             write_text_atomic(stage.path / MARKER, MARKER_TEXT)
@@ -265,11 +274,17 @@ def _stage_report(stage: Path, out: Path, ok: list[str]) -> None:
             link.unlink(missing_ok=True)
 
 
+def _twin_toml(twin: Any) -> str:
+    from mwip.hardware.twin_config import twin_to_toml
+
+    return twin_to_toml(twin)
+
+
 # Rough cost of each study (s on one core, full runs): the longest start first so that the
 # processes finish together.
 _COST = {
     "it2-balance": 15, "hodosmc-vs-smc": 10, "tsmc-velocity": 8, "exp-hodosmc-balance": 7,
-    "exp-it2": 7, "exp-hodosmc-obstacle": 6, "exp-hodosmc-speed": 6, "asta-balance": 5,
+    "exp-it2": 8, "exp-hodosmc-obstacle": 6, "exp-hodosmc-speed": 6, "asta-balance": 5,
     "asta-velocity": 5, "exp-asta": 5, "tsmc-equilibrium": 4, "tsmc-circle": 4,
 }  # fmt: skip
 
