@@ -50,7 +50,7 @@ def run(name: str, plant, q0, duration: float) -> tuple[float, float]:  # noqa: 
     return time.perf_counter() - t0, float(np.mean(res.status == "ok"))
 
 
-@numba.njit(cache=True)
+@numba.njit  # not cached: the IR of cached code cannot be inspected
 def _one_rk4_step(y, c, tau):  # noqa: ANN001, ANN202
     step_one(y, 0.1, -0.1, tau, 0, 0, c, 0.005, RK4)
 

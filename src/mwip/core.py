@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "Measurement", "Controller", "Observer", "Sensor", "Actuator", "FloatArray", "CompiledLaw",
-    "LAW_LINEAR", "LAW_SMC",
+    "LAW_LINEAR", "LAW_SMC", "LAW_TSMC",
 ]  # fmt: skip
 
 #: A float64 NumPy array (any shape).
@@ -131,8 +131,9 @@ class Actuator(Protocol):
     def __call__(self, t: float, u_cmd: FloatArray, state: FloatArray) -> FloatArray: ...
 
 
-#: Law codes of :class:`CompiledLaw`: linear state feedback (LQR), sliding mode (SMC family).
-LAW_LINEAR, LAW_SMC = 0, 1
+#: Law codes of :class:`CompiledLaw`: linear state feedback (LQR), sliding mode (SMC family),
+#: terminal sliding mode (TSMC).
+LAW_LINEAR, LAW_SMC, LAW_TSMC = 0, 1, 2
 
 _EMPTY = np.zeros(0)
 
@@ -148,6 +149,9 @@ class CompiledLaw:
     ``LAW_SMC``: ``coef`` (10,) nominal coefficients, ``lam`` (4,), ``scalars`` =
     ``[K1, K2, sat, phi, q1d', q3d]``; observer (optional, ``Phi`` (3n, 3n) empty for none):
     ``Phi``, ``Gamma`` (3n, 3), ``obs`` = ``[Ts, hold code]``.
+    ``LAW_TSMC``: ``coef``, ``scalars`` = ``[Tf, F~ ratio, sat, phi, t0, 0]``, ``C``, ``Gam``
+    (2,), ``D``, ``IDinv`` (2, 2), ``refs`` (3,) and the fitted cubics ``cubic`` (N, 2, 4) of
+    :mod:`mwip.control._tsmc_kernel`.
     ``log_names``: the controller's logs and their widths, in the order of the loop's log
     columns.
     """
@@ -161,4 +165,10 @@ class CompiledLaw:
     Phi: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
     Gamma: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
     obs: FloatArray = field(default_factory=lambda: np.zeros(2))
+    C: FloatArray = field(default_factory=lambda: np.zeros(2))
+    Gam: FloatArray = field(default_factory=lambda: np.zeros(2))
+    D: FloatArray = field(default_factory=lambda: np.zeros((2, 2)))
+    IDinv: FloatArray = field(default_factory=lambda: np.zeros((2, 2)))
+    refs: FloatArray = field(default_factory=lambda: np.zeros(3))
+    cubic: FloatArray = field(default_factory=lambda: np.zeros((1, 2, 4)))
     log_names: tuple[tuple[str, int], ...] = ()

@@ -11,7 +11,6 @@ model (the closed forms of (2.36) on one robot's nominal coefficients): the held
 from __future__ import annotations
 
 import numba
-import numpy as np
 
 from mwip.models._compiled import f_g_scalar
 
@@ -29,16 +28,16 @@ def _fgu(c, q, qd, uA, uB):  # noqa: ANN001, ANN202 - compiled kernel
 
 
 @numba.njit(cache=True)
-def hodo_update(c, Phi, Gam, Ts, hold, z, q_prev, qd_prev, q, qd, u):  # noqa: ANN001, ANN201
+def hodo_update(c, Phi, Gam, Ts, hold, z, q_prev, qd_prev, q, qd, u, work):  # noqa: ANN001, ANN201
     """Advance ``z`` (N, 3n) over one sample in place and store ``q, qd`` as the previous
     measurement (``q_prev, qd_prev`` (N, 3), updated in place).
 
     ``c`` (10,) nominal coefficients; ``Phi`` (3n, 3n), ``Gam`` (3n, 3); ``hold`` one of
     :data:`HOLD_CODES`; ``q, qd`` (N, 3) the new measurement; ``u`` (N, 2) ``[u_r, u_l]`` held
-    over the sample just ended.
+    over the sample just ended; ``work`` (3n,) scratch space.
     """
     m = z.shape[1]
-    znew = np.empty(m)
+    znew = work
     for i in range(z.shape[0]):
         uA = u[i, 0] + u[i, 1]
         uB = u[i, 0] - u[i, 1]

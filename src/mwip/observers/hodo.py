@@ -311,7 +311,7 @@ class HighOrderDO:
             Phi, Gam = np.ascontiguousarray(self.Phi), np.ascontiguousarray(self.Gamma)
             hodo_update(self._coef, Phi, Gam, self.Ts, HOLD_CODES[self.model_hold], z, q_prev,
                         qd_prev, np.ascontiguousarray(qq), np.ascontiguousarray(qd),
-                        np.ascontiguousarray(uu))  # fmt: skip
+                        np.ascontiguousarray(uu), np.empty(z.shape[1]))  # fmt: skip
             self._z, self._q_prev, self._qdot_prev = z, q_prev, qd_prev
             return self._z[:, :3].copy()
         uAB = uu @ _TO_AB  # [u_A, u_B] = [u_r + u_l, u_r - u_l]

@@ -440,16 +440,37 @@ def _run_compiled(
     n = y.shape[0]
     width = sum(w for _, w in law.log_names)
     log_arr = np.full((n, n_rec, width), np.nan)
-    fn = loop.run_parallel if n >= loop.PARALLEL_MIN else loop.run
-    f64 = np.float64
-    fn(y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, law.kind,
-       *(np.ascontiguousarray(a, dtype=f64) for a in (law.gain, law.offset, law.coef, law.lam,
-                                                       law.scalars, law.Phi, law.Gamma, law.obs)),
-       states, us, log_arr, status, t_end)  # fmt: skip
+    if n >= loop.PARALLEL_MIN:
+        import numba
+
+        # dynamic scheduling in chunks of whole robots: a thread whose core is busy with
+        # another process takes fewer chunks instead of holding the others at the end
+        fn = loop.run_parallel
+        old = numba.set_parallel_chunksize(max(1, n // (16 * numba.get_num_threads())))
+    else:
+        fn, old = loop.run, None
+    try:
+        _call(fn, law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, states, us,
+              log_arr, status, t_end)  # fmt: skip
+    finally:
+        if old is not None:
+            numba.set_parallel_chunksize(old)
     col = 0
     for name, w in law.log_names:
         logs[name] = log_arr[:, :, col : col + w]
         col += w
+
+
+def _call(fn, law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, states, us,  # noqa: ANN001, ANN202, PLR0913
+          log_arr, status, t_end):  # fmt: skip
+    """``fn`` (:func:`mwip.sim.loop.run` or ``run_parallel``) with the law's arrays."""
+    f64 = np.float64
+    fn(y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, law.kind,
+       *(np.ascontiguousarray(a, dtype=f64) for a in (law.gain, law.offset, law.coef, law.lam,
+                                                       law.scalars, law.Phi, law.Gamma, law.obs,
+                                                       law.C, law.Gam, law.D, law.IDinv,
+                                                       law.refs, law.cubic)),
+       states, us, log_arr, status, t_end)  # fmt: skip
 
 
 def _finish(

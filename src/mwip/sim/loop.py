@@ -14,7 +14,7 @@ model), :func:`run` does the same sequence per robot in compiled code::
 
 with the controller's state (observer, previous torque) in small arrays. The laws keep one
 implementation: the loop calls :func:`mwip.control._lqr_kernel.lqr_law`,
-:func:`mwip.control._smc_kernel.smc_step` and
+:func:`mwip.control._smc_kernel.smc_step`, :func:`mwip.control._tsmc_kernel.tsmc_step` and
 :func:`mwip.observers._hodo_kernel.hodo_update`, the kernels behind the Python classes, with
 the same arguments in the same order, so both paths agree to round-off (tests/test_loop.py).
 
@@ -31,7 +31,8 @@ import numpy as np
 
 from mwip.control._lqr_kernel import lqr_law
 from mwip.control._smc_kernel import smc_step
-from mwip.core import LAW_LINEAR
+from mwip.control._tsmc_kernel import tsmc_step
+from mwip.core import LAW_LINEAR, LAW_TSMC
 from mwip.observers._hodo_kernel import hodo_update
 from mwip.sim.kernel import DIVERGED, FELL, OK, step_one
 
@@ -44,7 +45,7 @@ _FELL_ANGLE = 0.5 * math.pi
 
 @numba.njit(cache=True, inline="always")
 def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001, ANN202, PLR0913
-             kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs,
+             kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs, cubic,
              states, us, logs, status, t_end):  # fmt: skip
     yi = y[i]
     c = coef[i if coef.shape[0] > 1 else 0]
@@ -57,12 +58,18 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
     u1 = np.zeros((1, 2))
     S1 = np.zeros((1, 2))
     z = np.zeros((1, m))
+    work = np.empty(m)
     q_prev = np.empty((1, 3))
     qd_prev = np.empty((1, 3))
     for j in range(3):
         q_prev[0, j] = yi[j]
         qd_prev[0, j] = yi[3 + j]
     sat = sc[2] != 0.0
+    s2 = np.zeros((1, 2))
+    k2 = np.zeros((1, 2))
+    a2 = np.zeros((1, 2))
+    ci = i if cubic.shape[0] > 1 else 0
+    cub = cubic[ci : ci + 1]
     row = 0
     n_rec = rec_idx.shape[0]
     stopped = False
@@ -72,13 +79,19 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
             ym[0, j] = yi[j]
         if kind == LAW_LINEAR:
             lqr_law(ym, gain, offset, u1)
+        elif kind == LAW_TSMC:
+            for j in range(3):
+                q1[0, j] = ym[0, j]
+                qd1[0, j] = ym[0, 3 + j]
+            tsmc_step(c_nom, q1, qd1, t, t - sc[4], cub, sc[0], tC, sc[1], tD, tIDinv, tGam, sat,
+                      sc[3], refs, u1, s2, k2, a2)  # fmt: skip
         else:
             for j in range(3):
                 q1[0, j] = ym[0, j]
                 qd1[0, j] = ym[0, 3 + j]
             if m > 0 and k > 0:  # observer first, with the torque held over the last sample
                 hodo_update(c_nom, Phi, Gam, obs[0], np.int64(obs[1]), z, q_prev, qd_prev,
-                            q1, qd1, u1)  # fmt: skip
+                            q1, qd1, u1, work)  # fmt: skip
                 for j in range(3):
                     th[0, j] = z[0, j]
             smc_step(c_nom, q1, qd1, th, t, lam, sc[0], sc[1], sat, sc[3], sc[4], sc[5], u1, S1)
@@ -87,7 +100,12 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
                 states[i, row, j] = yi[j]
             us[i, row, 0] = u1[0, 0]
             us[i, row, 1] = u1[0, 1]
-            if logs.shape[2] == 5:
+            if kind == LAW_TSMC:
+                for j in range(2):
+                    logs[i, row, j] = s2[0, j]
+                    logs[i, row, 2 + j] = k2[0, j]
+                    logs[i, row, 4 + j] = a2[0, j]
+            elif logs.shape[2] == 5:
                 logs[i, row, 0] = S1[0, 0]
                 logs[i, row, 1] = S1[0, 1]
                 for j in range(3):
@@ -112,7 +130,7 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
 
 @numba.njit(cache=True)
 def run(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001, ANN201, PLR0913
-        kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs,
+        kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs, cubic,
         states, us, logs, status, t_end):  # fmt: skip
     """Run every robot's closed loop to the end, one after the other; returns the robots
     still running.
@@ -130,21 +148,21 @@ def run(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001,
     running = 0
     for i in range(y.shape[0]):
         _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, kind, gain,
-                 offset, c_nom, lam, sc, Phi, Gam, obs, states, us, logs, status,
-                 t_end)  # fmt: skip
+                 offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs, cubic,
+                 states, us, logs, status, t_end)  # fmt: skip
         running += status[i] == OK
     return running
 
 
 @numba.njit(cache=True, parallel=True)
 def run_parallel(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001, ANN201, PLR0913
-                 kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, states, us, logs, status,
-                 t_end):  # fmt: skip
+                 kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs,
+                 cubic, states, us, logs, status, t_end):  # fmt: skip
     """:func:`run` with the robots spread over threads: one barrier, at the end of the run."""
     for i in numba.prange(y.shape[0]):
         _run_one(np.int64(i), y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,
-                 kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, states, us, logs, status,
-                 t_end)  # fmt: skip
+                 kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs,
+                 cubic, states, us, logs, status, t_end)  # fmt: skip
     running = 0
     for i in range(y.shape[0]):
         running += status[i] == OK
