@@ -17,7 +17,7 @@ from mwip.observers import HighOrderDO
 from mwip.params import NOMINAL, REAL, REAL_LITERAL, stack_params
 from mwip.sim import Sinusoid, simulate
 
-COMPILED = ("lqr", "dlqr", "smc", "do1smc", "hodosmc", "tsmc")
+COMPILED = ("lqr", "dlqr", "smc", "do1smc", "hodosmc", "tsmc", "asta", "asmc")
 
 
 def _pair(name, plant, Ts="default", **kw):
@@ -100,8 +100,8 @@ def test_falls_back_to_python_loop_and_compiled_true_refuses():
     assert res.settings["compiled"] is False
     with pytest.raises(ValueError, match="compiled=True"):
         simulate(ctrl, REAL, duration=0.1, sensor=Noisy(), compiled=True)
-    asta = registry.build("asta", NOMINAL)  # no compiled law (yet): the Python loop
-    assert simulate(asta, REAL, duration=0.1).settings["compiled"] is False
+    it2 = registry.build("it2", NOMINAL)  # no compiled law (yet): the Python loop
+    assert simulate(it2, REAL, duration=0.1).settings["compiled"] is False
 
 
 def test_observer_update_equals_its_numpy_form():

@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "Measurement", "Controller", "Observer", "Sensor", "Actuator", "FloatArray", "CompiledLaw",
-    "LAW_LINEAR", "LAW_SMC", "LAW_TSMC",
+    "LAW_LINEAR", "LAW_SMC", "LAW_TSMC", "LAW_ASTA",
 ]  # fmt: skip
 
 #: A float64 NumPy array (any shape).
@@ -132,8 +132,8 @@ class Actuator(Protocol):
 
 
 #: Law codes of :class:`CompiledLaw`: linear state feedback (LQR), sliding mode (SMC family),
-#: terminal sliding mode (TSMC).
-LAW_LINEAR, LAW_SMC, LAW_TSMC = 0, 1, 2
+#: terminal sliding mode (TSMC), adaptive super-twisting / adaptive SMC (ASTA, ASMC).
+LAW_LINEAR, LAW_SMC, LAW_TSMC, LAW_ASTA = 0, 1, 2, 3
 
 _EMPTY = np.zeros(0)
 
@@ -152,6 +152,9 @@ class CompiledLaw:
     ``LAW_TSMC``: ``coef``, ``scalars`` = ``[Tf, F~ ratio, sat, phi, t0, 0]``, ``C``, ``Gam``
     (2,), ``D``, ``IDinv`` (2, 2), ``refs`` (3,) and the fitted cubics ``cubic`` (N, 2, 4) of
     :mod:`mwip.control._tsmc_kernel`.
+    ``LAW_ASTA``: ``coef``, ``lam`` (3,), ``refs`` (4,) of ``asta_terms``, ``C`` = ``K``,
+    ``Gam`` = the adaptation rates, ``offset`` = ``Gamma0``, ``scalars`` = ``[eps, Ts, asmc,
+    0, 0, 0]`` of :mod:`mwip.control._asta_kernel`.
     ``log_names``: the controller's logs and their widths, in the order of the loop's log
     columns.
     """

@@ -29,10 +29,11 @@ import math
 import numba
 import numpy as np
 
+from mwip.control._asta_kernel import asta_sample, asta_terms
 from mwip.control._lqr_kernel import lqr_law
 from mwip.control._smc_kernel import smc_step
 from mwip.control._tsmc_kernel import tsmc_step
-from mwip.core import LAW_LINEAR, LAW_TSMC
+from mwip.core import LAW_ASTA, LAW_LINEAR, LAW_TSMC
 from mwip.observers._hodo_kernel import hodo_update
 from mwip.sim.kernel import DIVERGED, FELL, OK, step_one
 
@@ -70,6 +71,12 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
     a2 = np.zeros((1, 2))
     ci = i if cubic.shape[0] > 1 else 0
     cub = cubic[ci : ci + 1]
+    g_st = np.zeros((1, 2))  # ASTA/ASMC: adaptive gains from Gamma0 (offset), w from zero
+    g_st[0, 0] = offset[0]
+    g_st[0, 1] = offset[1]
+    w_st = np.zeros((1, 2))
+    g_log = np.zeros((1, 2))
+    w_log = np.zeros((1, 2))
     row = 0
     n_rec = rec_idx.shape[0]
     stopped = False
@@ -79,6 +86,15 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
             ym[0, j] = yi[j]
         if kind == LAW_LINEAR:
             lqr_law(ym, gain, offset, u1)
+        elif kind == LAW_ASTA:
+            for j in range(3):
+                q1[0, j] = ym[0, j]
+                qd1[0, j] = ym[0, 3 + j]
+            asta_terms(c_nom, q1, qd1, lam, refs, s2, k2, a2)  # sigma, a, b
+            for j in range(2):  # logged before the update, as the Python class does
+                g_log[0, j] = g_st[0, j]
+                w_log[0, j] = w_st[0, j]
+            asta_sample(k2, a2, s2, tC, tGam, sc[0], sc[1], sc[2] != 0.0, g_st, w_st, u1)
         elif kind == LAW_TSMC:
             for j in range(3):
                 q1[0, j] = ym[0, j]
@@ -100,7 +116,12 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
                 states[i, row, j] = yi[j]
             us[i, row, 0] = u1[0, 0]
             us[i, row, 1] = u1[0, 1]
-            if kind == LAW_TSMC:
+            if kind == LAW_ASTA:
+                for j in range(2):
+                    logs[i, row, j] = s2[0, j]
+                    logs[i, row, 2 + j] = g_log[0, j]
+                    logs[i, row, 4 + j] = w_log[0, j]
+            elif kind == LAW_TSMC:
                 for j in range(2):
                     logs[i, row, j] = s2[0, j]
                     logs[i, row, 2 + j] = k2[0, j]
