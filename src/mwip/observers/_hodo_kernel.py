@@ -52,11 +52,14 @@ def hodo_update(c, Phi, Gam, Ts, hold, z, q_prev, qd_prev, q, qd, u, work):  # n
         d0 = (qd[i, 0] - qd_prev[i, 0]) / Ts - f0
         d1 = (qd[i, 1] - qd_prev[i, 1]) / Ts - f1
         d2 = (qd[i, 2] - qd_prev[i, 2]) / Ts - f2
+        # z <- Gamma d + Phi z, summed in the order b = 0 .. m-1 for every row; the loop over
+        # rows innermost keeps the m sums independent (no chain of m dependent additions)
         for a in range(m):
-            acc = Gam[a, 0] * d0 + Gam[a, 1] * d1 + Gam[a, 2] * d2
-            for b in range(m):
-                acc += Phi[a, b] * z[i, b]
-            znew[a] = acc
+            znew[a] = Gam[a, 0] * d0 + Gam[a, 1] * d1 + Gam[a, 2] * d2
+        for b in range(m):
+            zb = z[i, b]
+            for a in range(m):
+                znew[a] += Phi[a, b] * zb
         for a in range(m):
             z[i, a] = znew[a]
         for j in range(3):
