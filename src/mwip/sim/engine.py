@@ -463,10 +463,11 @@ def _run_compiled(
 
 def _call(fn, law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, states, us,  # noqa: ANN001, ANN202, PLR0913
           log_arr, status, t_end):  # fmt: skip
-    """``fn`` (:func:`mwip.sim.loop.run` or ``run_parallel``) with the law's arrays."""
+    """``fn`` (:func:`mwip.sim.loop.run` or ``run_parallel``) with the law's arrays (fresh
+    writable C copies: one compiled signature whatever the controller keeps read-only)."""
     f64 = np.float64
     fn(y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, law.kind,
-       *(np.ascontiguousarray(a, dtype=f64) for a in (law.gain, law.offset, law.coef, law.lam,
+       *(np.array(a, dtype=f64, order="C") for a in (law.gain, law.offset, law.coef, law.lam,
                                                        law.scalars, law.Phi, law.Gamma, law.obs,
                                                        law.C, law.Gam, law.D, law.IDinv,
                                                        law.refs, law.cubic)),
