@@ -317,9 +317,8 @@ def simulate(
     status = np.zeros(n, dtype=np.int64)
     t_end = np.full(n, duration)
     # the disturbance is sampled at the step boundaries (ROS2-W) or half steps (RK4)
-    sub_times = (
-        np.arange(n_sub + 1) * dt if method == ROS2W else np.arange(2 * n_sub + 1) * (0.5 * dt)
-    )
+    n_pts, spacing = (n_sub + 1, dt) if method == ROS2W else (2 * n_sub + 1, 0.5 * dt)
+    sub_times: NDArray[np.float64] = np.arange(n_pts, dtype=np.float64) * spacing
 
     meas = sensor(0.0, y)
     controller.reset(meas)
