@@ -26,7 +26,8 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.core import Measurement
+from mwip.control._lqr_kernel import lqr_law
+from mwip.core import LAW_LINEAR, CompiledLaw, Measurement
 from mwip.linearize import linearize
 from mwip.params import NOMINAL, Params
 from mwip.validate import finite_array, real
@@ -150,8 +151,8 @@ class LQR:
         sel[1, 0] = sel[2, 1] = sel[4, 2] = sel[5, 4] = 1.0
         sel[3, 3] = self.r_nominal
         self._sel = sel
-        self._gain = -sel @ self.K.T  # (6, 2)
-        self._offset = self.reference @ self.K.T  # (2,)
+        self._gain = np.ascontiguousarray(-sel @ self.K.T)  # (6, 2)
+        self._offset = np.ascontiguousarray(self.reference @ self.K.T)  # (2,)
 
     def reset(self, meas: Measurement) -> None:
         """Nothing to reset (static law)."""
@@ -161,7 +162,12 @@ class LQR:
         return meas.y[:, :6] @ self._sel
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
-        return meas.y[:, :6] @ self._gain + self._offset
+        y = np.ascontiguousarray(meas.y, dtype=float)
+        return lqr_law(y, self._gain, self._offset, np.empty((y.shape[0], 2)))
+
+    def compiled_law(self) -> CompiledLaw:
+        """The law for the compiled closed loop (:mod:`mwip.sim.loop`): the same kernel."""
+        return CompiledLaw(LAW_LINEAR, gain=self._gain, offset=self._offset)
 
     def log(self) -> Mapping[str, NDArray[np.float64]]:
         return {}
