@@ -134,3 +134,35 @@ def test_observer_update_equals_its_numpy_form():
             z = z @ obs.Phi.T + d @ obs.Gamma.T
             qp, qdp = q, qd
             np.testing.assert_allclose(obs.update(q, qd, u), z[:, :3], rtol=1e-11, atol=1e-9)
+
+
+def test_a_subclass_that_changes_the_python_calls_runs_the_python_loop():
+    """A subclass overriding log/__call__/reset below the class that defines compiled_law
+    runs what it overrides (the Python loop); one that only changes its data (``__init__``)
+    keeps the compiled loop, which reads that data."""
+    import numpy as np
+
+    from mwip.control.asta import ASMC
+    from mwip.control.lqr import LQR, design_lqr
+    from mwip.params import NOMINAL, REAL
+    from mwip.sim import simulate
+
+    class Logged(LQR):
+        def log(self):
+            return {"extra": np.ones((1, 1))}
+
+    class NoSTA(ASMC):
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k)
+            self.K = np.zeros(2)
+
+    d = design_lqr(NOMINAL, Ts=0.005)
+    assert simulate(LQR(d), REAL, q0=(0, 0.1, 0), duration=0.1).settings["compiled"]
+    res = simulate(Logged(d), REAL, q0=(0, 0.1, 0), duration=0.1)
+    assert not res.settings["compiled"] and "extra" in res.logs
+    kw = dict(q0=(0, 0.1, 0), duration=0.5, Ts=0.0005, dt=0.0005)
+    a = simulate(NoSTA(NOMINAL, Ts=0.0005), REAL, **kw)
+    b = simulate(NoSTA(NOMINAL, Ts=0.0005), REAL, compiled=False, **kw)
+    assert a.settings["compiled"] and np.array_equal(a.states, b.states)
+    c = simulate(ASMC(NOMINAL, Ts=0.0005), REAL, **kw)
+    assert not np.array_equal(a.states, c.states)  # K = 0 is another law

@@ -163,7 +163,7 @@ def test_scenario_names_controller_and_settings(tmp_path):
     assert ctrl.gains.K1 == 20.0 and ctrl.switching.kind == "sign"  # type: ignore[attr-defined]
     assert sc.run().status[0] == "ok"
     path.write_text('[scenario]\ncontroller = "smc"\n[controller]\nK = [20.0]\n')
-    with pytest.raises(ValueError, match=r"^\[controller\] controller 'smc': setting 'K'"):
+    with pytest.raises(ValueError, match=r"s\.toml': \[controller\] controller 'smc': setting 'K'"):
         load_scenario(path)
 
 

@@ -408,10 +408,16 @@ def simulate(
 def _compiled_law(
     controller: Controller, sensor: Sensor, actuator: Actuator | None, compiled: bool | None
 ) -> CompiledLaw | None:
-    """The controller's :class:`CompiledLaw` when the whole loop can run compiled."""
+    """The controller's :class:`CompiledLaw` when the whole loop can run compiled.
+
+    A subclass that overrides what the Python loop calls (``__call__``, ``reset``, ``log``)
+    below the class that defines ``compiled_law`` runs the Python loop: its compiled law
+    would not be the law it runs (e.g. a user's LQR with extra logs)."""
     if compiled is False:
         return None
     get = getattr(controller, "compiled_law", None)
+    if get is not None and _overrides_below_compiled_law(type(controller)):
+        get = None
     law = get() if get is not None else None
     ok = law is not None and type(sensor) is IdealSensor and actuator is None
     if compiled and not ok:
@@ -420,6 +426,12 @@ def _compiled_law(
             "actuator model"
         )
     return law if ok else None
+
+
+def _overrides_below_compiled_law(cls: type) -> bool:
+    owner = next(c for c in cls.__mro__ if "compiled_law" in vars(c))
+    below = cls.__mro__[: cls.__mro__.index(owner)]
+    return any(name in vars(c) for c in below for name in ("__call__", "reset", "log"))
 
 
 #: Largest tabulated disturbance (numbers) for the compiled loop; beyond it the Python loop

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mwip.control.asta import ASMC, ASTA, asmc_law, asta_surface
+from mwip.control.asta import ASMC, ASTA, asta_surface
 from mwip.metrics import overshoot, rms, settling_time, total_variation_rate
 from mwip.models.reduced import accelerations
 from mwip.params import Params
@@ -61,8 +61,11 @@ class ConventionalASMC(ASMC):
     ``u_i = [-a_i - Gamma_i(t) sgn(sigma_i)] / b_i`` with the adaptive law (4.5), i.e. the
     book-defined ASMC without the super-twisting proportional term ``K_i |sigma_i|^(1/2)``."""
 
-    def _control(self, a: np.ndarray, b: np.ndarray, s: np.ndarray) -> np.ndarray:
-        return asmc_law(a, b, s, np.zeros_like(self.K), self.Gamma)
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # the same law and adaptive gain as ASMC, with no proportional STA term: K = 0 (the
+        # one implementation, mwip.control._asta_kernel.asta_sample, in both loops)
+        self.K = np.zeros(2)
 
 
 def sigma_dot(
