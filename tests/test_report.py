@@ -16,7 +16,9 @@ import pytest
 
 from mwip.cli import main
 from mwip.report import Staging, load_results, render_html, summary_lines
-from mwip.studies import STUDIES
+from mwip.studies import study_names
+
+STUDIES = study_names()
 
 ARTIFACTS = Path(
     os.environ.get("MWIP_TEST_ARTIFACTS", Path(__file__).parent.parent / "test-artifacts")
@@ -102,18 +104,20 @@ def test_staging_discards_on_interrupt_and_keeps_unrelated_files(tmp_path):
 
 
 def test_interrupted_reproduce_leaves_earlier_results(tmp_path, monkeypatch, capsys):
-    import mwip.studies as studies
+    from mwip.studies import registry
+    from mwip.studies.study import Study
 
     out = tmp_path / "out"
     assert main(["run", "lqr-gain", "--quick", "--out", str(out)]) == 0
     before = (out / "lqr-gain" / "metrics.json").read_bytes()
 
-    def interrupted(folder, quick=False):
-        (folder / "lqr-gain").mkdir(parents=True)
-        (folder / "lqr-gain" / "metrics.json").write_text("half")
+    def interrupted(ctx):
+        ctx.out.mkdir(parents=True)
+        (ctx.out / "metrics.json").write_text("half")
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(studies, "STUDIES", {"lqr-gain": (interrupted, "x")})
+    declared = {"lqr-gain": Study("lqr-gain", "x", interrupted, place=(1,))}
+    monkeypatch.setattr(registry, "_discover", lambda: declared)
     assert main(["reproduce", "--quick", "--out", str(out), "-j", "1"]) == 130
     assert "interrupted" in capsys.readouterr().err
     assert (out / "lqr-gain" / "metrics.json").read_bytes() == before

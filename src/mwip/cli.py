@@ -610,10 +610,10 @@ cli.add_command(_twin_group)
 @cli.command("list")
 def list_cmd() -> None:
     """List the studies with their book sources."""
-    from mwip.studies import STUDIES
+    from mwip.studies import all_studies
 
-    for name, (_, source) in STUDIES.items():
-        click.echo(f"{name:24s} {source}")
+    for study in all_studies():
+        click.echo(f"{study.name:24s} {study.source}")
 
 
 _OUT = click.option(
@@ -754,12 +754,13 @@ def run_cmd(
     verbose: bool,
 ) -> None:
     """Run one or more studies (see `mwip list`) and update OUT/index.html."""
-    from mwip.studies import STUDIES
+    from mwip.studies import study_names
 
+    known = study_names()
     for study in studies:
-        if study not in STUDIES:
+        if study not in known:
             raise click.BadParameter(
-                f"unknown study {study!r}; choose from: {', '.join(STUDIES)}", param_hint="STUDY"
+                f"unknown study {study!r}; choose from: {', '.join(known)}", param_hint="STUDY"
             )
     if not studies and not scenarios:
         raise click.UsageError("give at least one STUDY or --scenario FILE")
@@ -798,14 +799,14 @@ def reproduce(
     OUT as it was). A study that fails is reported with its error and does not stop the
     others; the exit code is then 1.
     """
-    from mwip.studies import STUDIES
+    from mwip.studies import all_studies, study_names
 
     if list_only:
-        for name, (_, source) in STUDIES.items():
-            click.echo(f"{name:24s} {source}")
+        for s in all_studies():
+            click.echo(f"{s.name:24s} {s.source}")
         return
     plant, design = _robot(params_file, nominal_file, damping)
-    _execute(list(STUDIES), out, quick, _jobs(jobs), plant, design, verbose, damping=damping)
+    _execute(study_names(), out, quick, _jobs(jobs), plant, design, verbose, damping=damping)
 
 
 @cli.command()
@@ -822,12 +823,13 @@ def scenario(study: str, out: Path | None) -> None:
     Copy it, edit it, run it with `mwip run --scenario FILE.toml`.
     """
     from mwip.io import write_text_atomic
-    from mwip.studies import STUDIES
+    from mwip.studies import study_names
     from mwip.studies.settings import packaged_text
 
-    if study not in STUDIES:
+    known = study_names()
+    if study not in known:
         raise click.BadParameter(
-            f"unknown study {study!r}; choose from: {', '.join(STUDIES)}", param_hint="STUDY"
+            f"unknown study {study!r}; choose from: {', '.join(known)}", param_hint="STUDY"
         )
     text = packaged_text(study)
     if out is None:
@@ -849,9 +851,9 @@ def scenario(study: str, out: Path | None) -> None:
 def report(out: Path, verbose: bool) -> None:
     """Rebuild OUT/index.html from the results in OUT and print the summary."""
     from mwip.report import load_results, summary_lines, write_report
-    from mwip.studies import STUDIES
+    from mwip.studies import study_names
 
-    names = [n for n in STUDIES if (out / n / "metrics.json").exists()]
+    names = [n for n in study_names() if (out / n / "metrics.json").exists()]
     if not names:
         raise click.UsageError(f"--out: no study results in {out}")
     path = write_report(out, names)

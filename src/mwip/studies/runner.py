@@ -32,7 +32,7 @@ from mwip.report.html import write_report
 from mwip.report.results import RUN_RECORD, load_run_record
 from mwip.report.staging import Staging
 from mwip.sim.engine import RUN_END_HOOKS
-from mwip.studies import robot, settings
+from mwip.studies import registry, settings
 
 __all__ = ["StudyOutcome", "run_studies"]
 
@@ -49,18 +49,13 @@ def _run_one(
     overrides: dict[str, Any] | None = None,
 ) -> StudyOutcome:
     """Run one study (in a worker process or here), catching its failure."""
-    from mwip.studies import run_study
-
     _current_study[0] = name
     t0 = time.perf_counter()
     try:
-        with (
-            warnings.catch_warnings(),
-            robot.using(plant, nominal),
-            settings.using(name, overrides),
-        ):
+        with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            doc = run_study(name, out, quick=quick)
+            doc = registry.run_study(name, out, quick=quick, plant=plant, nominal=nominal,
+                                     overrides=overrides)  # fmt: skip
     except Exception as exc:  # noqa: BLE001 - recorded and reported; exit code says so
         return name, None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
     return name, doc, None, time.perf_counter() - t0
@@ -122,20 +117,17 @@ def run_studies(
     """Run ``names`` into ``out``; returns the run record (also written to ``out/run.json``).
 
     ``jobs`` processes (1: in this process). ``plant``/``nominal`` replace the book's robot
-    and design model (:mod:`mwip.studies.robot`); ``overrides[name]`` replaces some of study
+    and design model (default Tables 3.1, 3.2); ``overrides[name]`` replaces some of study
     ``name``'s settings (:mod:`mwip.studies.settings`). ``damping`` names the reading of
     the book's tables the robot was built with (recorded in ``run.json``). ``on_done`` is
     called as each study ends, ``on_run(study)`` as each of its simulation runs ends (for a
     progress display).
     """
-    from mwip.studies import STUDIES
-
+    order = registry.names()
     for name in names:
-        if name not in STUDIES:
-            raise ValueError(f"unknown study {name!r}; choose from: {', '.join(STUDIES)}")
+        registry.get(name)  # ValueError naming the studies if unknown
     overrides = {n: settings.validate(n, o) for n, o in (overrides or {}).items()}
-    plant = plant if plant is not None else robot.plant()
-    nominal = nominal if nominal is not None else robot.nominal()
+    plant, nominal = registry.robot(plant, nominal)
     started = datetime.now(UTC).isoformat(timespec="seconds")
     t0 = time.perf_counter()
     outcomes: dict[str, StudyOutcome] = {}
@@ -175,7 +167,7 @@ def run_studies(
                 pool.shutdown(wait=False, cancel_futures=True)
                 raise
             pool.shutdown()
-        record = load_run_record(out) if len(names) < len(STUDIES) else {}
+        record = load_run_record(out) if set(order) - set(names) else {}
         studies = dict(record.get("studies", {}))
         for name in names:
             _, doc, error, wall = outcomes[name]
@@ -184,7 +176,7 @@ def run_studies(
         record.update(_environment())
         record.update({
             "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
-            "quick": quick, "studies": {n: studies[n] for n in STUDIES if n in studies},
+            "quick": quick, "studies": {n: studies[n] for n in order if n in studies},
             "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
             "damping": damping,
         })  # fmt: skip
@@ -195,17 +187,9 @@ def run_studies(
     return record
 
 
-# Rough cost of each study (s on one core, full runs): the longest start first so that the
-# processes finish together.
-_COST = {
-    "it2-balance": 15, "hodosmc-vs-smc": 10, "tsmc-velocity": 8, "exp-hodosmc-balance": 7,
-    "exp-it2": 7, "exp-hodosmc-obstacle": 6, "exp-hodosmc-speed": 6, "asta-balance": 5,
-    "asta-velocity": 5, "exp-asta": 5, "tsmc-equilibrium": 4, "tsmc-circle": 4,
-}  # fmt: skip
-
-
 def _longest_first(names: list[str]) -> list[str]:
-    return sorted(names, key=lambda n: -_COST.get(n, 5))
+    """The studies by decreasing cost (``Study.cost``), so that the processes finish together."""
+    return sorted(names, key=lambda n: -registry.get(n).cost)
 
 
 def settings_of(name: str, overrides: dict[str, Any] | None) -> dict[str, Any]:

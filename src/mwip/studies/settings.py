@@ -30,7 +30,15 @@ from functools import cache
 from importlib import resources
 from typing import Any
 
-__all__ = ["current", "defaults", "open_settings", "packaged_text", "using", "validate"]
+__all__ = [
+    "current",
+    "defaults",
+    "open_settings",
+    "packaged_text",
+    "report_texts",
+    "using",
+    "validate",
+]
 
 _overrides: dict[str, dict[str, Any]] = {}
 
@@ -72,6 +80,17 @@ def _open(name: str) -> dict[str, dict[str, Any]]:
             raise ValueError(f"{where}: the default {base[key]!r} is outside {entry['range']}")
         out[key] = {"range": [float(lo), float(hi)], "why": entry["why"].strip()}
     return out
+
+
+@cache
+def _report(name: str) -> dict[str, str]:
+    return dict(tomllib.loads(packaged_text(name)).get("report", {}))
+
+
+def report_texts(name: str) -> dict[str, str]:
+    """The ``[report]`` table of study ``name``'s file: the texts the HTML report shows
+    (``title``, ``setup``, ``book``, ``gaps``, ``docs``); {} when it has none."""
+    return dict(_report(name))
 
 
 def open_settings(name: str) -> dict[str, dict[str, Any]]:

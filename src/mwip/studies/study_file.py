@@ -37,6 +37,7 @@ _TABLES = {
     "robot": ("params", "nominal", "damping"),
     "settings": (),
     "open": (),  # documentation of the settings the book leaves open (settings.open_settings)
+    "report": (),  # the texts of the HTML report (settings.report_texts); ignored in a run
 }
 
 
@@ -68,8 +69,9 @@ def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
 
     ``damping`` (the CLI's ``--damping``), when given, replaces the file's ``[robot] damping``.
     """
-    from mwip.studies import STUDIES
+    from mwip.studies import study_names
 
+    known = study_names()
     path = Path(path)
     data = read_toml(path, "study file")
     for table, body in data.items():
@@ -78,13 +80,13 @@ def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
         if not isinstance(body, dict):
             raise ValueError(f"{path.name}: [{table}] must be a table")
         for key in body:
-            if table not in ("settings", "open") and key not in _TABLES[table]:
+            if table not in ("settings", "open", "report") and key not in _TABLES[table]:
                 allowed = ", ".join(_TABLES[table])
                 raise ValueError(f"[{table}] {key}: unknown key; allowed: {allowed}")
     study = data.get("study", {})
     name = study.get("name")
-    if name not in STUDIES:
-        raise ValueError(f"[study] name must be one of {', '.join(STUDIES)}; got {name!r}")
+    if name not in known:
+        raise ValueError(f"[study] name must be one of {', '.join(known)}; got {name!r}")
     quick = study.get("quick", False)
     if not isinstance(quick, bool):
         raise ValueError(f"[study] quick must be true or false, got {quick!r}")
