@@ -24,12 +24,14 @@ def _block(after: str, lang: str) -> str:
 
 
 def test_the_page_shows_the_shipped_files():
-    assert _block("`src/mwip/studies/lqr_settling.py`:", "python") == (
-        STUDIES / "lqr_settling.py"
-    ).read_text()
-    assert _block("`src/mwip/studies/scenarios/lqr-settling.toml`", "toml") == (
-        STUDIES / "scenarios" / "lqr-settling.toml"
-    ).read_text()
+    assert (
+        _block("`src/mwip/studies/lqr_settling.py`:", "python")
+        == (STUDIES / "lqr_settling.py").read_text()
+    )
+    assert (
+        _block("`src/mwip/studies/scenarios/lqr-settling.toml`", "toml")
+        == (STUDIES / "scenarios" / "lqr-settling.toml").read_text()
+    )
 
 
 def test_example_study_runs_through_the_registry_and_the_cli(tmp_path, capsys):
