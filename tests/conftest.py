@@ -22,8 +22,8 @@ def random_states(rng: np.random.Generator, n: int = 64) -> tuple[np.ndarray, ..
 
 @pytest.fixture(scope="session")
 def quick_reproduction(tmp_path_factory: pytest.TempPathFactory):
-    """``mwip reproduce --quick`` once per test session (every study, shortened runs):
-    returns ``(out folder, exit code, captured stdout)``."""
+    """``mwip reproduce --quick --no-compare`` once per test session (every study, shortened
+    runs, one damping reading): returns ``(out folder, exit code, captured stdout)``."""
     import contextlib
     import io
 
@@ -32,5 +32,5 @@ def quick_reproduction(tmp_path_factory: pytest.TempPathFactory):
     out = tmp_path_factory.mktemp("reproduce") / "out"
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
-        code = main(["reproduce", "--quick", "--out", str(out), "--jobs", "2"])
+        code = main(["reproduce", "--quick", "--no-compare", "--out", str(out), "--jobs", "2"])
     return out, code, buf.getvalue()

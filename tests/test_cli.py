@@ -31,6 +31,7 @@ def test_simulate_writes_outputs(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "status: ok" in text and "settling time" in text and "max |u|" in text
     assert sorted(p.name for p in out.iterdir()) == [
+        "plant.toml",  # the simulated robot, for `mwip animate`
         "summary.json",
         "timeseries.csv",
         "timeseries.npz",
@@ -176,11 +177,13 @@ def test_reproduce_reports_a_failing_study_and_runs_the_others(tmp_path, capsys,
     declared = {"bad": Study("bad", "x", bad, place=(1,)), "good": Study("good", "test", good,
                                                                       place=(2,))}  # fmt: skip
     monkeypatch.setattr(registry, "_discover", lambda: declared)
-    assert main(["reproduce", "--out", str(tmp_path), "--quick", "-j", "1", "-v"]) == 1
+    args = ["reproduce", "--out", str(tmp_path), "--quick", "-j", "1", "-v", "--no-compare"]
+    assert main(args) == 1
     cap = capsys.readouterr()
     assert "bad: FAILED" in cap.err and "RuntimeError: boom" in cap.err
-    assert "[ok] good (test): no book claim, all 1/1" in cap.out and "1/2 studies done" in cap.out
-    assert "     [ok] x  <a.x=1>" in cap.out
+    assert "[ok] good (test): no book claim, extras 1/1" in cap.out
+    assert "1/2 studies done" in cap.out
+    assert "     [ok] (ours) x  <a.x=1>" in cap.out
     assert (old / "metrics.json").read_text() == "{}"
     record = json.loads((tmp_path / "run.json").read_text())
     assert record["studies"]["bad"]["error"] == "RuntimeError: boom"

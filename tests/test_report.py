@@ -1,8 +1,13 @@
 """The report of ``mwip reproduce``: summary from metrics.json, HTML page, safe output folder.
 
-The browser test renders ``index.html`` in headless Chromium (Debian's ``chromium``, driven by
-Playwright); ``.ci/run`` installs both. Where either is missing locally it is skipped with a
-message saying what to install. Its screenshot is kept in ``test-artifacts/report.png``.
+Most tests render a synthetic results folder written here (claims as data: ids, book flags,
+causes, evidence; a comparison folder under the other damping reading; a wide figure; a run
+for the poster frame); the others use a quick reproduction of every study.
+
+The browser tests render ``index.html`` in headless Chromium (Debian's ``chromium``, driven by
+Playwright); ``.ci/run`` installs both. Where either is missing locally they are skipped with a
+message saying what to install. Their screenshots (1280 px and phone width) are kept in
+``test-artifacts/``.
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from mwip.cli import main
-from mwip.report import Staging, load_results, render_html, summary_lines
+from mwip.report import Staging, load_results, summary_lines
 from mwip.studies import study_names
 
 STUDIES = study_names()
@@ -38,35 +43,204 @@ def test_reproduce_writes_every_study_the_record_and_the_report(quick_reproducti
     )
     assert (out / "index.html").is_file()
     assert not [p for p in out.parent.iterdir() if ".partial-" in p.name]  # staging removed
-    # the one-screen summary: one line per study, a failing book claim and its numbers, totals
+    assert record["damping"] == "units" and not (out / "compare-literal").exists()
+    # the one-screen summary: the book-claim count first, one line per study, a failing book
+    # claim with its cause and evidence, the extras last
     docs = [json.loads((out / n / "metrics.json").read_text()) for n in STUDIES]
     for name in STUDIES:
         assert f"] {name} (" in stdout
-    held = sum(c["holds"] for d in docs for c in d["claims"])
-    n_claims = sum(len(d["claims"]) for d in docs)
-    assert f"all claims (with our extra readings): {held}/{n_claims}; over 14 studies" in stdout
-    assert len(stdout.splitlines()) <= 4 * len(STUDIES) + 2
+    book = [c for d in docs for c in d["claims"] if c["book"]]
+    held = sum(c["holds"] for c in book)
+    lines = stdout.splitlines()
+    assert lines[0] == f"Book claims: {held} of {len(book)} reproduce (damping reading units)"
+    extras = [c for d in docs for c in d["claims"] if not c["book"]]
+    assert f"extras of ours (not the book's claims): {sum(c['holds'] for c in extras)} of " \
+        f"{len(extras)} hold; 14 studies" in stdout  # fmt: skip
+    assert len(lines) <= 3 * len(STUDIES) + 4
 
 
-def test_summary_verdicts_come_from_metrics_json(quick_reproduction, tmp_path):
-    out, _, _ = quick_reproduction
-    copy = tmp_path / "out"
-    shutil.copytree(out, copy)
-    path = copy / "lqr-gain" / "metrics.json"
-    doc = json.loads(path.read_text())
-    doc["claims"] = [
-        {"text": "a planted claim (book)", "holds": False, "values": {"k.x": 2.5}},
-        {"text": "our extra check", "holds": True},
-    ]
-    path.write_text(json.dumps(doc))
-    lines = summary_lines(load_results(copy, ["lqr-gain"]))
-    assert lines[0].startswith("[no] lqr-gain (Sec. 4.4.2): book claims 0/1, all 1/2; runs ")
-    assert lines[1:3] == ["     fails: a planted claim (book)", "            k.x=2.5"]
-    verbose = summary_lines(load_results(copy, ["lqr-gain"]), verbose=True)
-    assert verbose[1] == "     [no] a planted claim (book)  <k.x=2.5>"
-    assert verbose[2] == "     [ok] our extra check"
-    page = render_html(copy, ["lqr-gain"])
-    assert "a planted claim" in page and "does not hold" in page and "k.x = 2.5" in page
+CLAIMS = {
+    "lqr-gain": [
+        {"id": "yaw", "text": "the yaw gains match the printed K (book)", "holds": True,
+         "book": True, "values": {"k.yaw": 70.71}},
+        {"id": "pitch", "text": "the pitch gains match the printed K", "holds": False,
+         "book": True, "cause": "damping-reading", "values": {"k.pitch": -223.99},
+         "evidence": "Our pitch gain is -223.99 against the printed -207.87 (+7.8 %)."},
+        {"id": "held", "text": "the 5 ms design balances", "holds": True, "book": False},
+    ],
+    "do-comparison": [
+        {"id": "order", "text": "higher order is more accurate", "holds": False, "book": True,
+         "cause": "book-inconsistency",
+         "evidence": "|H_2(j2)| = 4.1e-4 is below |H_4(j2)| = 2.9e-3 for the printed gains."},
+        {"id": "old", "text": "an unlabelled claim that cites the book", "holds": True},
+        {"id": "nocause", "text": "a failing book claim that names no cause", "holds": False,
+         "book": True},
+    ],
+}  # fmt: skip
+#: Verdicts under the other reading (compare-literal): the pitch claim holds there.
+LITERAL = {("lqr-gain", "pitch"): True}
+
+
+def _synthetic(out: Path, damping: str = "units", flips: dict | None = None) -> Path:
+    """A results folder as `mwip reproduce` writes it, with the claims above."""
+    from matplotlib.figure import Figure
+
+    from mwip.control import LQR, design_lqr
+    from mwip.params import NOMINAL, REAL
+    from mwip.sim import simulate
+    from mwip.studies.common import save_figure
+
+    studies = {}
+    for name, claims in CLAIMS.items():
+        folder = out / name
+        folder.mkdir(parents=True)
+        claims = [dict(c, holds=(flips or {}).get((name, c["id"]), c["holds"])) for c in claims]
+        doc = {
+            "study": name,
+            "source": f"Sec. {name}",
+            "metrics": {"k.yaw": 70.71},
+            "published": {"k.yaw": 70.71},
+            "claims": claims,
+            "runs": {"continuous": {"status": "ok", "t_end": 0.3}},
+            "settings": {"Ts": 0.005},
+        }
+        (folder / "metrics.json").write_text(json.dumps(doc))
+        fig = Figure(figsize=(14, 6))  # wider than the page: drawn at 1440 px
+        ax = fig.add_subplot()
+        ax.plot([0, 1], [0, 1])
+        ax.set_xlabel("t (s)")
+        save_figure(fig, folder / f"{name}.png")
+        studies[name] = {"wall_s": 1.0, "error": None, "settings": {}}
+    res = simulate(LQR(design_lqr(NOMINAL, Ts=0.005)), REAL, q0=(0, 0.1, 0), duration=0.3)
+    res.to_npz(out / "lqr-gain" / "continuous.npz")  # the catalog's main run: a poster
+    record = {
+        "damping": damping,
+        "studies": studies,
+        "wall_s": 2.0,
+        "quick": True,
+        "params": {"plant": REAL.to_dict(), "nominal (design)": NOMINAL.to_dict()},
+    }
+    (out / "run.json").write_text(json.dumps(record))
+    return out
+
+
+@pytest.fixture
+def synthetic(tmp_path) -> Path:
+    out = _synthetic(tmp_path / "out")
+    _synthetic(out / "compare-literal", "literal", LITERAL)
+    return out
+
+
+def test_claims_lacking_the_book_field_count_with_the_extras(synthetic):
+    from mwip.report.claims import counts
+
+    n = counts(load_results(synthetic))
+    assert n == {"book_held": 1, "book": 4, "extra_held": 2, "extra": 2, "unlabelled": 1}
+
+
+def test_summary_leads_with_the_book_claims_and_shows_cause_and_evidence(synthetic):
+    from mwip.report.claims import load_comparison
+    from mwip.report.summary import MARKS
+
+    results = load_results(synthetic)
+    cmp = load_comparison(synthetic / "compare-literal")
+    lines = summary_lines(results, width=120, damping="units", compare=cmp)
+    assert (
+        lines[0] == "Book claims: 1 of 4 reproduce (damping reading units; literal reading: 2 of 4)"
+    )
+    assert lines[1] == MARKS and "[no]" in MARKS
+    assert lines[2] == "[no] lqr-gain (Sec. lqr-gain): book claims 1/2, extras 1/1; runs ok"
+    assert lines[3] == "     fails: the pitch gains match the printed K"
+    assert lines[4] == ("            [damping-reading] Our pitch gain is -223.99 against the "
+                        "printed -207.87 (+7.8 %).")  # fmt: skip
+    assert lines[5].startswith(
+        "[no] do-comparison (Sec. do-comparison): book claims 0/2, extras 1/1"
+    )
+    assert lines[6] == "     fails: higher order is more accurate (+1 more)"
+    assert lines[7].startswith("            [book-inconsistency] |H_2(j2)| = 4.1e-4")
+    assert lines[-1] == ("extras of ours (not the book's claims): 2 of 2 hold (1 claims carry no "
+                         "'book' field and are counted here); 2 studies")  # fmt: skip
+    verbose = summary_lines(results, width=120, verbose=True, compare=cmp)
+    assert "     [no] the pitch gains match the printed K  <k.pitch=-224> [literal: ok]" in verbose
+    assert "     [ok] (ours) the 5 ms design balances [literal: ok]" in verbose
+
+
+def test_html_leads_with_the_book_claims_grouped_by_cause(synthetic):
+    import re
+
+    from mwip.report import write_report
+
+    page = write_report(synthetic).read_text()  # finds OUT/compare-literal; draws the poster
+    head = re.search(r'<p class="headline" id="headline">(.*?)</p>', page).group(1)
+    assert head == "Book claims: 1 of 4 reproduce (damping reading units; literal reading: 2 of 4)"
+    assert page.index('id="headline"') < page.index('id="book-claims"') < page.index("Overview")
+    section = page[page.index('id="book-claims"') : page.index("<h2>Overview")]
+    groups = re.findall(r"<tbody class='(\w+)'(?: data-cause='([\w -]+)')?>", section)
+    assert groups == [("holds", ""), ("cause", "damping-reading"),
+                      ("cause", "book-inconsistency"), ("cause", "not given")]  # fmt: skip
+    bodies = section.split("<tbody")[1:]
+    assert "the yaw gains match" in bodies[0] and "k.yaw = 70.71" in bodies[0]
+    assert "Our pitch gain is -223.99" in bodies[1] and "decided by how the tables" in bodies[1]
+    assert "|H_2(j2)| = 4.1e-4" in bodies[2] and "the book&#x27;s printed numbers" in bodies[2]
+    pitch = bodies[1][bodies[1].index("the pitch gains") :]
+    assert pitch.index("does not hold") < pitch.index("holds</span>")  # here no, literal yes
+    assert "unlabelled claim" not in section and "5 ms design" not in section  # extras apart
+    assert "Extras of ours (checks the book does not make), counted separately: 2 of 2" in page
+    # figures: natural width, a link to the full-size file; a poster of the main run
+    lqr = page[page.index('<section class="study" id="lqr-gain">') :]
+    lqr = lqr[: lqr.index("</section>")]
+    assert '<a href="lqr-gain/lqr-gain.png"' in lqr
+    assert '<a href="lqr-gain/poster/continuous.png"' in lqr
+    assert (synthetic / "lqr-gain" / "poster" / "continuous.png").is_file()
+    assert "mwip animate OUT/lqr-gain --run continuous" in lqr
+
+
+def test_report_command_compares_with_another_reading(synthetic, tmp_path, capsys):
+    assert main(["report", "--out", str(synthetic)]) == 0  # finds OUT/compare-literal
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].endswith("(damping reading units; literal reading: 2 of 4)")
+    page = (synthetic / "index.html").read_text()
+    assert "literal reading" in page and (synthetic / "lqr-gain/poster/continuous.png").is_file()
+    other = _synthetic(tmp_path / "other", "literal", {("do-comparison", "order"): True})
+    assert main(["report", "--out", str(synthetic), "--compare", str(other)]) == 0
+    assert capsys.readouterr().out.splitlines()[0].endswith("literal reading: 2 of 4)")
+    assert main(["report", "--out", str(synthetic), "--compare", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--compare" in err[0]
+
+
+@pytest.mark.parametrize("reading", ["units", "literal"])
+def test_reproduce_runs_the_other_damping_reading_too(tmp_path, monkeypatch, capsys, reading):
+    """The verdicts of each reading come from a run on that reading's robot."""
+    import mwip.studies as studies
+    from mwip.studies import robot
+
+    def study(folder, quick=False):
+        dw = float(robot.plant().Dw)  # units: 1.28e-3, literal: 0.8 N m s/rad
+        holds = dw < 0.01
+        claim = {"id": "speed", "text": "the robot reaches -7 rad/s", "holds": holds,
+                 "book": True}  # fmt: skip
+        if not holds:
+            claim |= {"cause": "damping-reading", "evidence": f"Dw = {dw:g} caps the speed."}
+        (folder / "lqr-gain").mkdir(parents=True)
+        doc = {"study": "lqr-gain", "source": "x", "claims": [claim], "runs": {}, "metrics": {},
+               "published": {}, "settings": {}}  # fmt: skip
+        (folder / "lqr-gain" / "metrics.json").write_text(json.dumps(doc))
+        return doc
+
+    monkeypatch.setattr(studies, "STUDIES", {"lqr-gain": (study, "x")})
+    out = tmp_path / "out"
+    assert main(["reproduce", "--quick", "--out", str(out), "-j", "1", "--damping", reading]) == 0
+    other = "literal" if reading == "units" else "units"
+    first = capsys.readouterr().out.splitlines()[0]
+    mine, theirs = (1, 0) if reading == "units" else (0, 1)
+    assert first == (f"Book claims: {mine} of 1 reproduce (damping reading {reading}; "
+                     f"{other} reading: {theirs} of 1)")  # fmt: skip
+    assert json.loads((out / f"compare-{other}" / "run.json").read_text())["damping"] == other
+    assert json.loads((out / "run.json").read_text())["damping"] == reading
+    assert f"{other} reading" in (out / "index.html").read_text()
+    assert main(["reproduce", "--quick", "--out", str(tmp_path / "b"), "--no-compare"]) == 0
+    assert not list((tmp_path / "b").glob("compare-*"))
 
 
 def test_html_has_a_section_figure_and_tables_per_study(quick_reproduction):
@@ -76,7 +250,9 @@ def test_html_has_a_section_figure_and_tables_per_study(quick_reproduction):
     for res in load_results(out):
         start = page.index(f'<section class="study" id="{res.name}">')
         section = page[start : page.index("</section>", start)]
-        assert section.count("data:image/png;base64,") == len(res.figures) >= 1
+        poster = 1 if (res.folder / "poster").is_dir() else 0
+        assert section.count("data:image/png;base64,") == len(res.figures) + poster
+        assert len(res.figures) >= 1
         assert '<table class="claims">' in section
         published = json.loads((out / res.name / "metrics.json").read_text())["published"]
         assert ('<table class="comparison">' in section) == bool(published)
@@ -137,7 +313,7 @@ def test_study_file_and_params_run_a_study_on_another_robot(tmp_path, capsys):
     study.write_text('[study]\nname = "lqr-gain"\n[robot]\nparms = "robot.toml"\n')
     assert main(["run", "--scenario", str(study), "--out", str(out)]) == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
-        "mwip: error: [robot] parms: unknown key; allowed: params, nominal"
+        "mwip: error: [robot] parms: unknown key; allowed: params, nominal, damping"
     )
 
 
@@ -147,20 +323,26 @@ def test_report_command_rebuilds_the_page(quick_reproduction, tmp_path, capsys):
     shutil.copytree(out, copy)
     (copy / "index.html").unlink()
     assert main(["report", "--out", str(copy)]) == 0
-    assert (copy / "index.html").is_file() and "book claims holding:" in capsys.readouterr().out
+    assert (copy / "index.html").is_file()
+    assert capsys.readouterr().out.startswith("Book claims: ")
     empty = tmp_path / "empty"
     empty.mkdir()
     assert main(["report", "--out", str(empty)]) == 2
 
 
-def test_report_renders_in_headless_chromium(quick_reproduction):
-    """Every study's section, figure and table is on the rendered page; no console errors."""
+def _browse(index: Path, studies: list[str], shot: str) -> None:
+    """Render ``index`` in headless Chromium at 1280 px and at a phone's 390 px: the headline
+    is the book-claim count; every study has its section, decoded images and claims table;
+    each image is shown at most 1.25x smaller than drawn (at 1280 px) and links to its
+    full-size file; no text under 10 px; no console error or failed request. Screenshots go
+    to ``ARTIFACTS/<shot>.png`` and ``<shot>-phone.png``."""
+    import re
+
     if CHROMIUM is None:
         pytest.skip("headless Chromium not found: apt-get install chromium (.ci/run does)")
     sync_api = pytest.importorskip(
         "playwright.sync_api", reason="playwright not installed: pip install -e '.[test]'"
     )
-    out, _, _ = quick_reproduction
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     errors: list[str] = []
     with sync_api.sync_playwright() as pw:
@@ -170,26 +352,56 @@ def test_report_renders_in_headless_chromium(quick_reproduction):
                   "--disable-background-networking", "--disable-component-update",
                   "--disable-sync"],
         )  # fmt: skip
-        page = browser.new_page(viewport={"width": 1280, "height": 1600})
-        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-        page.on("pageerror", lambda e: errors.append(str(e)))
-        page.on("requestfailed", lambda r: errors.append(f"request failed: {r.url}"))
-        page.goto((out / "index.html").resolve().as_uri())
-        page.wait_for_load_state("load")
-        assert page.title() == "mwip: reproduction report"
-        assert page.locator("#overview tr").count() == len(STUDIES) + 1
-        for name in STUDIES:
-            section = page.locator(f"section#{name}")
-            assert section.count() == 1, name
-            imgs = section.locator("img")
-            assert imgs.count() >= 1, name
-            for i in range(imgs.count()):  # decoded, non-empty images
-                assert imgs.nth(i).evaluate("e => e.complete && e.naturalWidth > 0"), name
-            assert section.locator("table.claims tr").count() >= 2, name
-        page.screenshot(path=str(ARTIFACTS / "report.png"), full_page=False)
+        for width, suffix in ((1280, ""), (390, "-phone")):
+            page = browser.new_page(viewport={"width": width, "height": 1400})
+            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.on("requestfailed", lambda r: errors.append(f"request failed: {r.url}"))
+            page.goto(index.resolve().as_uri())
+            page.wait_for_load_state("load")
+            assert page.title() == "mwip: reproduction report"
+            head = page.locator("#headline").inner_text()
+            assert re.fullmatch(r"Book claims: \d+ of \d+ reproduce( \(.*\))?", head), head
+            assert page.locator("#book-claims table.bookclaims").count() == 1
+            assert page.locator("#overview tr").count() == len(studies) + 1
+            for name in studies:
+                section = page.locator(f"section#{name}")
+                assert section.count() == 1, name
+                assert section.locator("img").count() >= 1, name
+                assert section.locator("table.claims tr").count() >= 2, name
+            images = page.evaluate(
+                "Array.from(document.images).map(i => ({alt: i.alt, complete: i.complete,"
+                " natural: i.naturalWidth, shown: i.getBoundingClientRect().width,"
+                " href: i.closest('a') && i.closest('a').getAttribute('href')}))"
+            )
+            assert images
+            for img in images:
+                assert img["complete"] and img["natural"] > 0, img
+                assert img["href"] and (index.parent / img["href"]).is_file(), img
+                if width == 1280:  # drawn for the width it is shown at
+                    assert img["natural"] / img["shown"] <= 1.25, img
+            smallest = page.evaluate(
+                "Math.min(...Array.from(document.querySelectorAll('p,td,th,figcaption,code,a,"
+                "summary')).filter(e => e.offsetParent).map(e =>"
+                " parseFloat(getComputedStyle(e).fontSize)))"
+            )
+            assert smallest >= 10, smallest
+            page.screenshot(path=str(ARTIFACTS / f"{shot}{suffix}.png"), full_page=False)
+            page.close()
         browser.close()
     assert errors == []
-    assert (ARTIFACTS / "report.png").stat().st_size > 10_000
+    assert (ARTIFACTS / f"{shot}.png").stat().st_size > 10_000
+
+
+def test_synthetic_report_renders_in_headless_chromium(synthetic):
+    from mwip.report import write_report
+
+    _browse(write_report(synthetic), list(CLAIMS), "report-synthetic")
+
+
+def test_report_renders_in_headless_chromium(quick_reproduction):
+    out, _, _ = quick_reproduction
+    _browse(out / "index.html", list(STUDIES), "report")
 
 
 @pytest.mark.parametrize("jobs", [1, 2])
@@ -206,3 +418,28 @@ def test_runner_reports_each_simulation_run(tmp_path, jobs):
     assert seen.count("lqr-gain") == 3  # continuous, sampled, continuous gain held
     assert seen.count("do-comparison") >= 1
     assert RUN_END_HOOKS == before
+
+
+def test_study_figures_are_drawn_for_the_width_the_report_shows(tmp_path):
+    """At most 1440 px wide; no text under 10 px once shrunk to the report's 1200 px."""
+    from matplotlib.figure import Figure
+    from matplotlib.text import Text
+    from PIL import Image
+
+    from mwip.studies.common import save_figure
+
+    for width_in, dpi in ((14.0, 1440 / 14.0), (9.0, 120.0)):
+        fig = Figure(figsize=(width_in, 5))
+        ax = fig.add_subplot()
+        ax.plot([0, 1], [0, 1], label="a")
+        ax.legend(fontsize=6)
+        ax.tick_params(labelsize=5)
+        ax.set_title("t", fontsize=12)
+        path = tmp_path / f"fig-{width_in:g}.png"
+        save_figure(fig, path)
+        with Image.open(path) as im:
+            assert im.size[0] == round(width_in * dpi) <= 1440
+        shrink = max(1.0, width_in * dpi / 1200)
+        sizes = [t.get_fontsize() * dpi / 72 / shrink for t in fig.findobj(Text) if t.get_text()]
+        assert min(sizes) >= 10.0 - 1e-9
+        assert max(sizes) == pytest.approx(12 * dpi / 72 / shrink)  # larger text untouched

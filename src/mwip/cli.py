@@ -168,6 +168,7 @@ def cli() -> None:
     help="Folder for timeseries.csv, timeseries.npz and summary.json.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--plot", is_flag=True, help="Also draw OUT/run.png (needs --out).")
 @_DAMPING
 @click.option(
     "--scenario",
@@ -181,7 +182,7 @@ def simulate(
     ctx: click.Context, controller: str, sets: tuple[str, ...], twin: bool, case: int, seed: int,
     theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
-    disturbance: str, out: Path | None, as_json: bool, damping: str,
+    disturbance: str, out: Path | None, as_json: bool, plot: bool, damping: str,
     scenario_file: Path | None,
 ) -> None:  # fmt: skip
     """Simulate a closed loop and print status, settling time and max |u|.
@@ -207,6 +208,8 @@ def simulate(
     for name, val in (("--alpha0", alpha0), ("--v0", v0)):
         if not (math.isfinite(val) and abs(val) <= 1e3):
             raise click.BadParameter(f"must be in [-1000, 1000], got {val!r}", param_hint=name)
+    if plot and out is None:
+        raise click.BadParameter("needs --out FOLDER to write run.png into", param_hint="--plot")
     if out is not None and out.exists() and not out.is_dir():
         raise click.BadParameter(f"{str(out)!r} exists and is not a folder", param_hint="--out")
     if scenario_file is not None:
@@ -270,6 +273,9 @@ def simulate(
         res.to_csv(out / "timeseries.csv")
         res.to_npz(out / "timeseries.npz")
         write_json_atomic(out / "summary.json", summary)
+        from mwip.plot.simulate_files import write_simulate_extras
+
+        written = write_simulate_extras(res, sc.plant, out, plot=plot)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:
@@ -281,7 +287,7 @@ def simulate(
         )
         if out is not None:
             click.echo(f"wrote {out / 'timeseries.csv'}, {out / 'timeseries.npz'}, "
-                       f"{out / 'summary.json'}")  # fmt: skip
+                       f"{out / 'summary.json'}, {', '.join(map(str, written))}")  # fmt: skip
     if summary["status"] != "ok":
         sys.exit(1)
 
@@ -668,10 +674,12 @@ def _jobs(jobs: int) -> int:
 def _execute(
     names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params,
     verbose: bool = False, overrides: dict[str, dict[str, Any]] | None = None,
-    damping: str = "units",
+    damping: str = "units", summary: bool = True,
 ) -> None:  # fmt: skip
-    """Run ``names`` with a progress bar, then print the one-screen summary."""
+    """Run ``names`` with a progress bar, then print the one-screen summary (not
+    ``summary``: its headline only, on stderr); exits 1 if a study failed."""
     from mwip.report import load_results, summary_lines
+    from mwip.report.claims import find_compare, load_comparison
     from mwip.studies.runner import run_studies
 
     failed: list[str] = []
@@ -696,10 +704,15 @@ def _execute(
     import shutil
 
     width = max(100, shutil.get_terminal_size((120, 40)).columns)
-    for line in summary_lines(load_results(out, names), width=width, verbose=verbose):
-        click.echo(line)
+    compare = find_compare(out) if summary else None
+    cmp = load_comparison(compare) if compare is not None else None
+    lines = summary_lines(load_results(out, names), width=width, verbose=verbose,
+                          damping=damping, compare=cmp)  # fmt: skip
+    for line in lines if summary else [f"{out.name}: {lines[0]}"]:
+        click.echo(line, err=not summary)
     click.echo(f"{len(names) - len(failed)}/{len(names)} studies done in "
-               f"{record['wall_s']:.1f} s; report: {out / 'index.html'}")  # fmt: skip
+               f"{record['wall_s']:.1f} s; report: {out / 'index.html'}",
+               err=not summary)  # fmt: skip
     if failed:
         sys.exit(1)
 
@@ -783,6 +796,13 @@ def run_cmd(
 @_JOBS
 @_VERBOSE
 @click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
+@click.option(
+    "--compare/--no-compare",
+    default=True,
+    show_default=True,
+    help="Also run every study under the other damping reading into OUT/compare-<reading>/; "
+    "the report shows each book claim's verdict under both.",
+)
 def reproduce(
     out: Path,
     quick: bool,
@@ -792,6 +812,7 @@ def reproduce(
     jobs: int,
     verbose: bool,
     list_only: bool,
+    compare: bool,
 ) -> None:
     """Run every study on built-in defaults; write OUT/<study>/, OUT/index.html, OUT/run.json.
 
@@ -806,7 +827,20 @@ def reproduce(
             click.echo(f"{s.name:24s} {s.source}")
         return
     plant, design = _robot(params_file, nominal_file, damping)
+    code = 0
+    if compare:  # first the other reading, so that the main report finds it
+        other = next(d for d in DAMPING_READINGS if d != damping)
+        click.echo(f"under the {other} damping reading, into {out / f'compare-{other}'}:",
+                   err=True)  # fmt: skip
+        try:
+            _execute(study_names(), out / f"compare-{other}", quick, _jobs(jobs),
+                     *_robot(params_file, nominal_file, other), damping=other,
+                     summary=False)  # fmt: skip
+        except SystemExit as exc:
+            code = int(exc.code or 0)
     _execute(study_names(), out, quick, _jobs(jobs), plant, design, verbose, damping=damping)
+    if code:
+        sys.exit(code)
 
 
 @cli.command()
@@ -847,23 +881,49 @@ def scenario(study: str, out: Path | None) -> None:
     show_default=True,
     help="Results folder to report on.",
 )
+@click.option(
+    "--compare",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="A second results folder (e.g. under the other damping reading) whose verdicts are "
+    "shown beside; default: OUT/compare-* if there is one.",
+)
 @_VERBOSE
-def report(out: Path, verbose: bool) -> None:
+def report(out: Path, compare: Path | None, verbose: bool) -> None:
     """Rebuild OUT/index.html from the results in OUT and print the summary."""
-    from mwip.report import load_results, summary_lines, write_report
+    from mwip.report import load_results, load_run_record, summary_lines, write_report
+    from mwip.report.claims import find_compare, load_comparison
     from mwip.studies import study_names
 
-    names = [n for n in study_names() if (out / n / "metrics.json").exists()]
+    known = study_names()
+    names = [n for n in known if (out / n / "metrics.json").exists()]
     if not names:
         raise click.UsageError(f"--out: no study results in {out}")
-    path = write_report(out, names)
-    for line in summary_lines(load_results(out, names), verbose=verbose):
+    if compare is not None and not any((compare / n / "metrics.json").is_file() for n in known):
+        raise click.BadParameter(f"no study results in {compare}", param_hint="--compare")
+    compare = compare if compare is not None else find_compare(out)
+    path = write_report(out, names, compare)
+    cmp = load_comparison(compare) if compare is not None else None
+    for line in summary_lines(load_results(out, names), verbose=verbose,
+                              damping=load_run_record(out).get("damping"),
+                              compare=cmp):  # fmt: skip
         click.echo(line)
     click.echo(f"report: {path}")
 
 
 cli.add_command(_controllers_cmd)
 cli.add_command(_export_group)
+
+
+def _register() -> None:
+    from mwip.animate import animate_cmd
+    from mwip.plot.command import plot_cmd
+
+    cli.add_command(animate_cmd)
+    cli.add_command(plot_cmd)
+
+
+_register()
 
 
 def main(argv: list[str] | None = None) -> int:

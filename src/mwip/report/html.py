@@ -1,10 +1,18 @@
-"""The HTML report ``OUT/index.html``: one self-contained page (figures embedded as PNG data
-URIs, no scripts, no network), built from the results folder only.
+"""The HTML report ``OUT/index.html``: one page (figures embedded as PNG data URIs, each a
+link to its full-size file in ``OUT``; no scripts, no network), built from the results folder
+only.
 
-Per study: the set-up, our figures beside a description of the book's, the published-vs-ours
-table with relative differences, the claims with their verdicts and deciding numbers, the
-explanation of the gaps, the runs and settings. At the top: an overview table and the run
-metadata (mwip version, parameters, seeds, steps, wall times).
+It leads with the book: the headline is how many of the book's claims reproduce; the first
+section is the table of the book's claims, those that reproduce first, then those that do not,
+grouped by cause (:data:`mwip.studies.common.CAUSES`) with their evidence, each with its
+verdict under the other damping reading where a comparison folder is given
+(:mod:`mwip.report.claims`). Our extra claims are counted separately. Then an overview table,
+the run metadata, and per study: the set-up, the book's figure described, our figures and a
+poster frame of the main run, the published-vs-ours table, the claims, the gaps, the runs.
+
+Figures are shown at their natural width where the page allows (the study figures are drawn
+at most 1440 px wide, so at 1280 px the page shrinks them by at most about 1.2x); a click
+opens the full-size file.
 """
 
 from __future__ import annotations
@@ -16,34 +24,61 @@ from pathlib import Path
 from typing import Any
 
 from mwip.io import write_text_atomic
+from mwip.report.claims import (
+    CAUSES,
+    NO_CAUSE,
+    Comparison,
+    book_claims,
+    counts,
+    find_compare,
+    is_book,
+    load_comparison,
+)
+from mwip.report.posters import POSTER_DIR, ensure_posters
 from mwip.report.results import StudyResult, load_results, load_run_record
-from mwip.report.summary import format_number, is_book_claim
+from mwip.report.summary import format_number, headline
 
 __all__ = ["render_html", "write_report"]
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0;color:#1d2329;
-background:#f6f7f9;line-height:1.45}
-main{max-width:1180px;margin:0 auto;padding:1.2rem 1.5rem 4rem}
-h1{font-size:1.7rem;margin:.4rem 0}h2{font-size:1.3rem;margin:0 0 .3rem}
-h3{font-size:1.02rem;margin:1rem 0 .3rem;color:#37424d}
-section.study{background:#fff;border:1px solid #dde2e7;border-radius:8px;padding:1rem 1.2rem;
+background:#f6f7f9;line-height:1.45;font-size:16px}
+main{max-width:1280px;margin:0 auto;padding:1rem 1.2rem 4rem;box-sizing:border-box}
+h1{font-size:1.6rem;margin:.4rem 0}h2{font-size:1.3rem;margin:1.2rem 0 .3rem}
+h3{font-size:1.05rem;margin:1rem 0 .3rem;color:#37424d}
+.headline{font-size:1.45rem;font-weight:700;margin:.3rem 0;color:#123}
+section.study{background:#fff;border:1px solid #dde2e7;border-radius:8px;padding:1rem;
 margin:1.2rem 0}
-table{border-collapse:collapse;font-size:.9rem;margin:.3rem 0}
-th,td{border-bottom:1px solid #e4e8ec;padding:.25rem .6rem;text-align:left;vertical-align:top}
+.scroll{overflow-x:auto}
+table{border-collapse:collapse;font-size:.92rem;margin:.3rem 0}
+th,td{border-bottom:1px solid #e4e8ec;padding:.25rem .5rem;text-align:left;vertical-align:top}
 th{background:#eef1f4}td.num{text-align:right;font-variant-numeric:tabular-nums}
+tr.group th{background:#dfe6ee;font-size:.95rem}
+tr.group.holds th{background:#e1f0e4}
 .ok{color:#116b2b;font-weight:600;white-space:nowrap}
 .no{color:#a3231a;font-weight:600;white-space:nowrap}
-.badge{display:inline-block;border-radius:10px;padding:0 .55rem;font-size:.82rem;
+.na{color:#56616c;white-space:nowrap}
+.badge{display:inline-block;border-radius:10px;padding:0 .55rem;font-size:.88rem;
 background:#e8edf2}
 .fail{background:#fbe3e1;border:1px solid #e9b3ad;padding:.5rem .8rem;border-radius:6px}
-.grid{display:grid;grid-template-columns:minmax(0,2fr) minmax(0,1fr);gap:1rem}
-figure{margin:.3rem 0}figure img{max-width:100%;border:1px solid #e4e8ec}
-figcaption{font-size:.82rem;color:#56616c}
-.book{background:#f3f6fa;border-left:4px solid #7b93ad;padding:.5rem .8rem;font-size:.92rem}
-.muted{color:#56616c;font-size:.88rem}pre{background:#f3f5f7;padding:.5rem;overflow:auto;
-font-size:.8rem}
-nav a{margin-right:.6rem}
+figure{margin:.5rem 0}figure img{max-width:100%;height:auto;border:1px solid #e4e8ec;
+display:block}
+figcaption{font-size:.88rem;color:#56616c}
+.book{background:#f3f6fa;border-left:4px solid #7b93ad;padding:.5rem .8rem;font-size:.95rem}
+.muted{color:#56616c;font-size:.92rem}pre{background:#f3f5f7;padding:.5rem;overflow:auto;
+font-size:.85rem}
+nav a{margin-right:.6rem;white-space:nowrap}
+code{font-size:.9em}
+table.bookclaims td:first-child,table.claims td:first-child{white-space:nowrap}
+table.bookclaims td:nth-child(2),table.claims td:nth-child(2){min-width:16rem}
+@media (max-width:700px){main{padding:.6rem}
+table.bookclaims thead,table.claims tr.head{display:none}
+table.bookclaims,table.bookclaims tbody,table.bookclaims tr,table.bookclaims td,
+table.bookclaims th,table.claims,table.claims tbody,table.claims tr,table.claims td
+{display:block;width:auto;min-width:0!important}
+table.bookclaims tr,table.claims tr{border-bottom:1px solid #cfd6dd;padding:.3rem 0}
+table.bookclaims td,table.claims td{border:none;padding:.1rem .4rem;white-space:normal}
+td[data-label]::before{content:attr(data-label) ": ";font-weight:600;color:#56616c}}
 """
 
 
@@ -51,11 +86,14 @@ def _e(x: Any) -> str:
     return html.escape(str(x), quote=True)
 
 
-def _img(path: Path) -> str:
+def _img(path: Path, href: str, caption: str | None = None) -> str:
+    """A figure shown at its natural width (at most the page's), linking to the full file."""
     data = base64.b64encode(path.read_bytes()).decode("ascii")
+    cap = caption if caption is not None else _e(path.name)
     return (
-        f'<figure><img alt="{_e(path.stem)}" src="data:image/png;base64,{data}">'
-        f"<figcaption>{_e(path.name)}</figcaption></figure>"
+        f'<figure><a href="{_e(href)}" target="_blank" title="open the full-size image">'
+        f'<img alt="{_e(path.stem)}" src="data:image/png;base64,{data}"></a>'
+        f"<figcaption>{cap} &middot; click for full size</figcaption></figure>"
     )
 
 
@@ -66,6 +104,8 @@ def _setting(v: Any) -> str:
 
 
 def _verdict(holds: Any) -> str:
+    if holds is None:
+        return '<span class="na">not run</span>'
     return '<span class="ok">holds</span>' if holds else '<span class="no">does not hold</span>'
 
 
@@ -80,26 +120,111 @@ def _comparison_table(res: StudyResult) -> str:
         for k, o, p, d in rows
     )
     return (
-        '<table class="comparison"><tr><th>quantity</th><th>ours</th><th>published</th>'
-        f"<th>relative difference</th></tr>{body}</table>"
+        '<div class="scroll"><table class="comparison"><tr><th>quantity</th><th>ours</th>'
+        f"<th>published</th><th>relative difference</th></tr>{body}</table></div>"
     )
 
 
-def _claims_table(res: StudyResult) -> str:
+def _values(c: dict[str, Any]) -> str:
+    values = c.get("values") or {}
+    return ", ".join(f"{_e(k)} = {format_number(v)}" for k, v in values.items())
+
+
+def _why(c: dict[str, Any]) -> str:
+    """Evidence (with the deciding numbers) for a failing book claim; the numbers otherwise."""
+    parts = []
+    if c.get("evidence"):
+        parts.append(_e(c["evidence"]))
+    vals = _values(c)
+    if vals:
+        parts.append(f'<span class="muted">{vals}</span>')
+    return "<br>".join(parts) or "-"
+
+
+def _claims_table(res: StudyResult, compare: Comparison | None) -> str:
     if not res.claims:
         return '<p class="muted">No claims.</p>'
+    other = f"<th>{_e(compare.label)}</th>" if compare else ""
     body = ""
     for c in res.claims:
-        values = c.get("values") or {}
-        vals = ", ".join(f"{_e(k)} = {format_number(v)}" for k, v in values.items())
-        kind = "book" if is_book_claim(c) else "ours"
-        body += f"<tr><td>{kind}</td><td>{_e(c.get('text', ''))}</td>"
-        body += f"<td>{_verdict(c.get('holds'))}</td>"
-        body += f"<td class='muted'>{vals or '-'}</td></tr>"
+        kind = "book" if is_book(c) else "ours"
+        cause = _e(c.get("cause", "")) if is_book(c) and not c.get("holds") else ""
+        body += f"<tr><td data-label='by'>{kind}</td><td>{_e(c.get('text', ''))}</td>"
+        body += f"<td data-label='verdict'>{_verdict(bool(c.get('holds')))}</td>"
+        body += f"<td data-label='cause'>{cause or '-'}</td>"
+        if compare:
+            body += (f"<td data-label='{_e(compare.label)}'>"
+                     f"{_verdict(compare.verdict(res.name, c))}</td>")  # fmt: skip
+        body += f"<td data-label='evidence'>{_why(c)}</td></tr>"
     return (
-        '<table class="claims"><tr><th>by</th><th>claim</th><th>verdict</th>'
-        "<th>deciding numbers</th></tr>"
-        f"{body}</table>"
+        '<div class="scroll"><table class="claims"><tr class="head"><th>by</th><th>claim</th>'
+        f"<th>verdict</th><th>cause</th>{other}<th>evidence and deciding numbers</th></tr>"
+        f"{body}</table></div>"
+    )
+
+
+def _book_claims_section(
+    results: list[StudyResult], damping: str | None, compare: Comparison | None
+) -> str:
+    """The first section: every book claim, those that reproduce, then by cause."""
+    claims = book_claims(results)
+    if not claims:
+        return (
+            '<section id="book-claims"><h2>The book\'s claims</h2><p class="muted">No study '
+            'in this folder marks a claim as the book\'s (<code>"book": true</code>).</p>'
+            "</section>"
+        )
+    here = f"here ({_e(damping)} reading)" if damping else "here"
+    other = f"<th>{_e(compare.label)}</th>" if compare else ""
+    ncol = 4 + bool(compare)
+
+    def row(r: StudyResult, c: dict[str, Any]) -> str:
+        cells = (
+            f"<tr><td><a href='#{_e(r.name)}'>{_e(r.name)}</a></td><td>{_e(c.get('text', ''))}"
+            f"</td><td data-label='{here}'>{_verdict(bool(c.get('holds')))}</td>"
+        )
+        if compare:
+            cells += (f"<td data-label='{_e(compare.label)}'>"
+                      f"{_verdict(compare.verdict(r.name, c))}</td>")  # fmt: skip
+        return cells + f"<td data-label='evidence'>{_why(c)}</td></tr>"
+
+    held = [(r, c) for r, c in claims if c.get("holds")]
+    body = (
+        f"<tbody class='holds'><tr class='group holds'><th colspan='{ncol}'>Reproduces: "
+        f"{len(held)}</th></tr>" + "".join(row(r, c) for r, c in held) + "</tbody>"
+    )
+    failing = [(r, c) for r, c in claims if not c.get("holds")]
+    groups: dict[str, list[tuple[StudyResult, dict[str, Any]]]] = {}
+    for r, c in failing:
+        cause = c.get("cause") if c.get("cause") in CAUSES else (c.get("cause") or NO_CAUSE)
+        groups.setdefault(str(cause), []).append((r, c))
+    order = [k for k in CAUSES if k in groups] + [k for k in groups if k not in CAUSES]
+    for cause in order:
+        rows = groups[cause]
+        what = CAUSES.get(cause, "the study records no cause" if cause == NO_CAUSE else "")
+        body += (
+            f"<tbody class='cause' data-cause='{_e(cause)}'><tr class='group'><th "
+            f"colspan='{ncol}'>Does not reproduce: {_e(cause)} ({len(rows)})"
+            f"{' &mdash; ' + _e(what) if what else ''}</th></tr>"
+            + "".join(row(r, c) for r, c in rows)
+            + "</tbody>"
+        )
+    return (
+        '<section id="book-claims"><h2>The book\'s claims</h2>'
+        f'<p class="muted">{len(claims)} claims the book makes, judged by its own words. '
+        "A claim that does not reproduce is grouped by its cause; the evidence gives our "
+        "numbers."
+        + (
+            f" The column <em>{_e(compare.label)}</em> is the verdict of the same claim in "
+            f"<code>{_e(compare.folder.name)}/</code>, the run under the other reading of the "
+            "tables' damping (SPEC.md section 2)."
+            if compare
+            else ""
+        )
+        + "</p>"
+        '<div class="scroll"><table class="bookclaims"><thead><tr><th>study</th><th>claim</th>'
+        f"<th>{here}</th>{other}<th>evidence and deciding numbers</th></tr></thead>"
+        f"{body}</table></div></section>"
     )
 
 
@@ -113,21 +238,39 @@ def _runs_table(doc: dict[str, Any]) -> str:
     return f"<table><tr><th>run</th><th>status</th><th>t_end (s)</th></tr>{body}</table>"
 
 
-def _study_section(res: StudyResult) -> str:
+def _poster(res: StudyResult) -> str:
+    folder = res.folder / POSTER_DIR
+    posters = sorted(folder.glob("*.png")) if folder.is_dir() else []
+    if not posters:
+        return ""
+    p = posters[0]
+    run = p.stem
+    cap = (
+        f"main run <code>{_e(run)}</code> at its end, drawn to scale; animate it: "
+        f"<code>mwip animate OUT/{_e(res.name)} --run {_e(run)}</code>"
+    )
+    return "<h3>The robot</h3>" + _img(p, f"{res.name}/{POSTER_DIR}/{p.name}", cap)
+
+
+def _study_section(res: StudyResult, compare: Comparison | None) -> str:
     info = res.info
     title = info.get("title", res.name)
     src = res.doc.get("source", "") if res.doc else ""
     parts = [f'<section class="study" id="{_e(res.name)}">']
-    held, n = res.held
+    book = [c for c in res.claims if is_book(c)]
+    hb = sum(bool(c.get("holds")) for c in book)
+    extra = [c for c in res.claims if not is_book(c)]
+    he = sum(bool(c.get("holds")) for c in extra)
     parts.append(f"<h2>{_e(res.name)}: {_e(title)}</h2>")
     parts.append(
-        f'<p class="muted">Book source: {_e(src)} &middot; claims holding: {held}/{n}'
+        f'<p class="muted">Book source: {_e(src)} &middot; book claims reproducing: {hb}/'
+        f"{len(book)} &middot; extras of ours holding: {he}/{len(extra)}"
         + (f" &middot; wall time {res.wall_s:.1f} s" if res.wall_s else "")
         + "</p>"
     )
     if res.error:
-        extra = " Results below are from an earlier run." if res.doc else ""
-        parts.append(f'<p class="fail">This study failed: {_e(res.error)}.{extra}</p>')
+        extra_note = " Results below are from an earlier run." if res.doc else ""
+        parts.append(f'<p class="fail">This study failed: {_e(res.error)}.{extra_note}</p>')
     if info.get("setup"):
         parts.append(f"<h3>Set-up</h3><p>{_e(info['setup'])}</p>")
     if res.settings:
@@ -139,15 +282,15 @@ def _study_section(res: StudyResult) -> str:
             f"<code>mwip scenario {_e(res.name)}</code>)</summary>"
             f"<table><tr><th>setting</th><th>value</th></tr>{rows}</table></details>"
         )
-    figs = "".join(_img(p) for p in res.figures) or '<p class="muted">No figure.</p>'
-    book = info.get("book", "")
-    parts.append(
-        f'<div class="grid"><div><h3>Our figures</h3>{figs}</div>'
-        f'<div><h3>The book</h3><div class="book">{_e(book) or "-"}</div></div></div>'
-    )
+    if res.doc:
+        parts.append("<h3>Claims</h3>" + _claims_table(res, compare))
+    book_text = info.get("book", "")
+    parts.append(f'<h3>The book</h3><div class="book">{_e(book_text) or "-"}</div>')
+    figs = "".join(_img(p, f"{res.name}/{p.name}") for p in res.figures)
+    parts.append("<h3>Our figures</h3>" + (figs or '<p class="muted">No figure.</p>'))
+    parts.append(_poster(res))
     if res.doc:
         parts.append("<h3>Published vs ours</h3>" + _comparison_table(res))
-        parts.append("<h3>Claims</h3>" + _claims_table(res))
     if info.get("gaps"):
         doc_ref = f" (details: {_e(info['docs'])})" if info.get("docs") else ""
         parts.append(f"<h3>Gaps explained</h3><p>{_e(info['gaps'])}{doc_ref}</p>")
@@ -177,7 +320,7 @@ def _params_table(record: dict[str, Any]) -> str:
     return f"<h3>Parameters</h3><table><tr><th>symbol</th>{head}</tr>{body}</table>"
 
 
-def _metadata(record: dict[str, Any]) -> str:
+def _metadata(record: dict[str, Any], compare: Comparison | None) -> str:
     if not record:
         return '<p class="muted">No run record (run.json) in this folder.</p>'
     rows = [
@@ -186,19 +329,24 @@ def _metadata(record: dict[str, Any]) -> str:
         ("wall time", f"{record.get('wall_s', 0):.1f} s"),
         ("parallel jobs", record.get("jobs")),
         ("quick mode", record.get("quick")),
+        ("damping reading", record.get("damping", "not recorded")),
+        ("compared with", f"{compare.folder.name}/ ({compare.label})" if compare else "-"),
         ("Python / NumPy / SciPy", " / ".join(str(record.get(k, "?")) for k in
                                              ("python", "numpy", "scipy"))),
         ("platform", record.get("platform")),
         ("command", record.get("command")),
     ]  # fmt: skip
     body = "".join(f"<tr><th>{_e(k)}</th><td>{_e(v)}</td></tr>" for k, v in rows)
-    return f"<table>{body}</table>" + _params_table(record)
+    return f"<div class='scroll'><table>{body}</table>{_params_table(record)}</div>"
 
 
 def _overview(results: list[StudyResult]) -> str:
     body = ""
     for r in results:
-        held, n = r.held
+        book = [c for c in r.claims if is_book(c)]
+        hb = sum(bool(c.get("holds")) for c in book)
+        extra = [c for c in r.claims if not is_book(c)]
+        he = sum(bool(c.get("holds")) for c in extra)
         statuses = sorted({str(v.get("status")) for v in (r.doc or {}).get("runs", {}).values()})
         state = "failed" if r.error else ", ".join(statuses) or "-"
         steps = ""
@@ -209,47 +357,72 @@ def _overview(results: list[StudyResult]) -> str:
         body += (
             f"<tr><td><a href='#{_e(r.name)}'>{_e(r.name)}</a></td>"
             f"<td>{_e(r.doc.get('source', '') if r.doc else '')}</td>"
-            f"<td class='num'>{held}/{n}</td><td>{_e(state)}</td><td>{_e(steps)}</td>"
+            f"<td class='num'>{hb}/{len(book)}</td><td class='num'>{he}/{len(extra)}</td>"
+            f"<td>{_e(state)}</td><td>{_e(steps)}</td>"
             f"<td class='num'>{'-' if r.wall_s is None else f'{r.wall_s:.1f}'}</td></tr>"
         )
     return (
-        "<table id='overview'><tr><th>study</th><th>book source</th><th>claims holding</th>"
-        "<th>runs</th><th>steps / seed</th><th>wall (s)</th></tr>" + body + "</table>"
+        "<div class='scroll'><table id='overview'><tr><th>study</th><th>book source</th>"
+        "<th>book claims</th><th>extras</th><th>runs</th><th>steps / seed</th><th>wall (s)</th>"
+        "</tr>" + body + "</table></div>"
     )
 
 
-def render_html(out: Path, names: list[str] | None = None) -> str:
-    """The report page for the results folder ``out`` (a string)."""
+def render_html(out: Path, names: list[str] | None = None, compare: Path | None = None) -> str:
+    """The report page for the results folder ``out`` (a string); ``compare`` is a second
+    results folder (another damping reading) whose verdicts are shown beside."""
     results = load_results(out, names)
     record = load_run_record(out)
-    held = sum(r.held[0] for r in results)
-    total = sum(r.held[1] for r in results)
+    damping = record.get("damping")
+    cmp = load_comparison(compare) if compare is not None else None
+    n = counts(results)
     failed = [r.name for r in results if r.error]
-    sections = "\n".join(_study_section(r) for r in results)
+    sections = "\n".join(_study_section(r, cmp) for r in results)
     nav = " ".join(f"<a href='#{_e(r.name)}'>{_e(r.name)}</a>" for r in results)
-    verdict = f"{held} of {total} claims hold over {len(results)} studies"
-    if failed:
-        verdict += f"; failed: {', '.join(failed)}"
+    extras = (
+        f"Extras of ours (checks the book does not make), counted separately: "
+        f"{n['extra_held']} of {n['extra']} hold"
+        + (
+            f" ({n['unlabelled']} claims carry no <code>book</code> field and are counted here)"
+            if n["unlabelled"]
+            else ""
+        )  # fmt: skip
+        + f". {len(results)} studies"
+        + (f"; failed: {_e(', '.join(failed))}" if failed else "")
+        + "."
+    )
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <title>mwip: reproduction report</title><style>{_CSS}</style></head>
 <body><main>
 <h1>mwip: reproduction of the book's studies</h1>
-<p><span class="badge" id="verdict">{_e(verdict)}</span></p>
-<p class="muted">Every verdict and number below is read from the studies' metrics.json files
-(SPEC.md section 6). Figures are in the book's layout; the text beside each describes the
-book's figure for comparison.</p>
-<nav>{nav}</nav>
-<h2 style="margin-top:1rem">Overview</h2>{_overview(results)}
-<h2 style="margin-top:1rem">Run</h2>{_metadata(record)}
+<p class="headline" id="headline">{_e(headline(results, damping, cmp))}</p>
+<p class="muted" id="extras">{extras}</p>
+<p class="muted" id="marks">"does not hold" (<code>[no]</code> in the terminal summary) means
+our run contradicts the book's claim as the book words it; its cause says why, its evidence
+gives our numbers. Every verdict and number is read from the studies' metrics.json files
+(SPEC.md section 6).</p>
+<nav><a href="#book-claims">the book's claims</a> <a href="#overview">overview</a> {nav}</nav>
+{_book_claims_section(results, damping, cmp)}
+<h2>Overview</h2>{_overview(results)}
+<h2>Run</h2>{_metadata(record, cmp)}
 {sections}
 </main></body></html>
 """
 
 
-def write_report(out: Path, names: list[str] | None = None) -> Path:
-    """Write ``out/index.html`` atomically; returns its path."""
-    path = Path(out) / "index.html"
-    write_text_atomic(path, render_html(out, names))
+def write_report(out: Path, names: list[str] | None = None, compare: Path | None = None) -> Path:
+    """Write ``out/index.html`` atomically (first the poster frame of each study's main run,
+    where missing: :func:`mwip.report.posters.ensure_posters`); returns its path.
+
+    ``compare``: the results folder of the other damping reading (default: ``OUT/compare-*``
+    if there is one, :func:`mwip.report.claims.find_compare`).
+    """
+    out = Path(out)
+    ensure_posters(load_results(out, names))
+    if compare is None:
+        compare = find_compare(out)
+    path = out / "index.html"
+    write_text_atomic(path, render_html(out, names, compare))
     return path

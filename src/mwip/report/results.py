@@ -15,7 +15,14 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-__all__ = ["StudyResult", "load_catalog", "load_results", "load_run_record", "relative_diff"]
+__all__ = [
+    "StudyResult",
+    "load_catalog",
+    "load_results",
+    "load_run_record",
+    "relative_diff",
+    "study_texts",
+]
 
 RUN_RECORD = "run.json"
 
@@ -87,6 +94,17 @@ def load_catalog() -> dict[str, dict[str, str]]:
     return out
 
 
+def study_texts(name: str) -> dict[str, str]:
+    """The texts the report shows for study ``name`` (title, setup, book, gaps, docs) and the
+    name of its ``main_run`` (the run its animation shows); ``{}`` if there are none.
+
+    Every reader of these texts goes through this function: they live in the ``[report]``
+    table of each study's file (:func:`load_catalog`).
+    """
+    entry = load_catalog().get(name, {})
+    return {str(k): str(v) for k, v in entry.items()} if isinstance(entry, dict) else {}
+
+
 def load_run_record(out: Path) -> dict[str, Any]:
     """``OUT/run.json`` as written by ``mwip reproduce`` ({} if absent or unreadable)."""
     path = Path(out) / RUN_RECORD
@@ -109,7 +127,6 @@ def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]
     if names is None:
         found = sorted(p.parent.name for p in out.glob("*/metrics.json"))
         names = [*per_study, *(n for n in found if n not in per_study)]
-    catalog = load_catalog()
     results = []
     for name in names:
         folder = out / name
@@ -123,7 +140,7 @@ def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]
         figures = tuple(sorted(folder.glob("*.png"))) if folder.is_dir() else ()
         results.append(
             StudyResult(name=name, folder=folder, doc=doc, figures=figures, error=error,
-                        wall_s=rec.get("wall_s"), info=catalog.get(name, {}),
+                        wall_s=rec.get("wall_s"), info=study_texts(name),
                         settings=dict(rec.get("settings") or {}))
         )  # fmt: skip
     return results

@@ -1,14 +1,22 @@
-"""The one-screen summary ``mwip reproduce`` ends with: every claim, holds or not, with the
-numbers that decide it, read from each study's ``metrics.json``."""
+"""The one-screen summary ``mwip reproduce`` ends with, read from each study's
+``metrics.json``: first the headline (how many of the book's claims reproduce), one line
+saying what the marks mean, then one line per study, for a study with a failing book claim
+that claim with its cause and evidence, and last the extras of ours, counted separately."""
 
 from __future__ import annotations
 
 import math
 from typing import Any
 
+from mwip.report.claims import Comparison, counts, is_book
 from mwip.report.results import StudyResult
 
-__all__ = ["format_number", "summary_lines"]
+__all__ = ["MARKS", "format_number", "headline", "summary_lines"]
+
+#: What the marks mean, for a newcomer (printed under the headline).
+MARKS = (
+    "[ok]: all book claims of the study hold; [no]: one does not (first shown: [cause] evidence)"
+)
 
 
 def format_number(x: Any) -> str:
@@ -38,60 +46,90 @@ def _values(claim: dict[str, Any]) -> str:
     return ", ".join(f"{k}={format_number(v)}" for k, v in vals.items())
 
 
-def is_book_claim(claim: dict[str, Any]) -> bool:
-    """A claim the book makes (``"book": true``, or its text cites the book and it is not one
-    of our extra readings, e.g. "[extra: ideal sensors and actuator]")."""
-    if "book" in claim:
-        return bool(claim["book"])
-    text = str(claim.get("text", "")).lower()
-    return "book" in text and "extra" not in text
+def headline(results: list[StudyResult], damping: str | None = None,
+             compare: Comparison | None = None) -> str:  # fmt: skip
+    """``"Book claims: 18 of 42 reproduce (damping reading units; literal reading: 12 of
+    42)"``."""
+    n = counts(results)
+    text = f"Book claims: {n['book_held']} of {n['book']} reproduce"
+    extra = [f"damping reading {damping}"] if damping else []
+    if compare is not None:
+        other = [
+            compare.verdict(r.name, c) for r in results for c in r.claims if is_book(c)
+        ]  # fmt: skip
+        known = [v for v in other if v is not None]
+        extra.append(f"{compare.label}: {sum(known)} of {len(known)}")
+    return text + (f" ({'; '.join(extra)})" if extra else "")
 
 
-def _claim_line(c: dict[str, Any], width: int, indent: str = "  ") -> str:
+def _claim_line(c: dict[str, Any], width: int, indent: str,
+                compare: Comparison | None, study: str) -> list[str]:  # fmt: skip
     mark = "[ok]" if c.get("holds") else "[no]"
+    kind = "" if is_book(c) else "(ours) "
     vals = _clip(f"  <{_values(c)}>", width // 2) if c.get("values") else ""
-    return _clip(f"{indent}{mark} {c.get('text', '')}", width - len(vals)) + vals
+    other = ""
+    if compare is not None and (v := compare.verdict(study, c)) is not None:
+        other = f" [{compare.damping or 'other'}: {'ok' if v else 'no'}]"
+    lines = [_clip(f"{indent}{mark} {kind}{c.get('text', '')}", width - len(vals) - len(other))
+             + vals + other]  # fmt: skip
+    if is_book(c) and not c.get("holds"):
+        lines += _why(c, width, indent + "     ")
+    return lines
 
 
-def summary_lines(results: list[StudyResult], width: int = 100, verbose: bool = False) -> list[str]:
-    """The summary, from each study's ``metrics.json``.
+def _why(c: dict[str, Any], width: int, indent: str) -> list[str]:
+    """One line: ``[cause] evidence`` (the deciding numbers where there is no evidence)."""
+    cause = f"[{c['cause']}] " if c.get("cause") else ""
+    why = c.get("evidence") or _values(c)
+    return [_clip(f"{indent}{cause}{why}", width)] if cause or why else []
 
-    Default (one screen): per study one line - ``[ok]`` when every book claim holds - with
-    the counts of book claims and of all claims that hold, and the first failing book claim
-    with its deciding numbers (``values`` of the claim). ``verbose``: every claim.
+
+def summary_lines(
+    results: list[StudyResult],
+    width: int = 100,
+    verbose: bool = False,
+    *,
+    damping: str | None = None,
+    compare: Comparison | None = None,
+) -> list[str]:
+    """The summary, from each study's ``metrics.json`` (see module docstring).
+
+    Default (one screen): the headline, the marks, per study one line - ``[ok]`` when every
+    book claim holds - with its book claims holding, the extras holding and the run statuses,
+    then the first failing book claim with its cause and evidence. ``verbose``: every claim.
+    ``damping`` names this run's reading; ``compare`` adds the verdicts of the other one.
     """
-    lines: list[str] = []
-    held_all = total_all = held_book = total_book = 0
+    lines = [_clip(headline(results, damping, compare), width), _clip(MARKS, width)]
     for res in results:
         src = res.doc.get("source", "") if res.doc else res.info.get("source", "")
         if res.doc is None:
             lines.append(_clip(f"[!!] {res.name} ({src}): FAILED - {res.error}", width))
             continue
         claims = res.claims
-        book = [c for c in claims if is_book_claim(c)]
+        book = [c for c in claims if is_book(c)]
+        extra = [c for c in claims if not is_book(c)]
         hb = sum(bool(c.get("holds")) for c in book)
-        ha = sum(bool(c.get("holds")) for c in claims)
-        held_all, total_all = held_all + ha, total_all + len(claims)
-        held_book, total_book = held_book + hb, total_book + len(book)
+        he = sum(bool(c.get("holds")) for c in extra)
         runs = ", ".join(sorted({str(r.get("status")) for r in res.doc.get("runs", {}).values()}))
         mark = "[ok]" if hb == len(book) else "[no]"
         counted = f"book claims {hb}/{len(book)}" if book else "no book claim"
-        head = f"{mark} {res.name} ({src}): {counted}, all {ha}/{len(claims)}; runs {runs or '-'}"
+        head = f"{mark} {res.name} ({src}): {counted}, extras {he}/{len(extra)}; runs {runs or '-'}"
         if res.error:
             head += f"; FAILED this time ({res.error}), earlier results shown"
         lines.append(_clip(head, width))
         if verbose:
-            lines.extend(_claim_line(c, width, "     ") for c in claims)
+            for c in claims:
+                lines.extend(_claim_line(c, width, "     ", compare, res.name))
             continue
         failing = [c for c in book if not c.get("holds")]
         if failing:
             more = f" (+{len(failing) - 1} more)" if len(failing) > 1 else ""
             first = failing[0]
             lines.append(_clip(f"     fails: {first.get('text', '')}", width - len(more)) + more)
-            if first.get("values"):
-                lines.append(_clip(f"            {_values(first)}", width))
-    lines.append(
-        f"book claims holding: {held_book}/{total_book}; all claims (with our extra readings): "
-        f"{held_all}/{total_all}; over {len(results)} studies"
-    )
+            lines.extend(_why(first, width, "            "))
+    n = counts(results)
+    tail = f"extras of ours (not the book's claims): {n['extra_held']} of {n['extra']} hold"
+    if n["unlabelled"]:
+        tail += f" ({n['unlabelled']} claims carry no 'book' field and are counted here)"
+    lines.append(_clip(f"{tail}; {len(results)} studies", width))
     return lines

@@ -29,6 +29,7 @@ import scipy
 from mwip.io import write_json_atomic
 from mwip.params import Params
 from mwip.report.html import write_report
+from mwip.report.posters import draw_poster
 from mwip.report.results import RUN_RECORD, load_run_record
 from mwip.report.staging import Staging
 from mwip.sim.engine import RUN_END_HOOKS
@@ -56,6 +57,7 @@ def _run_one(
             warnings.simplefilter("ignore")
             doc = registry.run_study(name, out, quick=quick, plant=plant, nominal=nominal,
                                      overrides=overrides)  # fmt: skip
+            draw_poster(out / name)  # the report's picture of its main run, drawn in parallel
     except Exception as exc:  # noqa: BLE001 - recorded and reported; exit code says so
         return name, None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
     return name, doc, None, time.perf_counter() - t0
