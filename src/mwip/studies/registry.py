@@ -88,8 +88,8 @@ def context(
     study file's defaults with ``overrides``, validated) and its seed (setting ``seed``, else
     0)."""
     study = get(name)
-    try:
-        base = study_settings.defaults(name)
+    try:  # TRANSITIONAL: current() folds in settings.using() of not yet converted callers
+        base = study_settings.current(name)
     except ValueError:  # a study without a study file has no settings (e.g. in a test)
         base = {}
     cfg = {**base, **study_settings.validate(name, overrides or {})}
