@@ -18,6 +18,7 @@ from typing import Any
 import click
 import numpy as np
 
+from mwip.cli_campaign import campaign as _campaign_cmd
 from mwip.cli_controllers import controllers as _controllers_cmd
 from mwip.control.registry import ControllerSpec
 from mwip.export.cli import export as _export_group
@@ -97,8 +98,13 @@ def cli() -> None:
 )
 @click.option(
     "--twin",
-    is_flag=True,
-    help="Run on the digital twin (Chapter 6: IMU fusion, encoders, RE25 drives; sampled).",
+    "twin",
+    is_flag=False,
+    flag_value="default",
+    default=None,
+    metavar="[FILE]",
+    help="Run on the digital twin (Chapter 6: IMU fusion, encoders, RE25 drives; sampled); "
+    "with a twin file ([twin] TOML, `mwip twin show`) that twin.",
 )
 @click.option(
     "--case",
@@ -179,7 +185,8 @@ def cli() -> None:
 )
 @click.pass_context
 def simulate(
-    ctx: click.Context, controller: str, sets: tuple[str, ...], twin: bool, case: int, seed: int,
+    ctx: click.Context, controller: str, sets: tuple[str, ...], twin: str | None, case: int,
+    seed: int,
     theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
     disturbance: str, out: Path | None, as_json: bool, plot: bool, damping: str,
@@ -229,13 +236,18 @@ def simulate(
         ("Ts", "Ts", Ts),
         ("dt", "dt", dt),
         ("mode", "mode", mode),
-        ("twin", "twin", twin),
         ("case", "case", case),
         ("seed", "seed", seed),
     )
     for opt, key, val in fields:
         if given(opt):
             changes[key] = val
+    if twin is not None:
+        changes["twin"] = True
+        if twin != "default":
+            from mwip.hardware.twin_cli import load_twin_option
+
+            changes["twin_config"] = load_twin_option(Path(twin))
     if given("plant") or given("damping"):
         changes["plant"] = _params(plant, "--params", damping=damping)
     if given("design_params") or given("damping"):
@@ -888,8 +900,16 @@ def scenario(study: str, out: Path | None) -> None:
     help="A second results folder (e.g. under the other damping reading) whose verdicts are "
     "shown beside; default: OUT/compare-* if there is one.",
 )
+@click.option(
+    "--claims",
+    "claims_campaign",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="A finished `mwip campaign run claims` folder: each claim shows how often it holds "
+    "over the settings the book leaves open; default: OUT/claims-campaign if present.",
+)
 @_VERBOSE
-def report(out: Path, compare: Path | None, verbose: bool) -> None:
+def report(out: Path, compare: Path | None, claims_campaign: Path | None, verbose: bool) -> None:
     """Rebuild OUT/index.html from the results in OUT and print the summary."""
     from mwip.report import load_results, load_run_record, summary_lines, write_report
     from mwip.report.claims import find_compare, load_comparison
@@ -902,7 +922,10 @@ def report(out: Path, compare: Path | None, verbose: bool) -> None:
     if compare is not None and not any((compare / n / "metrics.json").is_file() for n in known):
         raise click.BadParameter(f"no study results in {compare}", param_hint="--compare")
     compare = compare if compare is not None else find_compare(out)
-    path = write_report(out, names, compare)
+    if claims_campaign is not None and not (claims_campaign / "results.parquet").is_file():
+        raise click.BadParameter(f"no finished campaign (results.parquet) in {claims_campaign}",
+                                 param_hint="--claims")  # fmt: skip
+    path = write_report(out, names, compare, claims_campaign)
     cmp = load_comparison(compare) if compare is not None else None
     for line in summary_lines(load_results(out, names), verbose=verbose,
                               damping=load_run_record(out).get("damping"),
@@ -913,6 +936,7 @@ def report(out: Path, compare: Path | None, verbose: bool) -> None:
 
 cli.add_command(_controllers_cmd)
 cli.add_command(_export_group)
+cli.add_command(_campaign_cmd)
 
 
 def _register() -> None:

@@ -324,7 +324,7 @@ def steady_speed_cap(p: Params) -> Any:
     ``|psi'| <= Gb / (2 Dw)``, reached only lying flat.
 
     >>> round(steady_speed_cap(REAL_LITERAL), 3), round(steady_speed_cap(REAL), 1)
-    (0.984, 614.8)
+    (0.984, 614.9)
     """
     return p.Gb / (2.0 * p.Dw)
 

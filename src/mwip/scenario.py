@@ -8,7 +8,8 @@ Example (``examples/balance.toml``)::
     Ts = 0.005               # sample period (s)
     mode = "sampled"         # or "continuous"
     # dt = 0.0005            # integration step (s), optional
-    # twin = true            # run on the digital twin (Chapter 6: IMU, encoders, drives)
+    # twin = true            # run on the digital twin (Chapter 6: IMU, encoders, drives);
+    #                        # or a twin file (`mwip twin show`), relative to this file
     # case = 2               # with twin: 1 robot, 2 with payload, 3 payload + stick at ~6 s
     # seed = 0               # sensor-noise seed (twin)
 
@@ -113,6 +114,9 @@ class Scenario:
     twin: bool = False
     case: int = 1
     seed: int = 0
+    #: the twin's configuration (:class:`mwip.hardware.twin.Twin`, e.g. from a twin file,
+    #: ``mwip twin show``); ``None``: the default twin. Its ``Ts``/``dt`` follow the scenario.
+    twin_config: Any = None
 
     def __post_init__(self) -> None:
         try:
@@ -167,7 +171,8 @@ class Scenario:
         if self.twin:
             from mwip.hardware.twin import Twin, case_plant, run_on_twin
 
-            tw = Twin(Ts=self.Ts) if self.dt is None else Twin(Ts=self.Ts, dt=self.dt)
+            base = self.twin_config if self.twin_config is not None else Twin()
+            tw = replace(base, Ts=self.Ts, dt=base.dt if self.dt is None else self.dt)
             kwargs.pop("progress", None)  # the twin's runner reports no progress
             return run_on_twin(
                 self.build_controller(), self.case, twin=tw,
@@ -206,6 +211,15 @@ def load_scenario(path: str | Path) -> Scenario:
     kwargs["plant"] = _params_table("plant", data.get("plant", {}), REAL, p)
     kwargs["design"] = _params_table("design", data.get("design", {}), NOMINAL, p)
     kwargs["initial"] = dict(data.get("initial", {}))
+    if isinstance(kwargs.get("twin"), str):  # twin = "my_twin.toml": a twin file
+        from mwip.hardware.twin_config import load_twin
+
+        twin_path = Path(kwargs["twin"])
+        twin_path = twin_path if twin_path.is_absolute() else p.parent / twin_path
+        if not twin_path.is_file():
+            raise ValueError(f"[scenario] twin: no such twin file {str(twin_path)!r}")
+        kwargs["twin_config"] = load_twin(twin_path)
+        kwargs["twin"] = True
     if "disturbance" in data:
         try:
             kwargs["disturbance"] = disturbance_from_dict(data["disturbance"])

@@ -20,6 +20,7 @@ from __future__ import annotations
 import base64
 import html
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -82,6 +83,10 @@ td[data-label]::before{content:attr(data-label) ": ";font-weight:600;color:#5661
 """
 
 
+#: Where `mwip report` looks for a claims campaign by default (inside the results folder).
+CLAIMS_CAMPAIGN = "claims-campaign"
+
+
 def _e(x: Any) -> str:
     return html.escape(str(x), quote=True)
 
@@ -141,7 +146,31 @@ def _why(c: dict[str, Any]) -> str:
     return "<br>".join(parts) or "-"
 
 
-def _claims_table(res: StudyResult, compare: Comparison | None) -> str:
+#: ``note(study, claim) -> str``: the claims campaign's "holds in X % of plausible settings"
+Note = Callable[[str, dict[str, Any]], str]
+
+
+def _no_note(study: str, claim: dict[str, Any]) -> str:
+    return ""
+
+
+def claim_robustness_note(folder: Path | None) -> Note:
+    """The note shown beside each claim from a finished ``claims`` campaign in ``folder``
+    (``mwip campaign run claims --out OUT/claims-campaign``; issue 15), or no note."""
+    if folder is None or not (Path(folder) / "results.parquet").is_file():
+        return _no_note
+    from mwip.campaign.claims import load_claim_robustness, robustness_text
+
+    table = load_claim_robustness(folder)
+    return lambda study, claim: robustness_text(table, study, claim)
+
+
+def _robust(note: Note, study: str, c: dict[str, Any]) -> str:
+    text = note(study, c)
+    return f'<br><span class="muted">{_e(text)}</span>' if text else ""
+
+
+def _claims_table(res: StudyResult, compare: Comparison | None, note: Note = _no_note) -> str:
     if not res.claims:
         return '<p class="muted">No claims.</p>'
     other = f"<th>{_e(compare.label)}</th>" if compare else ""
@@ -150,7 +179,8 @@ def _claims_table(res: StudyResult, compare: Comparison | None) -> str:
         kind = "book" if is_book(c) else "ours"
         cause = _e(c.get("cause", "")) if is_book(c) and not c.get("holds") else ""
         body += f"<tr><td data-label='by'>{kind}</td><td>{_e(c.get('text', ''))}</td>"
-        body += f"<td data-label='verdict'>{_verdict(bool(c.get('holds')))}</td>"
+        body += (f"<td data-label='verdict'>{_verdict(bool(c.get('holds')))}"
+                 f"{_robust(note, res.name, c)}</td>")  # fmt: skip
         body += f"<td data-label='cause'>{cause or '-'}</td>"
         if compare:
             body += (f"<td data-label='{_e(compare.label)}'>"
@@ -164,8 +194,9 @@ def _claims_table(res: StudyResult, compare: Comparison | None) -> str:
 
 
 def _book_claims_section(
-    results: list[StudyResult], damping: str | None, compare: Comparison | None
-) -> str:
+    results: list[StudyResult], damping: str | None, compare: Comparison | None,
+    note: Note = _no_note,
+) -> str:  # fmt: skip
     """The first section: every book claim, those that reproduce, then by cause."""
     claims = book_claims(results)
     if not claims:
@@ -181,7 +212,8 @@ def _book_claims_section(
     def row(r: StudyResult, c: dict[str, Any]) -> str:
         cells = (
             f"<tr><td><a href='#{_e(r.name)}'>{_e(r.name)}</a></td><td>{_e(c.get('text', ''))}"
-            f"</td><td data-label='{here}'>{_verdict(bool(c.get('holds')))}</td>"
+            f"</td><td data-label='{here}'>{_verdict(bool(c.get('holds')))}"
+            f"{_robust(note, r.name, c)}</td>"
         )
         if compare:
             cells += (f"<td data-label='{_e(compare.label)}'>"
@@ -252,7 +284,7 @@ def _poster(res: StudyResult) -> str:
     return "<h3>The robot</h3>" + _img(p, f"{res.name}/{POSTER_DIR}/{p.name}", cap)
 
 
-def _study_section(res: StudyResult, compare: Comparison | None) -> str:
+def _study_section(res: StudyResult, compare: Comparison | None, note: Note = _no_note) -> str:
     info = res.info
     title = info.get("title", res.name)
     src = res.doc.get("source", "") if res.doc else ""
@@ -283,7 +315,7 @@ def _study_section(res: StudyResult, compare: Comparison | None) -> str:
             f"<table><tr><th>setting</th><th>value</th></tr>{rows}</table></details>"
         )
     if res.doc:
-        parts.append("<h3>Claims</h3>" + _claims_table(res, compare))
+        parts.append("<h3>Claims</h3>" + _claims_table(res, compare, note))
     book_text = info.get("book", "")
     parts.append(f'<h3>The book</h3><div class="book">{_e(book_text) or "-"}</div>')
     figs = "".join(_img(p, f"{res.name}/{p.name}") for p in res.figures)
@@ -368,16 +400,22 @@ def _overview(results: list[StudyResult]) -> str:
     )
 
 
-def render_html(out: Path, names: list[str] | None = None, compare: Path | None = None) -> str:
+def render_html(
+    out: Path, names: list[str] | None = None, compare: Path | None = None,
+    claims_campaign: Path | None = None,
+) -> str:  # fmt: skip
     """The report page for the results folder ``out`` (a string); ``compare`` is a second
-    results folder (another damping reading) whose verdicts are shown beside."""
+    results folder (another damping reading) whose verdicts are shown beside;
+    ``claims_campaign`` a finished ``claims`` campaign whose "holds in X % of plausible
+    settings" is shown under each claim's verdict."""
+    note = claim_robustness_note(claims_campaign)
     results = load_results(out, names)
     record = load_run_record(out)
     damping = record.get("damping")
     cmp = load_comparison(compare) if compare is not None else None
     n = counts(results)
     failed = [r.name for r in results if r.error]
-    sections = "\n".join(_study_section(r, cmp) for r in results)
+    sections = "\n".join(_study_section(r, cmp, note) for r in results)
     nav = " ".join(f"<a href='#{_e(r.name)}'>{_e(r.name)}</a>" for r in results)
     extras = (
         f"Extras of ours (checks the book does not make), counted separately: "
@@ -404,7 +442,7 @@ our run contradicts the book's claim as the book words it; its cause says why, i
 gives our numbers. Every verdict and number is read from the studies' metrics.json files
 (SPEC.md section 6).</p>
 <nav><a href="#book-claims">the book's claims</a> <a href="#overview">overview</a> {nav}</nav>
-{_book_claims_section(results, damping, cmp)}
+{_book_claims_section(results, damping, cmp, note)}
 <h2>Overview</h2>{_overview(results)}
 <h2>Run</h2>{_metadata(record, cmp)}
 {sections}
@@ -412,17 +450,23 @@ gives our numbers. Every verdict and number is read from the studies' metrics.js
 """
 
 
-def write_report(out: Path, names: list[str] | None = None, compare: Path | None = None) -> Path:
+def write_report(
+    out: Path, names: list[str] | None = None, compare: Path | None = None,
+    claims_campaign: Path | None = None,
+) -> Path:  # fmt: skip
     """Write ``out/index.html`` atomically (first the poster frame of each study's main run,
     where missing: :func:`mwip.report.posters.ensure_posters`); returns its path.
 
     ``compare``: the results folder of the other damping reading (default: ``OUT/compare-*``
-    if there is one, :func:`mwip.report.claims.find_compare`).
+    if there is one, :func:`mwip.report.claims.find_compare`). ``claims_campaign``: a
+    finished ``claims`` campaign (default: ``OUT/claims-campaign`` if it has results).
     """
     out = Path(out)
     ensure_posters(load_results(out, names))
     if compare is None:
         compare = find_compare(out)
+    if claims_campaign is None and (out / CLAIMS_CAMPAIGN / "results.parquet").is_file():
+        claims_campaign = out / CLAIMS_CAMPAIGN
     path = out / "index.html"
-    write_text_atomic(path, render_html(out, names, compare))
+    write_text_atomic(path, render_html(out, names, compare, claims_campaign))
     return path

@@ -1,0 +1,187 @@
+"""Claim robustness: how each book claim's verdict depends on the settings the book leaves open.
+
+Each study's file declares its open settings with plausible ranges (``[open]``,
+:func:`mwip.studies.settings.open_settings`). A claims campaign draws, for each study with open
+settings and each sample, every open setting uniformly from its range (each element of a
+list; integers, e.g. seeds, uniformly among the integers of the range), reruns the study with
+those settings (:func:`mwip.studies.settings.using`) and records every claim's verdict from
+the metrics document: its ``id`` (the claim's text when it has no id), ``book`` and
+``holds``. Sample ``s`` of the ``k``-th such study is global index ``s S + k`` (S studies),
+drawn from the campaign seed and that index alone (:mod:`mwip.campaign.sampling`).
+
+Summary: the fraction of plausible settings under which a claim holds, with a Wilson 95 %
+interval (:func:`mwip.campaign.stats.wilson`): :func:`claim_robustness` and, for the main
+report, :func:`robustness_text` ("holds in 75 % of plausible settings (95 % interval 62-85 %,
+n = 40)").
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mwip.campaign.sampling import sample_rng
+from mwip.campaign.spec import Campaign
+from mwip.campaign.stats import wilson
+
+__all__ = [
+    "claim_studies",
+    "draw_settings",
+    "run_block",
+    "ClaimRobustness",
+    "claim_robustness",
+    "load_claim_robustness",
+    "robustness_text",
+]
+
+
+def claim_studies(campaign: Campaign) -> list[str]:
+    """The campaign's studies that declare open settings (the others are skipped)."""
+    from mwip.studies.settings import open_settings
+
+    return [s for s in campaign.studies if open_settings(s)]
+
+
+def draw_settings(study: str, rng: np.random.Generator) -> dict[str, Any]:
+    """One draw of study ``study``'s open settings from their ranges (keys in sorted order)."""
+    from mwip.studies.settings import defaults, open_settings
+
+    base = defaults(study)
+    out: dict[str, Any] = {}
+    for key, entry in sorted(open_settings(study).items()):
+        lo, hi = entry["range"]
+        default = base[key]
+        items = default if isinstance(default, list) else [default]
+        vals: list[Any] = []
+        for d in items:
+            if isinstance(d, bool):
+                vals.append(d)
+            elif isinstance(d, int):
+                vals.append(int(rng.integers(math.ceil(lo), math.floor(hi) + 1)))
+            else:
+                vals.append(float(lo + rng.random() * (hi - lo)))
+        out[key] = vals if isinstance(default, list) else vals[0]
+    return out
+
+
+def _rows(
+    study: str, sample: int, drawn: dict[str, Any], doc: dict[str, Any] | None, error: str | None
+) -> list[dict[str, Any]]:
+    settings = json.dumps(drawn, sort_keys=True)
+    if doc is None:
+        return [
+            {
+                "study": study,
+                "sample": sample,
+                "claim_index": -1,
+                "claim": "",
+                "book": "",
+                "text": "",
+                "holds": False,
+                "error": error or "",
+                "settings": settings,
+            }
+        ]
+    rows = []
+    for j, c in enumerate(doc.get("claims", [])):
+        text = str(c.get("text", ""))
+        rows.append(
+            {
+                "study": study,
+                "sample": sample,
+                "claim_index": j,
+                "claim": str(c.get("id") or text),
+                "book": str(c.get("book", "")),
+                "text": text,
+                "holds": bool(c["holds"]),
+                "error": "",
+                "settings": settings,
+            }
+        )
+    return rows
+
+
+def run_block(campaign: Campaign, block: int) -> Any:
+    """The claim verdicts of the samples of ``block`` (a pandas DataFrame, possibly empty)."""
+    import pandas as pd
+
+    from mwip.studies import run_study
+    from mwip.studies.settings import using
+
+    studies = claim_studies(campaign)
+    rows: list[dict[str, Any]] = []
+    for i in range(block * campaign.block, (block + 1) * campaign.block):
+        if not studies:
+            break
+        study, sample = studies[i % len(studies)], i // len(studies)
+        drawn = draw_settings(study, sample_rng(campaign.seed, i))
+        doc, error = None, None
+        with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                with using(study, drawn):
+                    doc = run_study(study, Path(tmp), quick=campaign.quick)
+            except Exception as exc:  # noqa: BLE001 - recorded as the sample's error
+                error = f"{type(exc).__name__}: {exc}"
+        rows.extend(_rows(study, sample, drawn, doc, error))
+    cols = ["study", "sample", "claim_index", "claim", "book", "text", "holds", "error", "settings"]
+    df = pd.DataFrame(rows, columns=cols)
+    return df.astype({"sample": "int64", "claim_index": "int64", "holds": "bool"})
+
+
+@dataclass(frozen=True)
+class ClaimRobustness:
+    """A claim's verdict over its plausible settings: holds in ``k`` of ``n`` draws,
+    ``fraction = k / n`` with the Wilson 95 % interval ``[lo, hi]``."""
+
+    study: str
+    claim: str
+    book: str
+    k: int
+    n: int
+    fraction: float
+    lo: float
+    hi: float
+
+
+def claim_robustness(results: Any) -> dict[tuple[str, str], ClaimRobustness]:
+    """Per (study, claim id): the verdicts of a claims campaign's table (errors excluded)."""
+    df = results[results["error"] == ""]
+    out: dict[tuple[str, str], ClaimRobustness] = {}
+    for (study, claim), g in df.groupby(["study", "claim"], sort=False):
+        k, n = int(g["holds"].sum()), int(len(g))
+        lo, hi = wilson(k, n)
+        out[(str(study), str(claim))] = ClaimRobustness(
+            str(study), str(claim), str(g["book"].iloc[0]), k, n, k / n, lo, hi
+        )
+    return out
+
+
+def load_claim_robustness(folder: str | Path) -> dict[tuple[str, str], ClaimRobustness]:
+    """:func:`claim_robustness` of ``folder/results.parquet`` (a finished claims campaign)."""
+    import pandas as pd
+
+    return claim_robustness(pd.read_parquet(Path(folder) / "results.parquet"))
+
+
+def robustness_text(
+    table: dict[tuple[str, str], ClaimRobustness], study: str, claim: dict[str, Any]
+) -> str:
+    """What the main report shows beside ``claim`` (a claim of ``study``'s metrics document):
+    ``"holds in 75 % of plausible settings (95 % interval 62-85 %, n = 40)"``, or ``""`` when
+    the campaign has no verdicts for it."""
+    key = (study, str(claim.get("id") or claim.get("text", "")))
+    r = table.get(key)
+    if r is None or r.n == 0:
+        return ""
+    return (
+        f"holds in {100 * r.fraction:.0f} % of plausible settings "
+        f"(95 % interval {100 * r.lo:.0f}-{100 * r.hi:.0f} %, n = {r.n})"
+    )

@@ -1,0 +1,322 @@
+"""Running a campaign: blocks in chunks, in this process or on Dask, resumable, deterministic.
+
+Units. A *block* (``campaign.block`` samples, aligned to the global sample index) is the
+numerical unit: one engine batch per controller, sensor noise seeded from (seed, block), so a
+row's numbers never depend on how the work was split (:mod:`mwip.campaign.blocks`). A *chunk*
+is a whole number of consecutive blocks: one task, one Parquet file
+``DIR/chunks/blocks-FIRST-LAST.parquet`` written atomically (temporary file + rename) by the
+process that collects the results. Blocks past N are simulated whole and their extra rows
+dropped, so the table is the same for any N that covers them.
+
+Resuming. ``DIR/campaign.json`` records the campaign's identity (everything but N). A run
+lists the chunk files present, runs only the blocks no file covers, then assembles
+``DIR/results.parquet`` (atomically) from the chunk files in (controller, sample) order.
+``kill -9`` at any moment loses at most the chunks in flight; a run of a finished campaign
+does nothing and says so. A worker killed mid-chunk loses that chunk: Dask reruns it
+elsewhere (its ``allowed-failures``).
+
+Engines. ``jobs = 1`` without a scheduler runs the chunks here, one after another (the bare
+batch engine). Otherwise a :class:`dask.distributed.LocalCluster` with ``jobs`` worker
+processes (one thread each), or the Dask cluster at ``scheduler`` (its workers need mwip
+installed; they send the rows back, so no shared file system is needed).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import sys
+import time
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mwip.campaign.spec import Campaign
+from mwip.io import write_atomic, write_json_atomic
+
+__all__ = ["RunSummary", "compute_chunk", "run_campaign", "assemble", "done_blocks", "n_blocks"]
+
+_CHUNK_RE = re.compile(r"^blocks-(\d{6,})-(\d{6,})\.parquet$")
+#: chunks per worker the default chunk size aims at (load balance vs per-chunk overhead)
+_CHUNKS_PER_WORKER = 4
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What a run did: ``status`` ``"done"``, ``"finished-before"`` or ``"interrupted"``."""
+
+    status: str
+    blocks_run: int
+    blocks_total: int
+    rows: int
+    path: Path
+    wall_s: float
+
+
+def n_blocks(campaign: Campaign) -> int:
+    """Blocks needed to cover the campaign's N samples (claims: N per study with open
+    settings, interleaved; see :mod:`mwip.campaign.claims`)."""
+    units = campaign.samples
+    if campaign.kind == "claims":
+        from mwip.campaign.claims import claim_studies
+
+        studies = claim_studies(campaign)
+        if not studies:
+            raise ValueError("campaign.studies: none of them declares open settings ([open])")
+        units *= len(studies)
+    return math.ceil(units / campaign.block)
+
+
+def _chunk_name(first: int, last: int) -> str:
+    return f"blocks-{first:06d}-{last:06d}.parquet"
+
+
+def done_blocks(out: Path) -> set[int]:
+    """The blocks covered by the chunk files in ``out/chunks``."""
+    done: set[int] = set()
+    folder = out / "chunks"
+    if folder.is_dir():
+        for p in folder.iterdir():
+            m = _CHUNK_RE.match(p.name)
+            if m:
+                done.update(range(int(m.group(1)), int(m.group(2)) + 1))
+    return done
+
+
+_CONTROLLERS: dict[str, Any] = {}
+
+
+def compute_chunk(campaign: Campaign, blocks: list[int]) -> Any:
+    """The rows of ``blocks`` (consecutive) as a pandas DataFrame (runs on a worker).
+
+    Robustness: each controller is designed once per process (cached by campaign identity)
+    and copied fresh for every block. Claims: :func:`mwip.campaign.claims.run_block`.
+    """
+    import pandas as pd
+
+    frames = []
+    if campaign.kind == "claims":
+        from mwip.campaign.claims import run_block as run_claims
+
+        for b in blocks:
+            frames.append(run_claims(campaign, b))
+    else:
+        from mwip.campaign.blocks import build_controllers, run_block
+
+        key = campaign.identity()
+        if key not in _CONTROLLERS:
+            _CONTROLLERS.clear()
+            _CONTROLLERS[key] = build_controllers(campaign)
+        ctrls = _CONTROLLERS[key]
+        for b in blocks:
+            frames.extend(pd.DataFrame(cols) for cols in run_block(campaign, b, ctrls))
+    return pd.concat(frames, ignore_index=True)
+
+
+def _write_chunk(out: Path, blocks: list[int], df: Any) -> Path:
+    path = out / "chunks" / _chunk_name(blocks[0], blocks[-1])
+    return write_atomic(path, lambda fh: df.to_parquet(fh, index=False))
+
+
+def _order_key(campaign: Campaign) -> tuple[str, list[str]]:
+    if campaign.kind == "claims":
+        return "study", list(campaign.studies)
+    return "controller", [c.label for c in campaign.controllers]
+
+
+def assemble(campaign: Campaign, out: Path) -> Any:
+    """``results.parquet`` from the chunk files: rows of samples < N, in (controller, sample)
+    order (claims: (study, sample, claim) order); written atomically; returns the table."""
+    import pandas as pd
+
+    files = sorted(p for p in (out / "chunks").iterdir() if _CHUNK_RE.match(p.name))
+    df = pd.concat([pd.read_parquet(p) for p in files], ignore_index=True)
+    df = df[df["sample"] < campaign.samples]
+    col, order = _order_key(campaign)
+    rank = df[col].map({name: i for i, name in enumerate(order)})
+    keys = ["_rank", "sample"] + (["claim_index"] if "claim_index" in df else [])
+    df = df.assign(_rank=rank).sort_values(keys, kind="stable").drop(columns="_rank")
+    df = df.reset_index(drop=True)
+    write_atomic(out / "results.parquet", lambda fh: df.to_parquet(fh, index=False))
+    return df
+
+
+def _record(campaign: Campaign) -> dict[str, Any]:
+    return {"identity": campaign.identity(), "campaign": campaign.source}
+
+
+def _check_out(campaign: Campaign, out: Path) -> None:
+    import json
+
+    rec = out / "campaign.json"
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out: {str(out)!r} exists and is not a folder")
+    if rec.exists():
+        try:
+            old = json.loads(rec.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            old = {}
+        if old.get("identity") != campaign.identity():
+            raise ValueError(f"--out: {str(out)!r} holds a different campaign; use another folder")
+    elif out.is_dir() and any(out.iterdir()):
+        raise ValueError(f"--out: {str(out)!r} is not empty and holds no campaign")
+
+
+def _finished(campaign: Campaign, out: Path) -> bool:
+    import json
+
+    rec = out / "campaign.json"
+    if not (rec.exists() and (out / "results.parquet").exists()):
+        return False
+    data = json.loads(rec.read_text(encoding="utf-8"))
+    return bool(data.get("finished_samples") == campaign.samples)
+
+
+def _chunks(todo: list[int], size: int) -> list[list[int]]:
+    """Runs of consecutive blocks, at most ``size`` each."""
+    out: list[list[int]] = []
+    for b in todo:
+        if out and b == out[-1][-1] + 1 and len(out[-1]) < size:
+            out[-1].append(b)
+        else:
+            out.append([b])
+    return out
+
+
+ProgressFn = Callable[[int, int, float], None]
+
+
+def _default_progress(done: int, total: int, elapsed: float) -> None:
+    frac = done / total if total else 1.0
+    eta = elapsed / frac - elapsed if frac > 0 else float("nan")
+    width = 30
+    bar = "#" * int(width * frac) + "-" * (width - int(width * frac))
+    eta_text = "--" if not math.isfinite(eta) else f"{eta:.0f} s"
+    end = "\r" if sys.stderr.isatty() and done < total else "\n"
+    sys.stderr.write(f"[{bar}] {done}/{total} samples  {elapsed:.0f} s  ETA {eta_text}{end}")
+    sys.stderr.flush()
+
+
+def run_campaign(
+    campaign: Campaign,
+    out: Path,
+    *,
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    chunk: int | None = None,
+    progress: ProgressFn | None = _default_progress,
+) -> RunSummary:
+    """Run (or continue) ``campaign`` into ``out``; see the module docstring.
+
+    ``chunk``: samples per chunk (rounded up to whole blocks; default: about
+    ``4 x workers`` chunks). ``jobs``: worker processes (default: the machine's CPUs).
+    Ctrl-C (``KeyboardInterrupt``) stops after saving nothing partial and returns
+    ``status="interrupted"``; the next run continues.
+    """
+    t0 = time.perf_counter()
+    if jobs is not None and jobs < 1:
+        raise ValueError(f"--jobs must be an integer >= 1, got {jobs!r}")
+    if chunk is not None and chunk < 1:
+        raise ValueError(f"--chunk must be an integer >= 1, got {chunk!r}")
+    out = Path(out)
+    _check_out(campaign, out)
+    total = n_blocks(campaign)
+    if _finished(campaign, out):
+        import pandas as pd
+
+        rows = len(pd.read_parquet(out / "results.parquet", columns=["sample"]))
+        return RunSummary("finished-before", 0, total, rows, out / "results.parquet", 0.0)
+    done = done_blocks(out)
+    todo = [b for b in range(total) if b not in done]
+    workers = jobs if jobs is not None else (os.cpu_count() or 1)
+    per = (
+        math.ceil(chunk / campaign.block)
+        if chunk is not None
+        else max(1, math.ceil(len(todo) / (_CHUNKS_PER_WORKER * workers)))
+    )
+    chunks = _chunks(todo, per)
+    samples_total = total * campaign.block
+    samples_done = [len(done & set(range(total))) * campaign.block]
+    dask = _connect(workers, scheduler) if chunks and (scheduler or workers > 1) else None
+    out.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(out / "campaign.json", _record(campaign))
+
+    def finished(blocks: list[int], df: Any) -> None:
+        _write_chunk(out, blocks, df)
+        samples_done[0] += len(blocks) * campaign.block
+        if progress is not None:
+            progress(samples_done[0], samples_total, time.perf_counter() - t0)
+
+    interrupted = False
+    try:
+        if dask is not None:
+            _run_dask(campaign, chunks, *dask, finished)
+        else:
+            for blocks in chunks:
+                finished(blocks, compute_chunk(campaign, blocks))
+    except KeyboardInterrupt:
+        interrupted = True
+    ran = len(done_blocks(out) - done)
+    if interrupted:
+        return RunSummary("interrupted", ran, total, 0, out, time.perf_counter() - t0)
+    df = assemble(campaign, out)
+    rec = _record(campaign)
+    rec["finished_samples"] = campaign.samples
+    write_json_atomic(out / "campaign.json", rec)
+    return RunSummary(
+        "done", ran, total, len(df), out / "results.parquet", time.perf_counter() - t0
+    )
+
+
+def _connect(workers: int, scheduler: str | None) -> tuple[Any, Any]:
+    """A Dask client: on the cluster at ``scheduler``, or on a new LocalCluster of
+    ``workers`` processes (one thread each). Returns ``(client, cluster or None)``."""
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ValueError("campaigns on Dask need the extra: pip install 'mwip[campaign]'") from exc
+    import logging
+
+    logging.getLogger("distributed").setLevel(logging.ERROR)
+    if scheduler is not None:
+        try:
+            return Client(scheduler, timeout=10), None
+        except (OSError, TimeoutError) as exc:
+            raise ValueError(f"--scheduler: cannot reach {scheduler!r}: {exc}") from None
+    cluster = LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+    )
+    return Client(cluster), cluster
+
+
+def _run_dask(
+    campaign: Campaign,
+    chunks: list[list[int]],
+    client: Any,
+    cluster: Any,
+    finished: Callable[[list[int], Any], None],
+) -> None:
+    """Submit every chunk to Dask and save each as it completes (in any order); then close
+    the client (and the local cluster)."""
+    from dask.distributed import as_completed
+
+    futures: list[Any] = []
+    try:
+        camp = client.scatter(campaign, broadcast=True)
+        where = {}
+        for blocks in chunks:
+            key = f"mwip-campaign-{blocks[0]}-{uuid.uuid4().hex}"
+            fut = client.submit(compute_chunk, camp, blocks, pure=False, key=key)
+            where[fut.key] = blocks
+            futures.append(fut)
+        for fut in as_completed(futures):
+            finished(where[fut.key], fut.result())
+    finally:
+        for fut in futures:
+            fut.cancel()
+        client.close()
+        if cluster is not None:
+            cluster.close()

@@ -1,0 +1,114 @@
+"""``mwip campaign run | show | report``: robustness campaigns (:mod:`mwip.campaign`)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+__all__ = ["campaign"]
+
+
+@click.group()
+def campaign() -> None:
+    """Robustness campaigns: Monte Carlo, regions of attraction, claim robustness."""
+
+
+@campaign.command("show")
+@click.argument("name", required=False)
+def show_cmd(name: str | None) -> None:
+    """Print built-in campaign NAME's file (to copy and edit); without NAME, list them."""
+    from mwip.campaign.spec import builtin_names, builtin_text
+
+    if name is None:
+        for n in builtin_names():
+            click.echo(n)
+        return
+    click.echo(builtin_text(name), nl=False)
+
+
+@campaign.command("run")
+@click.argument("campaign_name", metavar="NAME|FILE.toml")
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path),
+    required=True,
+    help="Results folder (created; a rerun continues an interrupted run).",
+)
+@click.option(
+    "--samples",
+    type=int,
+    default=None,
+    help="Number of samples N (overrides the file's campaign.samples), >= 1.",
+)
+@click.option(
+    "--jobs",
+    type=int,
+    default=None,
+    help="Worker processes of the local Dask cluster (default: the CPUs); 1 runs in this process.",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
+    help="Run on an existing Dask cluster (e.g. tcp://host:8786).",
+)
+@click.option(
+    "--chunk",
+    type=int,
+    default=None,
+    help="Samples per chunk (rounded up to whole blocks); does not change results.",
+)
+def run_cmd(
+    campaign_name: str,
+    out: Path,
+    samples: int | None,
+    jobs: int | None,
+    scheduler: str | None,
+    chunk: int | None,
+) -> None:
+    """Run (or continue) campaign NAME (built-in) or FILE.toml into --out."""
+    from mwip.campaign.execute import run_campaign
+    from mwip.campaign.spec import load_campaign
+
+    camp = load_campaign(campaign_name)
+    if samples is not None:
+        if samples < 1:
+            raise click.BadParameter(
+                f"must be an integer >= 1, got {samples}", param_hint="--samples"
+            )
+        camp = camp.with_samples(samples)
+    if jobs is not None and jobs < 1:
+        raise click.BadParameter(f"must be an integer >= 1, got {jobs}", param_hint="--jobs")
+    if chunk is not None and chunk < 1:
+        raise click.BadParameter(f"must be an integer >= 1, got {chunk}", param_hint="--chunk")
+    res = run_campaign(camp, out, jobs=jobs, scheduler=scheduler, chunk=chunk)
+    if res.status == "finished-before":
+        click.echo(f"campaign already finished: {res.path} ({res.rows} rows); nothing to do")
+    elif res.status == "interrupted":
+        click.echo(
+            f"mwip: interrupted; {res.blocks_run} blocks saved this run in {out}; "
+            "run the same command to continue",
+            err=True,
+        )
+        sys.exit(130)  # (click's Exit is swallowed by mwip.cli.main's non-standalone mode)
+    else:
+        click.echo(
+            f"wrote {res.path} ({res.rows} rows; {res.blocks_run} of "
+            f"{res.blocks_total} blocks run now, {res.wall_s:.1f} s)"
+        )
+
+
+@campaign.command("report")
+@click.argument("out", type=click.Path(path_type=Path))
+def report_cmd(out: Path) -> None:
+    """Write OUT/report.html and its PNGs from OUT/results.parquet."""
+    from mwip.campaign.report import write_campaign_report
+
+    if not (out / "results.parquet").exists():
+        raise click.BadParameter(
+            f"no results.parquet in {str(out)!r}; run the campaign first", param_hint="DIR"
+        )
+    path = write_campaign_report(out)
+    click.echo(f"report: {path}")
