@@ -16,6 +16,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+from mwip.hardware.twin import Twin
 from mwip.params import NOMINAL, REAL, Params
 from mwip.studies import settings as study_settings
 from mwip.studies.study import Study, StudyContext
@@ -82,11 +83,13 @@ def context(
     plant: Params | None = None,
     nominal: Params | None = None,
     overrides: Mapping[str, Any] | None = None,
+    twin: Twin | None = None,
 ) -> StudyContext:
     """The context study ``name`` runs in: its folder ``out/<name>``, the robot ``plant``
     (default Table 3.1) and design model ``nominal`` (default Table 3.2), its settings (the
-    study file's defaults with ``overrides``, validated) and its seed (setting ``seed``, else
-    0)."""
+    study file's defaults with ``overrides``, validated), its seed (setting ``seed``, else
+    0) and, for the Chapter 6 studies, the twin configuration ``twin`` (default: the default
+    twin, :class:`mwip.hardware.twin.Twin`)."""
     study = get(name)
     try:  # TRANSITIONAL: current() folds in settings.using() of not yet converted callers
         base = study_settings.current(name)
@@ -103,6 +106,7 @@ def context(
         out=Path(out) / name,
         quick=quick,
         seed=int(cfg.get("seed", 0)),
+        **({} if twin is None else {"twin": twin}),
     )
 
 
@@ -114,8 +118,10 @@ def run_study(
     plant: Params | None = None,
     nominal: Params | None = None,
     overrides: Mapping[str, Any] | None = None,
+    twin: Twin | None = None,
 ) -> dict[str, Any]:
     """Run study ``name`` into ``out/<name>`` (see :func:`context`); returns its metrics
     document."""
-    ctx = context(name, out, quick=quick, plant=plant, nominal=nominal, overrides=overrides)
+    ctx = context(name, out, quick=quick, plant=plant, nominal=nominal, overrides=overrides,
+                  twin=twin)  # fmt: skip
     return get(name).run(ctx)

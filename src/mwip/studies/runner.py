@@ -26,6 +26,8 @@ from typing import Any
 import numpy as np
 import scipy
 
+from mwip.hardware.twin import Twin
+from mwip.hardware.twin_config import twin_to_toml
 from mwip.io import write_json_atomic
 from mwip.params import Params
 from mwip.report.html import write_report
@@ -48,6 +50,7 @@ def _run_one(
     plant: Params,
     nominal: Params,
     overrides: dict[str, Any] | None = None,
+    twin: Twin | None = None,
 ) -> StudyOutcome:
     """Run one study (in a worker process or here), catching its failure."""
     _current_study[0] = name
@@ -56,7 +59,7 @@ def _run_one(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             doc = registry.run_study(name, out, quick=quick, plant=plant, nominal=nominal,
-                                     overrides=overrides)  # fmt: skip
+                                     overrides=overrides, twin=twin)  # fmt: skip
             draw_poster(out / name)  # the report's picture of its main run, drawn in parallel
     except Exception as exc:  # noqa: BLE001 - recorded and reported; exit code says so
         return name, None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
@@ -115,21 +118,24 @@ def run_studies(
     on_done: Callable[[StudyOutcome], None] | None = None,
     on_run: Callable[[str], None] | None = None,
     damping: str = "units",
+    twin: Twin | None = None,
 ) -> dict[str, Any]:
     """Run ``names`` into ``out``; returns the run record (also written to ``out/run.json``).
 
     ``jobs`` processes (1: in this process). ``plant``/``nominal`` replace the book's robot
     and design model (default Tables 3.1, 3.2); ``overrides[name]`` replaces some of study
     ``name``'s settings (:mod:`mwip.studies.settings`). ``damping`` names the reading of
-    the book's tables the robot was built with (recorded in ``run.json``). ``on_done`` is
-    called as each study ends, ``on_run(study)`` as each of its simulation runs ends (for a
-    progress display).
+    the book's tables the robot was built with (recorded in ``run.json``). ``twin``: the
+    Chapter 6 studies' twin configuration (default: the default twin; recorded in ``run.json``
+    as its twin file). ``on_done`` is called as each study ends, ``on_run(study)`` as each of
+    its simulation runs ends (for a progress display).
     """
     order = registry.names()
     for name in names:
         registry.get(name)  # ValueError naming the studies if unknown
     overrides = {n: settings.validate(n, o) for n, o in (overrides or {}).items()}
     plant, nominal = registry.robot(plant, nominal)
+    twin = twin if twin is not None else Twin()
     started = datetime.now(UTC).isoformat(timespec="seconds")
     t0 = time.perf_counter()
     outcomes: dict[str, StudyOutcome] = {}
@@ -145,7 +151,8 @@ def run_studies(
             for name in names:
                 hook = _counting_hook(name, on_run)
                 try:
-                    done(_run_one(name, stage.path, quick, plant, nominal, overrides.get(name)))
+                    done(_run_one(name, stage.path, quick, plant, nominal, overrides.get(name),
+                                  twin))  # fmt: skip
                 finally:
                     if hook is not None:
                         RUN_END_HOOKS.remove(hook)
@@ -156,7 +163,8 @@ def run_studies(
             )
             try:
                 pending = {
-                    pool.submit(_run_one, n, stage.path, quick, plant, nominal, overrides.get(n))
+                    pool.submit(_run_one, n, stage.path, quick, plant, nominal, overrides.get(n),
+                                twin)  # fmt: skip
                     for n in _longest_first(names)
                 }
                 while pending:
@@ -180,7 +188,7 @@ def run_studies(
             "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
             "quick": quick, "studies": {n: studies[n] for n in order if n in studies},
             "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
-            "damping": damping,
+            "damping": damping, "twin": twin_to_toml(twin),
         })  # fmt: skip
         write_json_atomic(stage.path / RUN_RECORD, record)
         ok = [n for n in names if outcomes[n][1] is not None]
