@@ -163,8 +163,9 @@ def run_studies(
             )
             try:
                 pending = {
-                    pool.submit(_run_one, n, stage.path, quick, plant, nominal, overrides.get(n),
-                                twin)  # fmt: skip
+                    pool.submit(
+                        _run_one, n, stage.path, quick, plant, nominal, overrides.get(n), twin
+                    )  # fmt: skip
                     for n in _longest_first(names)
                 }
                 while pending:
