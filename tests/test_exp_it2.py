@@ -1,5 +1,5 @@
 """Experiment ``exp-it2`` (Sec. 6.2.3): SPEC section 6 keys, claims from numbers, the IT2
-controller on the twin, the batched law equal to FuzzyMWIPController, determinism."""
+controller on the twin, determinism (the batched Fig. 5.3 law: tests/test_fig53.py)."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from mwip.fuzzy.mamdani import FuzzyMWIPController
-from mwip.sim.sensors import Measurement
+from mwip.hardware.twin import Twin
 from mwip.studies import exp_it2, settings
 from mwip.studies.common import CAUSES
+from mwip.studies.twin_settings import ABLATION_FIELD
 
 KINDS = ("it2", "t1")
 REQUIRED = (
@@ -51,9 +51,18 @@ def test_quick_outputs_and_schema(quick: tuple[Path, dict[str, Any]]) -> None:
     names = {r.name for r in exp_it2.rows_for()}
     assert set(doc["runs"]) == names
     assert {p.stem for p in folder.glob("*.npz")} == names
-    # every run stays up over the quick window, IT2 and T1
-    assert all(r["status"] == "ok" for r in doc["runs"].values())
-    assert all(r["t_end"] == pytest.approx(exp_it2.QUICK_DURATION) for r in doc["runs"].values())
+    # the full default twin: every run falls within the first second, IT2 and T1 (the drive
+    # train's elements, docs/twin.md); with the ideal robot (the ablation's first row) every
+    # run stays up over the quick window
+    assert all(r["status"] == "fell" and r["t_end"] < 1.0 for r in doc["runs"].values())
+    m = doc["metrics"]
+    for name in names:
+        assert m[f"ablation.ideal.{name}.case1.fell"] == 0.0
+        assert m[f"ablation.ideal.{name}.case1.t_end"] == pytest.approx(exp_it2.QUICK_DURATION)
+        assert m[f"ablation.imu_bias.{name}.case1.fell"] == 1.0  # the last row: the full twin
+    files = doc["settings"][ABLATION_FIELD]
+    assert "<table>" in (folder / files["html"]).read_text()
+    assert (folder / files["md"]).read_text().startswith("rms_theta")
     assert doc["settings"]["x0"] == [0.48, 0.0, 0.0, 0.0]
 
 
@@ -87,6 +96,10 @@ def test_claims_computed_from_metrics(quick: tuple[Path, dict[str, Any]]) -> Non
         assert claims[f"exp{e}.t1"]["book"] is False and claims[f"exp{e}.it2"]["book"] is False
         if not book["holds"]:
             assert book["cause"] in CAUSES and any(ch.isdigit() for ch in book["evidence"])
+        if m[f"{it2}.osc_amp"] is None:  # IT2 fell on the full twin: located by the ablation
+            up_ideal = m[f"ablation.ideal.{it2}.case1.fell"] == 0.0
+            assert book["cause"] == ("twin-model" if up_ideal else "implementation")
+            assert "ablation" in book["evidence"]
     # the claim functions follow the numbers
     fake = dict(m)
     fake["t1.exp1.osc_amp"] = 10 * tol["osc"]
@@ -99,35 +112,17 @@ def test_claims_computed_from_metrics(quick: tuple[Path, dict[str, Any]]) -> Non
     assert not exp_it2.stable_and_accurate(fake, "it2.exp2")
 
 
-def test_batched_law_equals_fuzzy_controller(pdc: Any) -> None:
-    """Row by row the batch controller is FuzzyMWIPController (Fig. 5.3) for that run."""
-    rows = exp_it2.rows_for()
-    ctrl = exp_it2.BatchFuzzyController([pdc] * len(rows),
-                                        [r.kind for r in rows], [r.p_d for r in rows],
-                                        [r.alpha_d for r in rows])  # fmt: skip
-    assert all(s is not None for s in ctrl._scale.values())  # the merged FLS call is used
-    rng = np.random.default_rng(3)
-    for scale in (0.05, 0.5, 3.0):  # small errors, mid-range, saturated inputs
-        y = rng.normal(size=(len(rows), 8)) * scale
-        y[:, 0] *= 20.0  # wheel angles large enough to span the position range
-        meas = Measurement(t=0.0, y=y)
-        u = ctrl(0.0, meas)
-        for i, r in enumerate(rows):
-            ref = FuzzyMWIPController(pdc, kind=r.kind, p_d=r.p_d,
-                                      alpha_d=r.alpha_d)  # fmt: skip
-            want = ref(0.0, Measurement(t=0.0, y=y[i : i + 1]))
-            np.testing.assert_allclose(u[i], want[0], rtol=1e-12, atol=1e-13)
-
-
 @pytest.fixture(scope="module")
 def it2_full(pdc: Any) -> dict[str, Any]:
-    """IT2 rows, 15 s, one batch."""
+    """IT2 rows, 15 s, one batch, with the ideal robot (no twin element: the ablation's first
+    row; on the full default twin every run falls, test_quick_outputs_and_schema)."""
     rows = [r for r in exp_it2.rows_for() if r.kind == "it2"]
-    return {"rows": rows, "runs": exp_it2.run_batch(rows, pdc=pdc)}
+    return {"rows": rows,
+            "runs": exp_it2.run_batch(rows, pdc=pdc, twin=Twin(elements=frozenset()))}  # fmt: skip
 
 
 def test_it2_full_duration_upright_and_converging(it2_full: dict[str, Any]) -> None:
-    """IT2 on the twin, 15 s from theta0 = 0.48: upright, no oscillation, moving toward the
+    """IT2 with the ideal robot, 15 s from theta0 = 0.48: upright, no oscillation, moving toward the
     targets (the position loop is slow: the errors sit near ZO of the +-3 m input range, so
     only progress and an error below 60 % of the move are required), heading within 0.02 rad.
     """

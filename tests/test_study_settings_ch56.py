@@ -115,15 +115,21 @@ def test_wrong_type_is_named(name: str) -> None:
 TWIN_STUDIES = STUDIES[1:]
 
 
-@pytest.mark.parametrize("name", TWIN_STUDIES)
-def test_open_settings_load_and_cover_the_twin(name: str) -> None:
-    """Every ``[open]`` key of a Chapter 6 study loads (a key of ``[settings]``, a finite range
-    holding the default, a reason), and every hardware number the book leaves open is one."""
-    from mwip.studies.twin_settings import TWIN_KEYS
+#: the twin's numbers: they live in the twin file (mwip.hardware.twin_config), not here
+TWIN_NUMBERS = {
+    "Ts", "dt", "delay", "fusion_tau", "accel_sigma", "accel_bias", "gyro_sigma", "gyro_bias",
+    "gyro_bias_walk", "imu_height", "encoder_cpr", "gear_ratio", "current_limit", "pwm_levels",
+}  # fmt: skip
 
+
+@pytest.mark.parametrize("name", TWIN_STUDIES)
+def test_open_settings_load_and_leave_the_twin_to_the_twin_file(name: str) -> None:
+    """Every ``[open]`` key of a Chapter 6 study loads (a key of ``[settings]``, a finite range
+    holding the default, a reason), and no twin number is a study setting: one source, the
+    twin file."""
     table = settings.open_settings(name)
     cfg = settings.defaults(name)
-    assert set(TWIN_KEYS) <= set(table)
+    assert not TWIN_NUMBERS & set(cfg)
     for key, entry in table.items():
         lo, hi = entry["range"]
         values = cfg[key] if isinstance(cfg[key], list) else [cfg[key]]
@@ -138,9 +144,42 @@ def test_open_settings_load_and_cover_the_twin(name: str) -> None:
     assert study_specific <= set(table)
 
 
-def test_a_twin_setting_reaches_the_twin(tmp_path: Path) -> None:
-    """An open hardware setting (the fusion constant) changes the run and is recorded."""
+def test_a_twin_file_value_reaches_the_run(tmp_path: Path) -> None:
+    """A study file's ``[twin]`` table over its ``[robot] twin`` file reaches the twin the
+    study runs on: the fusion constant changes the run and is recorded."""
+    from mwip.hardware.twin import Twin
+    from mwip.hardware.twin_config import save_twin
+    from mwip.studies import robot
+    from mwip.studies.study_file import load_study_file
+
+    save_twin(Twin(delay=0.4), tmp_path / "my_twin.toml")
+    study = tmp_path / "study.toml"
+    study.write_text('[study]\nname = "exp-asta"\n[robot]\ntwin = "my_twin.toml"\n'
+                     "[twin.fusion]\ntau = 0.2\n")  # fmt: skip
+    tw = load_study_file(study).twin
+    assert tw.fusion.tau == 0.2 and tw.delay == 0.4 and tw.imu == Twin().imu
     base = _run("exp-asta", tmp_path / "base")
-    new = _run("exp-asta", tmp_path / "new", {"fusion_tau": 0.2})
+    with robot.using(twin=tw):
+        new = _run("exp-asta", tmp_path / "new")
     assert "tau 0.2 s" in new["settings"]["twin"] and "tau 0.5 s" in base["settings"]["twin"]
     assert not _same(base["metrics"]["asmc.case1.u_tv"], new["metrics"]["asmc.case1.u_tv"])
+    assert robot.twin() == Twin()  # the twin ends with the block
+
+
+def test_bad_twin_file_is_one_line_exit_2(tmp_path: Path) -> None:
+    """``mwip run --twin FILE`` and a study file's ``[twin]`` table name the bad key."""
+    from click.testing import CliRunner
+
+    from mwip.cli import cli
+    from mwip.studies.study_file import load_study_file
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[twin.drive]\ngear = 3\n")
+    res = CliRunner().invoke(cli, ["run", "exp-asta", "--quick", "--twin", str(bad),
+                                   "--out", str(tmp_path / "o")])  # fmt: skip
+    assert res.exit_code == 2 and "twin.drive: unknown key 'gear'" in res.output
+    assert "Traceback" not in res.output
+    study = tmp_path / "study.toml"
+    study.write_text('[study]\nname = "exp-asta"\n[twin]\ndelay = 2.0\n')
+    with pytest.raises(ValueError, match="delay"):
+        load_study_file(study)

@@ -620,6 +620,7 @@ def params_save(which: str, path: Path, damping: str) -> None:
 
 
 # ---------------------------------------------------------------------------------------------
+from mwip.hardware.twin_cli import TWIN_OPTION, load_twin_option  # noqa: E402
 from mwip.hardware.twin_cli import twin as _twin_group  # noqa: E402 - a group of its own module
 
 cli.add_command(_twin_group)
@@ -686,10 +687,11 @@ def _jobs(jobs: int) -> int:
 def _execute(
     names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params,
     verbose: bool = False, overrides: dict[str, dict[str, Any]] | None = None,
-    damping: str = "units", summary: bool = True,
+    damping: str = "units", summary: bool = True, twin: Any = None,
 ) -> None:  # fmt: skip
     """Run ``names`` with a progress bar, then print the one-screen summary (not
-    ``summary``: its headline only, on stderr); exits 1 if a study failed."""
+    ``summary``: its headline only, on stderr); exits 1 if a study failed. ``twin``: the
+    Chapter 6 studies' twin configuration, default the default twin."""
     from mwip.report import load_results, summary_lines
     from mwip.report.claims import find_compare, load_comparison
     from mwip.studies.runner import run_studies
@@ -712,7 +714,7 @@ def _execute(
 
         record = run_studies(names, out, quick=quick, jobs=jobs, plant=plant, nominal=design,
                              overrides=overrides, on_done=done, on_run=run_done,
-                             damping=damping)  # fmt: skip
+                             damping=damping, twin=twin)  # fmt: skip
     import shutil
 
     width = max(100, shutil.get_terminal_size((120, 40)).columns)
@@ -731,10 +733,11 @@ def _execute(
 
 def _run_scenarios(
     files: tuple[Path, ...], out: Path, quick: bool, params_file: str | None,
-    nominal_file: str | None, verbose: bool, damping: str | None,
+    nominal_file: str | None, verbose: bool, damping: str | None, twin: Any = None,
 ) -> None:  # fmt: skip
-    """Run each study file (its robot unless --params/--nominal override it; ``damping``,
-    when given on the command line, replaces the files' [robot] damping)."""
+    """Run each study file (its robot unless --params/--nominal override it, its twin unless
+    --twin does; ``damping``, when given on the command line, replaces the files' [robot]
+    damping)."""
     from mwip.studies.study_file import load_study_file
 
     parsed = [load_study_file(f, damping) for f in files]  # validate all before running any
@@ -746,7 +749,8 @@ def _run_scenarios(
                                                                  damping=reading)  # fmt: skip
         click.echo(f"{sf.path}: {sf.name}", err=True)
         _execute([sf.name], out, quick or sf.quick, 1, plant, design, verbose,
-                 {sf.name: sf.settings}, damping=reading)  # fmt: skip
+                 {sf.name: sf.settings}, damping=reading,
+                 twin=twin if twin is not None else sf.twin)  # fmt: skip
 
 
 @cli.command("run")
@@ -763,6 +767,7 @@ def _run_scenarios(
 @_PLANT
 @_NOMINAL
 @_DAMPING
+@TWIN_OPTION
 @_JOBS
 @_VERBOSE
 @click.pass_context
@@ -775,6 +780,7 @@ def run_cmd(
     params_file: str | None,
     nominal_file: str | None,
     damping: str,
+    twin_file: Path | None,
     jobs: int,
     verbose: bool,
 ) -> None:
@@ -790,13 +796,14 @@ def run_cmd(
     if not studies and not scenarios:
         raise click.UsageError("give at least one STUDY or --scenario FILE")
     plant, design = _robot(params_file, nominal_file, damping)
+    twin = None if twin_file is None else load_twin_option(twin_file)
     if scenarios:
         given = ctx.get_parameter_source("damping") is not click.core.ParameterSource.DEFAULT
         _run_scenarios(scenarios, out, quick, params_file, nominal_file, verbose,
-                       damping if given else None)  # fmt: skip
+                       damping if given else None, twin)  # fmt: skip
     if studies:
         _execute(list(dict.fromkeys(studies)), out, quick, _jobs(jobs), plant, design, verbose,
-                 damping=damping)  # fmt: skip
+                 damping=damping, twin=twin)  # fmt: skip
 
 
 @cli.command()
@@ -805,6 +812,7 @@ def run_cmd(
 @_PLANT
 @_NOMINAL
 @_DAMPING
+@TWIN_OPTION
 @_JOBS
 @_VERBOSE
 @click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
@@ -821,6 +829,7 @@ def reproduce(
     params_file: str | None,
     nominal_file: str | None,
     damping: str,
+    twin_file: Path | None,
     jobs: int,
     verbose: bool,
     list_only: bool,
@@ -839,6 +848,7 @@ def reproduce(
             click.echo(f"{s.name:24s} {s.source}")
         return
     plant, design = _robot(params_file, nominal_file, damping)
+    twin = None if twin_file is None else load_twin_option(twin_file)
     code = 0
     if compare:  # first the other reading, so that the main report finds it
         other = next(d for d in DAMPING_READINGS if d != damping)
@@ -847,10 +857,11 @@ def reproduce(
         try:
             _execute(study_names(), out / f"compare-{other}", quick, _jobs(jobs),
                      *_robot(params_file, nominal_file, other), damping=other,
-                     summary=False)  # fmt: skip
+                     summary=False, twin=twin)  # fmt: skip
         except SystemExit as exc:
             code = int(exc.code or 0)
-    _execute(study_names(), out, quick, _jobs(jobs), plant, design, verbose, damping=damping)
+    _execute(study_names(), out, quick, _jobs(jobs), plant, design, verbose, damping=damping,
+             twin=twin)  # fmt: skip
     if code:
         sys.exit(code)
 

@@ -408,6 +408,7 @@ def run_on_twin(
     disturbance: Disturbance | None = None,
     stick_speed: float = -7.0,
     stick_start: float = 6.0,
+    stick_height: float = 0.01,
     rows: Iterable[Iterable[str]] | None = None,
     common_noise: bool | None = None,
 ) -> SimResult:
@@ -415,7 +416,7 @@ def run_on_twin(
 
     Records every ``record_every`` samples (2 x 5 ms = the book's 10 ms records for (6.3)).
     ``plant`` overrides the case's plant (before the twin adds its drive train,
-    :meth:`Twin.plant`); case 3 adds the stick (timed for ``stick_speed``) to
+    :meth:`Twin.plant`); case 3 adds the stick (``stick_height``, timed for ``stick_speed``) to
     ``disturbance``. ``rows``: a batch of twins with these element sets (one controller
     instance drives them all, so it must be batch-capable); ``common_noise`` (default: true
     with ``rows``) gives every row the IMU noise of a single run. The logs carry the
@@ -429,7 +430,7 @@ def run_on_twin(
     rows = None if rows is None else [list(r) for r in rows]
     dist = disturbance
     if case == 3:
-        stick = stick_for(base, stick_speed, stick_start)
+        stick = stick_for(base, stick_speed, stick_start, stick_height)
         dist = stick if dist is None else Sum((dist, stick))
     p = tw.plant(base, rows)
     if rows is not None and p is base:  # nothing derived: broadcast to the batch

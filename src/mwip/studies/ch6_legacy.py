@@ -12,7 +12,10 @@ from mwip.studies.study import Study, StudyContext
 
 def _adapt(fn: Callable[..., dict[str, Any]]) -> Callable[[StudyContext], dict[str, Any]]:
     def run(ctx: StudyContext) -> dict[str, Any]:
-        with robot.using(ctx.plant, ctx.nominal), settings.using(ctx.name, dict(ctx.settings)):
+        with (
+            robot.using(ctx.plant, ctx.nominal, ctx.twin),
+            settings.using(ctx.name, dict(ctx.settings)),
+        ):
             return fn(ctx.out.parent, quick=ctx.quick)
 
     return run

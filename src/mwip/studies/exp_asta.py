@@ -1,6 +1,7 @@
 """Experiment ``exp-asta`` (Sec. 6.2.2, Figs. 6.9-6.16, Tables 6.7-6.8) on the digital twin.
 
-Set-up (SPEC.md section 5): the twin (:mod:`mwip.hardware.twin`), 5 ms sampling; ASTA and
+Set-up (SPEC.md section 5): the twin of the run (:func:`mwip.studies.robot.twin`, the twin
+file's configuration; default the default twin), controllers at its ``Ts`` (5 ms); ASTA and
 ASMC designed on the nominal parameters with (6.1)-(6.2): ``lambda = (10, 0.3, 3)``,
 ``K1 = K2 = 10``, ``Gamma1 = Gamma2 = 5`` read as the adaptation rates of (4.5) with
 ``Gamma(0) = 0`` (:mod:`mwip.control.asta`), boundary layer ``eps = 0.01``;
@@ -9,20 +10,26 @@ of ``q2`` and of the sliding variable ``S1`` (the controller's, from measurement
 2-10 s from 10 ms records.
 
 The plant is the robot's plant (Table 6.1 by default, ``Db, Dw`` as SPEC.md section 2 reads
-them; nothing here chooses a reading). Extra runs: keys prefixed ``ideal.``, the same with
-ideal sensors and actuator. A failing book claim names its cause with evidence computed here
-(the payload's cut of the input gain ``g2 + lambda_2 g1`` of (2.36) that (4.7) divides by,
-:func:`mwip.studies.exp_hodosmc.input_gain_ratio`).
+them; nothing here chooses a reading). The ablation (:mod:`mwip.hardware.ablation`): both
+controllers and cases on the ideal robot, then with the twin's elements added in turn, one
+batched run per controller and case (2 s in quick mode), keys
+``ablation.<step>.<run>.case<k>.<quantity>`` (those of
+:func:`~mwip.hardware.ablation.rms_metrics` and ``rms_s1``), tables ``ablation.md``/``.html``
+named in ``settings.ablation_table``. A failing book claim names its cause with evidence
+computed here: where a run that fell stops balancing along the ablation (``twin-model`` when
+it balances with the ideal robot), the payload's cut of the input gain ``g2 + lambda_2 g1`` of
+(2.36) that (4.7) divides by (:func:`mwip.studies.exp_hodosmc.input_gain_ratio`) when it falls
+with the ideal robot too in Case 2.
 
 Settings (``scenarios/exp-asta.toml``, :mod:`mwip.studies.settings`): ``theta0``,
 ``lambdas``, ``K``, ``Gamma_rate``, ``Gamma0``, ``eps``, ``duration``, ``rms_window``,
-``Ts``, ``record_every``, ``seed`` and the twin's
-:data:`~mwip.studies.twin_settings.TWIN_KEYS`.
+``record_every``, ``seed`` (the twin's numbers are the twin file's).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -30,14 +37,23 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from mwip.control.asta import ASMC, ASTA
+from mwip.hardware.ablation import Ablation, rms_metrics, run_ablation
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
 from mwip.params import Params
 from mwip.sim import SimResult
-from mwip.studies import robot, settings
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
-from mwip.studies.exp_hodosmc import VARIANTS, input_gain_ratio, payload_evidence
-from mwip.studies.twin_settings import robot_label, twin_doc, twin_from
+from mwip.studies.exp_hodosmc import QUICK_ABLATION, input_gain_ratio, payload_evidence
+from mwip.studies.twin_settings import (
+    ABLATION_FIELD,
+    fall_evidence,
+    first_fall,
+    robot_label,
+    study_settings,
+    twin_doc,
+    write_ablation,
+)
 
 SOURCE = "Sec. 6.2.2, Figs. 6.9-6.16, Tables 6.7-6.8"
 NAME = "exp-asta"
@@ -63,17 +79,15 @@ def make_controller(kind: str, cfg: Mapping[str, Any], params: Params | None = N
 
 
 def run_one(
-    kind: str, case: int, cfg: Mapping[str, Any], *, variant: str = "twin",
-    duration: float | None = None, twin: Twin | None = None,
+    kind: str, case: int, cfg: Mapping[str, Any], *, duration: float | None = None,
+    twin: Twin | None = None,
 ) -> SimResult:  # fmt: skip
-    """One controller on the twin, Case 1 or 2, ``variant`` "twin" (the study's twin, from
-    ``cfg``) or "ideal" (ideal sensors and actuator), or the given ``twin``, with the settings
-    ``cfg`` (``duration`` default: ``cfg["duration"]``)."""
-    if variant not in VARIANTS:
-        raise ValueError(f"'variant' must be one of {', '.join(VARIANTS)}, got {variant!r}")
+    """One controller on the twin ``twin`` (default: the run's,
+    :func:`mwip.studies.robot.twin`), Case 1 or 2, with the settings ``cfg`` (``Ts`` the
+    twin's; ``duration`` default: ``cfg["duration"]``)."""
     plant = case_plant(case, base=robot.plant())
     if twin is None:
-        twin = twin_from(cfg, ideal=variant == "ideal")
+        twin = robot.twin()
     return run_on_twin(
         make_controller(kind, cfg), case, twin=twin,
         plant=plant, q0=(0.0, cfg["theta0"], 0.0),
@@ -82,77 +96,107 @@ def run_one(
     )  # fmt: skip
 
 
+def _ablation(cfg: Mapping[str, Any], tw: Twin, duration: float,
+              window: tuple[float, float]) -> Ablation:  # fmt: skip
+    """ASTA and ASMC, Cases 1 and 2: the ideal robot, then the twin's elements added in turn
+    (one batched run per controller and case); quantities of
+    :func:`mwip.hardware.ablation.rms_metrics` plus ``rms_s1``."""
+    base = rms_metrics(window)
+
+    def fn(res: SimResult, run: str, case: int) -> dict[str, float]:
+        out = dict(base(res, run, case))
+        ok = res.status[0] == "ok"
+        out["rms_s1"] = (float(rms(res.t, res.series()["sigma"][:, 0], window)) if ok
+                         else float("nan"))  # fmt: skip
+        return out
+
+    def order(case: int, q: str) -> tuple[str, Any]:
+        return (f"ASTA < ASMC in {q}, Case {case}",
+                lambda m: bool(m[f"asta.case{case}.{q}"] < m[f"asmc.case{case}.{q}"]))  # fmt: skip
+
+    def up(case: int) -> tuple[str, Any]:
+        return (f"both stay up, Case {case}",
+                lambda m: all(m[f"{k}.case{case}.fell"] != 1.0 for k in KINDS))  # fmt: skip
+
+    return run_ablation(
+        [(k, partial(make_controller, k, cfg)) for k in KINDS], tw, cases=(1, 2),
+        metrics=fn, plant=lambda case: case_plant(case, base=robot.plant()),
+        run_kwargs={"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
+                    "record_every": cfg["record_every"], "seed": cfg["seed"]},
+        claims=[order(c, q) for c in (1, 2) for q in ("rms_theta", "rms_s1")]
+        + [up(c) for c in (1, 2)],
+    )  # fmt: skip
+
+
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the experiment into ``out/exp-asta``; returns the metrics document."""
     study = NAME
     folder = Path(out) / study
-    cfg = settings.current(NAME)
+    cfg, tw = study_settings(NAME)
     duration = min(4.0, cfg["duration"]) if quick else cfg["duration"]
     window = (2.0, duration) if quick else tuple(cfg["rms_window"])
-    variants = ("twin",) if quick else tuple(VARIANTS)
     runs: dict[str, SimResult] = {}
     metrics: dict[str, float] = {}
     nan = float("nan")
-    for variant in variants:
-        pre = VARIANTS[variant][0]
-        for case in (1, 2):
-            for kind in KINDS:
-                res = run_one(kind, case, cfg, variant=variant, duration=duration)
-                name = f"{pre}{kind}.case{case}"
-                runs[name] = res
-                ok = res.status[0] == "ok"
-                s = res.series()
-                metrics[f"{name}.rms_theta"] = float(rms(res.t, res.theta, window)) if ok else nan
-                metrics[f"{name}.rms_s1"] = (
-                    float(rms(res.t, s["sigma"][:, 0], window)) if ok else nan
-                )
-                metrics[f"{name}.u_tv"] = float(np.sum(total_variation_rate(res.t, res.u.T)))
-                metrics[f"{name}.final_gamma1"] = float(s["Gamma"][-1, 0])
-                metrics[f"{name}.max_abs_u"] = float(np.nanmax(np.abs(s["u_applied"])))
-                lim = s.get("drive_limited")
-                metrics[f"{name}.sat_fraction"] = float(np.nanmean(lim)) if lim is not None else 0.0
-                metrics[f"{name}.t_end"] = float(res.t_end[0])
+    for case in (1, 2):
+        for kind in KINDS:
+            res = run_one(kind, case, cfg, duration=duration, twin=tw)
+            name = f"{kind}.case{case}"
+            runs[name] = res
+            ok = res.status[0] == "ok"
+            s = res.series()
+            metrics[f"{name}.rms_theta"] = float(rms(res.t, res.theta, window)) if ok else nan
+            metrics[f"{name}.rms_s1"] = float(rms(res.t, s["sigma"][:, 0], window)) if ok else nan
+            metrics[f"{name}.u_tv"] = float(np.sum(total_variation_rate(res.t, res.u.T)))
+            metrics[f"{name}.final_gamma1"] = float(s["Gamma"][-1, 0])
+            metrics[f"{name}.max_abs_u"] = float(np.nanmax(np.abs(s["u_applied"])))
+            lim = s.get("drive_limited")
+            metrics[f"{name}.sat_fraction"] = float(np.nanmean(lim)) if lim is not None else 0.0
+            metrics[f"{name}.t_end"] = float(res.t_end[0])
+    ab_duration = min(QUICK_ABLATION, duration) if quick else duration
+    ab = _ablation(cfg, tw, ab_duration, (ab_duration / 2, ab_duration) if quick else window)
+    metrics.update(ab.metrics)
     claims = []
-    for variant in variants:
-        pre, label = VARIANTS[variant]
-        book = variant == "twin"
-        for case in (1, 2):
-            for q in ("rms_theta", "rms_s1"):
-                a = metrics[f"{pre}asta.case{case}.{q}"]
-                b = metrics[f"{pre}asmc.case{case}.{q}"]
-                holds = bool(np.isfinite(a) and np.isfinite(b) and a < b)
-                c = {
-                    "id": f"{pre}order.{q}.case{case}",
-                    "text": f"ASTA < ASMC in {q}, Case {case} (Table 6.{6 + case}){label}",
-                    "holds": holds,
-                    "book": book,
-                    "keys": [f"{pre}asta.case{case}.{q}", f"{pre}asmc.case{case}.{q}"],
-                }
-                if book and not holds:
-                    c["cause"], c["evidence"] = _why(runs, metrics, cfg, case, q)
-                claims.append(c)  # fmt: skip
-            up = all(runs[f"{pre}{k}.case{case}"].status[0] == "ok" for k in KINDS)
-            c = {"id": f"{pre}up.case{case}",
-                 "text": f"both keep the robot up for {duration:g} s, Case {case}{label}",
-                 "holds": up, "book": book,
-                 "keys": [f"{pre}{k}.case{case}.t_end" for k in KINDS]}  # fmt: skip
-            if book and not up:
-                c["cause"], c["evidence"] = _why(runs, metrics, cfg, case, "t_end")
+    for case in (1, 2):
+        for q in ("rms_theta", "rms_s1"):
+            a = metrics[f"asta.case{case}.{q}"]
+            b = metrics[f"asmc.case{case}.{q}"]
+            holds = bool(np.isfinite(a) and np.isfinite(b) and a < b)
+            c = {
+                "id": f"order.{q}.case{case}",
+                "text": f"ASTA < ASMC in {q}, Case {case} (Table 6.{6 + case})",
+                "holds": holds,
+                "book": True,
+                "keys": [f"asta.case{case}.{q}", f"asmc.case{case}.{q}"],
+            }
+            if not holds:
+                c["cause"], c["evidence"] = _why(runs, metrics, ab, cfg, case, q)
             claims.append(c)
+        up = all(runs[f"{k}.case{case}"].status[0] == "ok" for k in KINDS)
+        c = {"id": f"up.case{case}",
+             "text": f"both keep the robot up for {duration:g} s, Case {case}",
+             "holds": up, "book": True,
+             "keys": [f"{k}.case{case}.t_end" for k in KINDS]}  # fmt: skip
+        if not up:
+            c["cause"], c["evidence"] = _why(runs, metrics, ab, cfg, case, "t_end")
+        claims.append(c)
+    tables = write_ablation(ab, folder, ("rms_theta", "rms_s1", "t_end"))
     doc = metrics_document(
         study, SOURCE, metrics, PUBLISHED, claims,
         {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
-        {"dt": cfg["dt"], "Ts": cfg["Ts"], "window": list(window), "seed": cfg["seed"],
+        {"dt": tw.dt, "Ts": tw.Ts, "window": list(window), "seed": cfg["seed"],
          "duration": duration, "record_every": cfg["record_every"],
-         "record_period": cfg["Ts"] * cfg["record_every"],
-         "mode": f"sampled on the digital twin ({cfg['Ts'] * 1e3:g} ms)",
+         "record_period": tw.Ts * cfg["record_every"],
+         "mode": f"sampled on the digital twin ({tw.Ts * 1e3:g} ms)",
          "lambda": list(cfg["lambdas"]), "K": list(cfg["K"]), "rate": list(cfg["Gamma_rate"]),
          "Gamma0": list(cfg["Gamma0"]), "eps": cfg["eps"], "theta0": cfg["theta0"],
-         "twin": twin_doc(cfg), "plant": robot_label(robot.plant()),
+         "twin": twin_doc(tw), "plant": robot_label(robot.plant()),
          "input_gain_ratio": {f"case{c}": input_gain_ratio(case_plant(c, base=robot.plant()),
                                                            robot.nominal(), cfg["lambdas"][1])
                               for c in (1, 2)},
-         "ideal": "extra runs: the same plant, ideal sensors and actuator"},
+         "ablation": "the ideal robot, then the twin's elements added in turn (keys "
+                     "ablation.<step>.<run>.case<k>.*; one batched run per controller and case)",
+         ABLATION_FIELD: tables},
     )  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)
     _figure(runs, folder / f"{study}.png")
@@ -170,31 +214,39 @@ def _fell(runs: Mapping[str, SimResult], pre: str, case: int) -> str:
 
 
 def _why(
-    runs: Mapping[str, SimResult], m: Mapping[str, float], cfg: Mapping[str, Any], case: int,
-    q: str,
+    runs: Mapping[str, SimResult], m: Mapping[str, float], ab: Ablation,
+    cfg: Mapping[str, Any], case: int, q: str,
 ) -> tuple[str, str]:  # fmt: skip
-    """Cause and evidence of a failing book claim of Case ``case`` on quantity ``q``."""
+    """Cause and evidence of a failing book claim of Case ``case`` on quantity ``q``: a fall
+    on the full twin is located along the ablation ``ab``."""
+
+    def num(v: float) -> str:
+        return f"{v:.4g}" if np.isfinite(v) else "fell"
+
     vals = (
         ""
         if q == "t_end"
-        else (f"ASTA {m[f'asta.case{case}.{q}']:.4g}, ASMC {m[f'asmc.case{case}.{q}']:.4g}; ")
+        else f"ASTA {num(m[f'asta.case{case}.{q}'])}, ASMC {num(m[f'asmc.case{case}.{q}'])}; "
     )
-    ideal = any(f"ideal.{k}.case{case}" in runs for k in KINDS)
-    fallen = any(runs[f"{k}.case{case}"].status[0] != "ok" for k in KINDS)
-    if fallen and case == 2:
-        text = (f"{vals}{payload_evidence(cfg['lambdas'][1], 'g2 + lambda_2 g1')}; on the twin "
-                f"{_fell(runs, '', case)}")  # fmt: skip
-        if ideal:
-            text += f"; with ideal sensors and actuator {_fell(runs, 'ideal.', case)}"
-        return "book-inconsistency", text
+    fallen = [k for k in KINDS if runs[f"{k}.case{case}"].status[0] != "ok"]
     if fallen:
-        text = f"{vals}on the twin {_fell(runs, '', case)}"
-        if ideal:
-            text += f"; with ideal sensors and actuator {_fell(runs, 'ideal.', case)}"
-            if any(runs[f"ideal.{k}.case{case}"].status[0] != "ok" for k in KINDS):
-                return "implementation", text + " (not explained)"
+        text = (f"{vals}on the full twin {_fell(runs, '', case)}; ablation: "
+                + "; ".join(fall_evidence(ab, k, case, k.upper()) for k in fallen))  # fmt: skip
+        if q != "t_end":
+            a, b = (m.get(f"ablation.ideal.{k}.case{case}.{q}", float("nan")) for k in KINDS[::-1])
+            verdict = "holds" if np.isfinite(a) and np.isfinite(b) and a < b else "fails"
+            shown = [f"{v:.3g}" if np.isfinite(v) else "fell" for v in (a, b)]
+            text += (f"; with the ideal robot ASTA < ASMC {verdict}: ASTA {shown[0]}, "
+                     f"ASMC {shown[1]}")  # fmt: skip
+        if any(first_fall(ab, k, case) == "ideal" for k in fallen):
+            if case == 2:
+                lam = cfg["lambdas"][1]
+                return "book-inconsistency", (
+                    f"{payload_evidence(lam, 'g2 + lambda_2 g1')}; {text}"
+                )
+            return "implementation", text + " (not explained)"
         return "twin-model", text
-    iv = [m.get(f"ideal.{k}.case{case}.{q}", float("nan")) for k in ("asta", "asmc")]
+    iv = [m.get(f"ablation.ideal.{k}.case{case}.{q}", float("nan")) for k in ("asta", "asmc")]
     peak = []
     for k in ("asta", "asmc"):
         res = runs[f"{k}.case{case}"]
@@ -210,10 +262,8 @@ def _why(
             f"({PUBLISHED[f'asta.case{case}.rms_theta']:g}, "
             f"{PUBLISHED[f'asmc.case{case}.rms_theta']:g}): the twin lacks the robot's "
             f"persistent wobble that Table 6.{6 + case} measures, and what remains is its "
-            f"sensing noise")  # fmt: skip
-    if ideal:
-        text += (f"; noise-free (ideal sensors and actuator) both settle further, ASTA "
-                 f"{iv[0]:.2g}, ASMC {iv[1]:.2g} in {q}")  # fmt: skip
+            f"sensing noise; with the ideal robot (ablation) ASTA {iv[0]:.2g}, ASMC "
+            f"{iv[1]:.2g} in {q}")  # fmt: skip
     return "twin-model", text
 
 

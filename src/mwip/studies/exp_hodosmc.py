@@ -1,8 +1,8 @@
 """Experiments ``exp-hodosmc-{balance,speed,obstacle}`` (Sec. 6.2.1) emulated on the twin.
 
-Set-up (SPEC.md section 5): the digital twin (:mod:`mwip.hardware.twin`, built from the
-study's settings by :func:`mwip.studies.twin_settings.twin_from`: IMU with complementary
-fusion, encoders, RE25 motors through the gearbox and the PWM driver, 5 ms sampling);
+Set-up (SPEC.md section 5): the digital twin of the run (:func:`mwip.studies.robot.twin`: the
+twin file's configuration, default the default twin with every element on; ``mwip run --twin
+FILE``; :mod:`mwip.studies.twin_settings`); controllers sampled at its ``Ts`` (5 ms);
 controllers designed on the robot's nominal model (Table 6.2 by default) with Table 6.3's
 gains: all ``lambda = (3, 0.01, 0.1, 3)``, ``gamma = 1``; SMC ``K = (25, 21)``, DO1SMC
 ``K = (17.3, 14)`` (first-order DO (3.2), gain ``do1_gain``: the book prints none), DO4SMC
@@ -17,22 +17,29 @@ under another reading is ``mwip run --damping ...``: nothing here chooses one).
 - obstacle (Table 6.6): ``q1d' = -7 rad/s``, Case 3 (payload + stick at 6 s); settling time
   after the stick until ``psi'`` stays in (-9, -5) rad/s.
 
-Runs whose plant falls get ``null`` metrics (status in ``runs``). Extra runs: keys prefixed
-``ideal.``, the same with ideal sensors and actuator (what the hardware adds); balance and
-speed also run DO1SMC on Case 1 at both ends of the ``do1_gain`` range of the study's
-``[open]`` table (keys ``sweep.do1smc_L<gain>.case1.*``), because that unprinted gain decides
-DO1SMC against DO4SMC; the obstacle study also runs ``case1_stick`` (the stick without the
-payload).
+Runs whose plant falls get ``null`` metrics (status in ``runs``). The ablation
+(:mod:`mwip.hardware.ablation`): each controller and case on the ideal robot, then with the
+twin's elements added in turn (cumulative, :data:`mwip.hardware.elements.ELEMENTS` order), one
+batched run per controller and case (2 s in quick mode), keys
+``ablation.<step>.<run>.case<k>.<quantity>`` (``rms_theta``, ``rms_theta_meas``,
+``rms_speed_err``, ``max_abs_u``, ``t_end``, ``fell``, ``final_speed``, obstacle also
+``settling_time``); its tables are ``ablation.md``/``ablation.html`` in the study's folder,
+named in metrics.json's ``settings.ablation_table``. Balance and speed also run DO1SMC on
+Case 1 at both ends of the ``do1_gain`` range of the study's ``[open]`` table (keys
+``sweep.do1smc_L<gain>.case1.*``), because that unprinted gain decides DO1SMC against DO4SMC;
+the obstacle study also runs ``case1_stick`` (the stick without the payload).
 
-Claims are data (:func:`mwip.studies.common.validate_claim`); a failing book claim names its
-cause with evidence computed here: the payload's cut of the input gain ``g2 + l3 g1`` of
-(2.36) that (3.50) divides by (:func:`input_gain_ratio`), the accelerometer reading the
-robot's own acceleration as tilt (:func:`accelerometer_evidence`), or the unprinted DO1 gain.
+Claims are data (:func:`mwip.studies.common.validate_claim`), judged on the twin of the run; a
+failing book claim names its cause with evidence computed here: where the runs that fell stop
+balancing along the ablation (:func:`mwip.studies.twin_settings.fall_evidence`; balancing with
+the ideal robot makes it ``twin-model``), the payload's cut of the input gain ``g2 + l3 g1`` of
+(2.36) that (3.50) divides by (:func:`input_gain_ratio`) when they fall with the ideal robot
+too, the steady-speed cap, or the unprinted DO1 gain.
 
 Settings (``scenarios/exp-hodosmc-{balance,speed,obstacle}.toml``, one file per study,
 :mod:`mwip.studies.settings`): ``theta0``, ``speed``, ``lambdas``, ``smc_K``, ``do1smc_K``,
-``do4smc_K``, ``do1_gain``, ``phi``, ``duration``, ``Ts``, ``record_every``, ``seed``, the
-twin's :data:`~mwip.studies.twin_settings.TWIN_KEYS`; balance and speed also ``rms_window``;
+``do4smc_K``, ``do1_gain``, ``phi``, ``duration``, ``record_every``, ``seed`` (the twin's
+numbers are the twin file's); balance and speed also ``rms_window``;
 obstacle also ``rms_start``, ``stick_start``, ``stick_height``, ``stick_speed``.
 """
 
@@ -40,6 +47,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +56,7 @@ from matplotlib.figure import Figure
 
 from mwip.control.smc import SMCDesignWarning, make_smc
 from mwip.control.switching import Switching
+from mwip.hardware.ablation import Ablation, MetricFn, rms_metrics, run_ablation
 from mwip.hardware.obstacle import StickObstacle
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
@@ -56,7 +65,15 @@ from mwip.params import Params, steady_speed_cap
 from mwip.sim import SimResult
 from mwip.studies import robot, settings
 from mwip.studies.common import metrics_document, save_figure, write_metrics
-from mwip.studies.twin_settings import robot_label, twin_doc, twin_from
+from mwip.studies.twin_settings import (
+    ABLATION_FIELD,
+    fall_evidence,
+    first_fall,
+    robot_label,
+    study_settings,
+    twin_doc,
+    write_ablation,
+)
 
 SOURCE_BALANCE = "Sec. 6.2.1, Figs. 6.4-6.5, Table 6.4"
 SOURCE_SPEED = "Sec. 6.2.1, Figs. 6.6-6.7, Table 6.5"
@@ -76,8 +93,6 @@ BAND = (-9.0, -5.0)
 #: "moves at the set speed": mean ``psi'`` over the last TRACK_WINDOW s within TRACK_TOL of it
 TRACK_WINDOW = 2.0
 TRACK_TOL = 0.05
-#: the accelerometer evidence is read where the true lean first passes this (rad)
-FALL_LEAN = 0.35
 
 PUBLISHED_BALANCE = {
     "smc.case1.rms_theta": 0.0216, "smc.case2.rms_theta": 0.0257,
@@ -98,12 +113,8 @@ PUBLISHED_OBSTACLE = {
     "do4smc.settling_time": 0.19,
 }
 
-#: variant -> (key prefix, claim label). "twin": the study's keys; "ideal": the same plant
-#: with ideal sensors and actuator (separates the hardware's share of a gap).
-VARIANTS = {
-    "twin": ("", ""),
-    "ideal": ("ideal.", " [extra: ideal sensors and actuator]"),
-}
+#: quick mode: the ablation's runs last this long (s), RMS over its second half
+QUICK_ABLATION = 2.0
 
 
 def make_controller(
@@ -153,24 +164,6 @@ def payload_evidence(lam: float, which: str = "g2 + l3 g1") -> str:
     )
 
 
-def accelerometer_evidence(res: SimResult) -> str:
-    """How the twin's pitch estimate failed in the run ``res``: where the true lean first
-    passes :data:`FALL_LEAN` (or at its largest), the fused and the accelerometer pitch
-    beside the true one and the axle's acceleration ``r psi''`` that the accelerometer
-    reads as tilt (``-r psi'' / g`` rad, (2.37)-(2.39))."""
-    s = res.series()
-    th, th_hat, th_acc = res.theta, s["y_meas"][:, 1], s["imu_theta_acc"]
-    xdd = float(res.r[0]) * np.gradient(res.q_dot[:, 0], res.t)
-    finite = np.isfinite(th)
-    past = np.nonzero(finite & (np.abs(th) >= FALL_LEAN))[0]
-    j = int(past[0]) if past.size else int(np.nanargmax(np.where(finite, np.abs(th), -1.0)))
-    return (
-        f"at t = {res.t[j]:.2f} s the true pitch is {th[j]:+.3f} rad, the fused one "
-        f"{th_hat[j]:+.3f} rad and the accelerometer's {th_acc[j]:+.3f} rad while the axle "
-        f"accelerates at {xdd[j]:+.2f} m/s^2 (read as {-xdd[j] / 9.81:+.3f} rad of tilt)"
-    )
-
-
 def _fell_text(runs: Mapping[str, SimResult], names: Mapping[str, str]) -> str:
     """The fall times of the runs ``names`` (label -> run key): "SMC at 0.54 s, ..."."""
     parts = [f"{lab} at {float(runs[n].t_end[0]):.2f} s" for lab, n in names.items()
@@ -178,23 +171,14 @@ def _fell_text(runs: Mapping[str, SimResult], names: Mapping[str, str]) -> str:
     return "fell: " + ", ".join(parts) if parts else "none fell"
 
 
-def _twin_for(variant: str, cfg: Mapping[str, Any], twin: Twin | None) -> Twin:
-    if twin is not None:
-        return twin
-    return twin_from(cfg, ideal=variant == "ideal")
-
-
 def run_one(
-    kind: str, case: int, q1d_dot: float, cfg: Mapping[str, Any], *, variant: str = "twin",
+    kind: str, case: int, q1d_dot: float, cfg: Mapping[str, Any], *,
     duration: float | None = None, twin: Twin | None = None,
 ) -> SimResult:  # fmt: skip
     """One controller on the twin for a case (3 = payload + stick; ``case=-1``: stick on the
-    Case 1 robot) with ``variant`` "twin" (the study's twin, from ``cfg``) or "ideal" (ideal
-    sensors and actuator), or the given ``twin``; the calling study's settings ``cfg``
-    (``duration`` default: ``cfg["duration"]``; the stick from ``stick_start``,
-    ``stick_speed``, ``stick_height``)."""
-    if variant not in VARIANTS:
-        raise ValueError(f"'variant' must be one of {', '.join(VARIANTS)}, got {variant!r}")
+    Case 1 robot): the given ``twin`` (default: the run's, :func:`mwip.studies.robot.twin`);
+    the calling study's settings ``cfg`` (``Ts`` must be the twin's; ``duration`` default:
+    ``cfg["duration"]``; the stick from ``stick_start``, ``stick_speed``, ``stick_height``)."""
     ctrl = make_controller(kind, cfg, q1d_dot)
     payload = case in (2, 3)
     plant = case_plant(2 if payload else 1, base=robot.plant())
@@ -205,7 +189,7 @@ def run_one(
                              speed=cfg.get("stick_speed", -7.0),
                              mass=float(plant.mb + 2.0 * plant.mw), r=float(plant.r))  # fmt: skip
     return run_on_twin(
-        ctrl, 2 if payload else 1, twin=_twin_for(variant, cfg, twin), plant=plant,
+        ctrl, 2 if payload else 1, twin=robot.twin() if twin is None else twin, plant=plant,
         q0=(0.0, cfg["theta0"], 0.0), record_every=cfg["record_every"], seed=cfg["seed"],
         duration=cfg["duration"] if duration is None else duration, disturbance=dist,
     )  # fmt: skip
@@ -238,7 +222,12 @@ def _ordered(vals: list[float]) -> bool:
 
 
 def _values_text(metrics: Mapping[str, float], fmt: str) -> str:
-    return ", ".join(f"{LABEL[k]} {metrics.get(fmt.format(k=k), float('nan')):.4g}"
+    """DO4SMC, DO1SMC, SMC values of ``fmt`` ("fell" where not finite)."""
+
+    def num(v: float) -> str:
+        return f"{v:.4g}" if np.isfinite(v) else "fell"
+
+    return ", ".join(f"{LABEL[k]} {num(metrics.get(fmt.format(k=k), float('nan')))}"
                      for k in ("do4smc", "do1smc", "smc"))  # fmt: skip
 
 
@@ -247,58 +236,112 @@ def _runs_doc(runs: dict[str, SimResult]) -> dict[str, dict[str, Any]]:
 
 
 def _settings(
-    cfg: Mapping[str, Any], extra: dict[str, Any], duration: float, window: tuple[float, float]
-) -> dict:
+    cfg: Mapping[str, Any], tw: Twin, extra: dict[str, Any], duration: float,
+    window: tuple[float, float], tables: dict[str, str],
+) -> dict:  # fmt: skip
     base = {
-        "dt": cfg["dt"], "Ts": cfg["Ts"], "window": list(window), "seed": cfg["seed"],
+        "dt": tw.dt, "Ts": tw.Ts, "window": list(window), "seed": cfg["seed"],
         "duration": duration, "record_every": cfg["record_every"],
-        "record_period": cfg["Ts"] * cfg["record_every"],
-        "mode": f"sampled on the digital twin ({cfg['Ts'] * 1e3:g} ms)",
+        "record_period": tw.Ts * cfg["record_every"],
+        "mode": f"sampled on the digital twin ({tw.Ts * 1e3:g} ms)",
         "lambdas": list(cfg["lambdas"]), "gamma": list(GAMMA_PRINTED),
         "K": {k: list(cfg[f"{k}_K"]) for k in KINDS}, "dbar_printed": dict(DBAR_PRINTED),
         "switching": f"saturation, phi = {cfg['phi']}", "phi": cfg["phi"],
         "theta0": cfg["theta0"], "do1_gain": cfg["do1_gain"],
         "observers": f"DO1: L = {cfg['do1_gain']:g} I3; DO4: Sec. 3.6.1 gains",
-        "twin": twin_doc(cfg), "plant": robot_label(robot.plant()),
-        "ideal": "extra runs: the same plant, ideal sensors and actuator",
+        "twin": twin_doc(tw), "plant": robot_label(robot.plant()),
+        "ablation": "the ideal robot, then the twin's elements added in turn (keys "
+                    "ablation.<step>.<run>.case<k>.*; one batched run per controller and case)",
+        ABLATION_FIELD: tables,
         "track": f"mean psi' over the last {TRACK_WINDOW:g} s within {TRACK_TOL:.0%} of q1d'",
     }  # fmt: skip
     base.update(extra)
     return base
 
 
+def _ablation_metrics(
+    window: tuple[float, float], q1d_dot: float, stick_start: float | None
+) -> MetricFn:
+    """The ablation's quantities of one run: :func:`mwip.hardware.ablation.rms_metrics` plus
+    ``final_speed`` (mean ``psi'`` over the last :data:`TRACK_WINDOW`) and, with a stick,
+    ``settling_time`` (:func:`obstacle_settling_time`)."""
+    base = rms_metrics(window, q1d_dot)
+
+    def fn(res: SimResult, run: str, case: int) -> dict[str, float]:
+        out = dict(base(res, run, case))
+        ok = res.status[0] == "ok"
+        last = res.t >= res.t[-1] - TRACK_WINDOW - 1e-9
+        out["final_speed"] = float(np.mean(res.q_dot[last, 0])) if ok else float("nan")
+        if stick_start is not None:
+            out["settling_time"] = (obstacle_settling_time(res.t, res.q_dot[:, 0], stick_start)
+                                    if ok else float("nan"))  # fmt: skip
+        return out
+
+    return fn
+
+
+def _run_ablation(
+    cfg: Mapping[str, Any], tw: Twin, q1d_dot: float, cases: tuple[int, ...], duration: float,
+    window: tuple[float, float], claims: list[tuple[str, Any]],
+) -> Ablation:  # fmt: skip
+    """The cumulative ablation of the three controllers for ``cases`` on the twin's values:
+    one batched run per controller and case (:func:`mwip.hardware.ablation.run_ablation`)."""
+    stick = cfg.get("stick_start") if 3 in cases else None
+
+    def kw(run: str, case: int) -> dict[str, Any]:
+        out = {"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
+               "record_every": cfg["record_every"], "seed": cfg["seed"]}  # fmt: skip
+        if case == 3:
+            out.update(stick_speed=cfg["stick_speed"], stick_start=cfg["stick_start"],
+                       stick_height=cfg["stick_height"])  # fmt: skip
+        return out
+
+    return run_ablation(
+        [(k, partial(make_controller, k, cfg, q1d_dot)) for k in KINDS], tw, cases=cases,
+        metrics=_ablation_metrics(window, q1d_dot, stick), run_kwargs=kw,
+        plant=lambda case: case_plant(2 if case in (2, 3) else 1, base=robot.plant()),
+        claims=claims,
+    )  # fmt: skip
+
+
+def _ab_order(q: str, case: int) -> tuple[str, Any]:
+    def test(m: Mapping[str, float]) -> bool:
+        return _ordered([m[f"{k}.case{case}.{q}"] for k in ("do4smc", "do1smc", "smc")])
+
+    return f"DO4SMC < DO1SMC < SMC in {q}, Case {case}", test
+
+
+def _ab_up(case: int) -> tuple[str, Any]:
+    def test(m: Mapping[str, float]) -> bool:
+        return all(m[f"{k}.case{case}.fell"] != 1.0 for k in KINDS)
+
+    return f"all three stay up, Case {case}", test
+
+
 class _Evidence:
-    """Cause and evidence of a failing book claim of a HODOSMC study, from its runs."""
+    """Cause and evidence of a failing book claim of a HODOSMC study, from its runs and its
+    ablation ``ab`` (``runs`` holds the full-twin runs of one case by controller name)."""
 
     def __init__(self, study: str, cfg: Mapping[str, Any], runs: Mapping[str, SimResult],
-                 metrics: Mapping[str, float]) -> None:  # fmt: skip
-        self.study, self.cfg, self.runs, self.m = study, cfg, runs, metrics
+                 metrics: Mapping[str, float], ab: Ablation) -> None:  # fmt: skip
+        self.study, self.cfg, self.runs, self.m, self.ab = study, cfg, runs, metrics, ab
 
-    def fallen(self, pre: str, tag: str) -> list[str]:
-        return [k for k in KINDS if f"{pre}{tag}{k}" in self.runs
-                and self.runs[f"{pre}{tag}{k}"].status[0] != "ok"]  # fmt: skip
+    def fallen(self) -> list[str]:
+        return [k for k in KINDS if k in self.runs and self.runs[k].status[0] != "ok"]
 
-    def payload(self, tag: str) -> tuple[str, str]:
-        names = {LABEL[k]: f"{tag}{k}" for k in KINDS}
-        ideal = {LABEL[k]: f"ideal.{tag}{k}" for k in KINDS}
-        text = (f"{payload_evidence(self.cfg['lambdas'][2])}; on the twin "
-                f"{_fell_text(self.runs, names)}")  # fmt: skip
-        if any(n in self.runs for n in ideal.values()):
-            text += f"; with ideal sensors and actuator {_fell_text(self.runs, ideal)}"
-        return "book-inconsistency", text
-
-    def sensors(self, kind: str, tag: str) -> tuple[str, str]:
-        res = self.runs[f"{tag}{kind}"]
-        text = (f"{LABEL[kind]} fell at {float(res.t_end[0]):.2f} s: "
-                f"{accelerometer_evidence(res)}")  # fmt: skip
-        ideal = self.runs.get(f"ideal.{tag}{kind}")
-        if ideal is not None:
-            text += ("; with ideal sensors and actuator it stays up"
-                     if ideal.status[0] == "ok"
-                     else f"; with ideal sensors and actuator it falls too, at "
-                          f"{float(ideal.t_end[0]):.2f} s")  # fmt: skip
-            if ideal.status[0] != "ok":
-                return "implementation", text + " (not explained)"
+    def fall(self, case: int) -> tuple[str, str]:
+        """The runs of Case ``case`` fell on the twin: where they stop balancing along the
+        ablation. Balancing with the ideal robot puts the cause in the twin's elements
+        (``twin-model``); falling there too is the payload (Cases 2, 3) or not explained."""
+        kinds = self.fallen() or list(KINDS)
+        names = {LABEL[k]: k for k in KINDS}
+        text = f"on the full twin {_fell_text(self.runs, names)}; ablation: " + "; ".join(
+            fall_evidence(self.ab, k, case, LABEL[k]) for k in kinds
+        )
+        if any(first_fall(self.ab, k, case) == "ideal" for k in kinds):
+            if case in (2, 3):
+                return "book-inconsistency", f"{payload_evidence(self.cfg['lambdas'][2])}; {text}"
+            return "implementation", text + " (not explained)"
         return "twin-model", text
 
     def speed_cap(self, case: int) -> tuple[str, str] | None:
@@ -316,21 +359,19 @@ class _Evidence:
         )
         return "damping-reading", text
 
-    def order(self, fmt: str, tag: str, case_key: str, q: str) -> tuple[str, str]:
-        """A failing ordering DO4SMC < DO1SMC < SMC of quantity ``q``."""
-        fallen = self.fallen("", tag)
+    def order(self, fmt: str, case: int, q: str) -> tuple[str, str]:
+        """A failing ordering DO4SMC < DO1SMC < SMC of quantity ``q`` in Case ``case``."""
         vals = _values_text(self.m, fmt)
-        capped = self.speed_cap(int(case_key[-1])) if q != "rms_theta" else None
+        capped = self.speed_cap(case) if q != "rms_theta" else None
         if capped is not None:
             return capped[0], f"{vals}; {capped[1]}"
-        if fallen and case_key in ("case2", "case3"):
-            cause, text = self.payload(tag)
-            return cause, f"{vals}; {text}"
-        if fallen:
-            cause, text = self.sensors(fallen[0], tag)
-            pair = self.sweep(q, case_key, pair=True)
-            return cause, f"{vals}; {text}" + (f"; besides, {pair}" if pair else "")
-        sweep = self.sweep(q, case_key)
+        if self.fallen():
+            cause, text = self.fall(case)
+            ideal = "ablation.ideal.{k}." + f"case{case}.{q}"
+            verdict = "holds" if _ordered(_order_values(self.m, ideal)) else "fails"
+            return cause, (f"{vals}; {text}; with the ideal robot the ordering {verdict}: "
+                           f"{_values_text(self.m, ideal)}")  # fmt: skip
+        sweep = self.sweep(q, f"case{case}")
         if sweep is not None:
             return (
                 "unprinted-setting",
@@ -338,21 +379,16 @@ class _Evidence:
             )
         return "implementation", f"{vals}: all up, the ordering differs (not explained)"
 
-    def sweep(self, q: str, case_key: str, *, pair: bool = False) -> str | None:
+    def sweep(self, q: str, case_key: str) -> str | None:
         """The DO1SMC values at the ends of the ``do1_gain`` range when one of them puts the
-        three in the book's order (``pair``: puts DO4SMC below DO1SMC, whatever SMC did);
-        ``None`` otherwise."""
+        three in the book's order; ``None`` otherwise."""
         lo, hi = _do1_range(self.study)
         keys = [f"sweep.do1smc_L{g:g}.{case_key}.{q}" for g in (lo, hi)]
         if not all(k in self.m for k in keys):
             return None
         v4, _, vs = _order_values(self.m, "{k}." + f"{case_key}.{q}")
         vals = [self.m[k] for k in keys]
-        if pair:
-            flips = any(np.isfinite(v4) and np.isfinite(v) and v4 < v for v in vals)
-        else:
-            flips = any(_ordered([v4, v, vs]) for v in vals)
-        if not flips:
+        if not any(_ordered([v4, v, vs]) for v in vals):
             return None
         return (
             f"with L = {lo:g} DO1SMC gives {vals[0]:.4g}, with L = {hi:g} {vals[1]:.4g}: "
@@ -379,74 +415,71 @@ def _rms_experiment(
     keys: tuple[str, ...], table: str,
 ) -> dict[str, Any]:  # fmt: skip
     folder = Path(out) / study
-    cfg = settings.current(study)
+    cfg, tw = study_settings(study)
     q1d_dot = cfg["speed"]
     duration = min(4.0, cfg["duration"]) if quick else cfg["duration"]
     window = (2.0, duration) if quick else tuple(cfg["rms_window"])
-    variants = ("twin",) if quick else tuple(VARIANTS)
     runs: dict[str, SimResult] = {}
     metrics: dict[str, float] = {}
-    for variant in variants:
-        pre = VARIANTS[variant][0]
-        for case in (1, 2):
-            for kind in KINDS:
-                res = run_one(kind, case, q1d_dot, cfg, variant=variant, duration=duration)
-                name = f"{pre}{kind}.case{case}"
-                runs[name] = res
-                for q, v in _rms_metrics(res, q1d_dot, window).items():
-                    metrics[f"{name}.{q}"] = v
+    for case in (1, 2):
+        for kind in KINDS:
+            res = run_one(kind, case, q1d_dot, cfg, duration=duration, twin=tw)
+            name = f"{kind}.case{case}"
+            runs[name] = res
+            for q, v in _rms_metrics(res, q1d_dot, window).items():
+                metrics[f"{name}.{q}"] = v
     for gain in _do1_range(study):  # DO1SMC at the ends of its open observer gain, Case 1
-        res = run_one("do1smc", 1, q1d_dot, {**cfg, "do1_gain": gain}, duration=duration)
+        res = run_one("do1smc", 1, q1d_dot, {**cfg, "do1_gain": gain}, duration=duration,
+                      twin=tw)  # fmt: skip
         name = f"sweep.do1smc_L{gain:g}.case1"
         runs[name] = res
         for q, v in _rms_metrics(res, q1d_dot, window).items():
             metrics[f"{name}.{q}"] = v
-    ev = _Evidence(study, cfg, {}, metrics)
+    ab_duration = min(QUICK_ABLATION, duration) if quick else duration
+    ab_window = (ab_duration / 2, ab_duration) if quick else window
+    ab = _run_ablation(cfg, tw, q1d_dot, (1, 2), ab_duration, ab_window,
+                       [_ab_order(q, c) for c in (1, 2) for q in keys]
+                       + [_ab_up(c) for c in (1, 2)])  # fmt: skip
+    metrics.update(ab.metrics)
     claims = []
-    for variant in variants:
-        pre, label = VARIANTS[variant]
-        book = variant == "twin"
-        for case in (1, 2):
-            ck = f"case{case}"
-            # the evidence reads runs by "<prefix><kind>" for this case
-            ev.runs = {f"{p}{k}": runs[f"{p}{k}.{ck}"] for p in ("", "ideal.") for k in KINDS
-                       if f"{p}{k}.{ck}" in runs}  # fmt: skip
-            for q in keys:
-                fmt = pre + "{k}." + f"{ck}.{q}"
-                holds = _ordered(_order_values(metrics, fmt))
-                claims.append(_claim(
-                    f"{pre}order.{q}.{ck}",
-                    f"DO4SMC < DO1SMC < SMC in {q}, Case {case} ({table}){label}", holds, book,
-                    [fmt.format(k=k) for k in ("do4smc", "do1smc", "smc")],
-                    None if holds or not book else ev.order(fmt, "", ck, q),
-                ))  # fmt: skip
-            up = all(runs[f"{pre}{k}.{ck}"].status[0] == "ok" for k in KINDS)
-            fallen = ev.fallen("", "")
-            why = None
-            if book and not up:
-                why = ev.payload("") if case == 2 else ev.sensors(fallen[0], "")
+    for case in (1, 2):
+        ck = f"case{case}"
+        ev = _Evidence(study, cfg, {k: runs[f"{k}.{ck}"] for k in KINDS}, metrics, ab)
+        for q in keys:
+            fmt = "{k}." + f"{ck}.{q}"
+            holds = _ordered(_order_values(metrics, fmt))
             claims.append(_claim(
-                f"{pre}up.{ck}",
-                f"all three keep the robot up for {duration:g} s, Case {case}{label}", up, book,
-                [f"{pre}{k}.{ck}.t_end" for k in KINDS], why,
+                f"order.{q}.{ck}", f"DO4SMC < DO1SMC < SMC in {q}, Case {case} ({table})",
+                holds, True, [fmt.format(k=k) for k in ("do4smc", "do1smc", "smc")],
+                None if holds else ev.order(fmt, case, q),
             ))  # fmt: skip
-            if q1d_dot != 0.0:
-                finals = [metrics[f"{pre}{k}.{ck}.final_speed"] for k in KINDS]
-                track = all(np.isfinite(v) and abs(v - q1d_dot) <= TRACK_TOL * abs(q1d_dot)
-                            for v in finals)  # fmt: skip
-                claims.append(_claim(
-                    f"{pre}track.{ck}",
-                    f"all three move at {q1d_dot:g} rad/s (mean over the last {TRACK_WINDOW:g}"
-                    f" s within {TRACK_TOL:.0%}), Case {case}{label}", track, book,
-                    [f"{pre}{k}.{ck}.final_speed" for k in KINDS],
-                    None if track or not book else (ev.speed_cap(case) or why or (
-                        "implementation",
-                        "mean speeds " + ", ".join(f"{LABEL[k]} {v:.3g}" for k, v in
-                                                   zip(KINDS, finals, strict=True))
-                        + " rad/s, all up (not explained)")),
-                ))  # fmt: skip
+        up = not ev.fallen()
+        claims.append(_claim(
+            f"up.{ck}", f"all three keep the robot up for {duration:g} s, Case {case}", up,
+            True, [f"{k}.{ck}.t_end" for k in KINDS], None if up else ev.fall(case),
+        ))  # fmt: skip
+        if q1d_dot != 0.0:
+            finals = [metrics[f"{k}.{ck}.final_speed"] for k in KINDS]
+            track = all(np.isfinite(v) and abs(v - q1d_dot) <= TRACK_TOL * abs(q1d_dot)
+                        for v in finals)  # fmt: skip
+            why = None
+            if not track:
+                why = ev.speed_cap(case) or (ev.fall(case) if not up else (
+                    "implementation",
+                    "mean speeds " + ", ".join(f"{LABEL[k]} {v:.3g}" for k, v in
+                                               zip(KINDS, finals, strict=True))
+                    + " rad/s, all up (not explained)"))  # fmt: skip
+            claims.append(_claim(
+                f"track.{ck}",
+                f"all three move at {q1d_dot:g} rad/s (mean over the last {TRACK_WINDOW:g}"
+                f" s within {TRACK_TOL:.0%}), Case {case}", track, True,
+                [f"{k}.{ck}.final_speed" for k in KINDS], why,
+            ))  # fmt: skip
+    tables = write_ablation(ab, folder, ("rms_theta", *[q for q in keys if q != "rms_theta"],
+                                         "t_end"))  # fmt: skip
     doc = metrics_document(study, source, metrics, published, claims, _runs_doc(runs),
-                           _settings(cfg, {"q1d_dot": q1d_dot}, duration, window))  # fmt: skip
+                           _settings(cfg, tw, {"q1d_dot": q1d_dot}, duration, window,
+                                     tables))  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)
     _figure(runs, q1d_dot, folder / f"{study}.png", study)
     for name, res in runs.items():
@@ -490,76 +523,74 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """``exp-hodosmc-obstacle``: Table 6.6 on the twin (Case 3: payload + stick at 6 s)."""
     study = NAME_OBSTACLE
     folder = Path(out) / study
-    cfg = settings.current(study)
+    cfg, tw = study_settings(study)
     speed, stick_start = cfg["speed"], cfg["stick_start"]
     duration = min(7.0, cfg["duration"]) if quick else cfg["duration"]
-    variants = ("twin",) if quick else tuple(VARIANTS)
     cases = ((3, ""),) if quick else ((3, ""), (-1, "case1_stick."))
     runs: dict[str, SimResult] = {}
     metrics: dict[str, float] = {}
-    for variant in variants:
-        pre = VARIANTS[variant][0]
-        for case, tag in cases:
-            for kind in KINDS:
-                res = run_one(kind, case, speed, cfg, variant=variant, duration=duration)
-                name = f"{pre}{tag}{kind}"
-                runs[name] = res
-                ok = res.status[0] == "ok"
-                metrics[f"{name}.settling_time"] = (
-                    obstacle_settling_time(res.t, res.q_dot[:, 0], stick_start)
-                    if ok
-                    else float("nan")
-                )
-                metrics[f"{name}.rms_speed_err"] = (
-                    float(rms(res.t, res.q_dot[:, 0] - speed, (cfg["rms_start"], stick_start)))
-                    if ok else float("nan")
-                )  # fmt: skip
-                pre_stick = res.t < stick_start
-                metrics[f"{name}.speed_before_stick"] = (
-                    float(np.nanmean(res.q_dot[pre_stick, 0][-50:])) if ok else float("nan")
-                )
-                metrics[f"{name}.t_end"] = float(res.t_end[0])
-    ev = _Evidence(study, cfg, runs, metrics)
+    for case, tag in cases:
+        for kind in KINDS:
+            res = run_one(kind, case, speed, cfg, duration=duration, twin=tw)
+            name = f"{tag}{kind}"
+            runs[name] = res
+            ok = res.status[0] == "ok"
+            metrics[f"{name}.settling_time"] = (
+                obstacle_settling_time(res.t, res.q_dot[:, 0], stick_start) if ok else float("nan")
+            )
+            metrics[f"{name}.rms_speed_err"] = (
+                float(rms(res.t, res.q_dot[:, 0] - speed, (cfg["rms_start"], stick_start)))
+                if ok else float("nan")
+            )  # fmt: skip
+            pre_stick = res.t < stick_start
+            metrics[f"{name}.speed_before_stick"] = (
+                float(np.nanmean(res.q_dot[pre_stick, 0][-50:])) if ok else float("nan")
+            )
+            metrics[f"{name}.t_end"] = float(res.t_end[0])
+
+    def settle_order(m: Mapping[str, float]) -> bool:
+        return _ordered([m[f"{k}.case3.settling_time"] for k in ("do4smc", "do1smc", "smc")])
+
+    ab = _run_ablation(cfg, tw, speed, (3,), duration, (cfg["rms_start"], stick_start),
+                       [("settling time DO4SMC < DO1SMC < SMC, Case 3", settle_order),
+                        _ab_up(3)])  # fmt: skip
+    metrics.update(ab.metrics)
     claims = []
-    for variant in variants:
-        pre, label = VARIANTS[variant]
-        for case, tag in cases:
-            book = variant == "twin" and case == 3
-            what = "Case 3" if case == 3 else "stick without payload (extra)"
-            fmt = pre + tag + "{k}.settling_time"
-            holds = _ordered(_order_values(metrics, fmt))
-            ck = "case3" if case == 3 else "case1"
-            claims.append(_claim(
-                f"{pre}order.{tag or 'case3.'}settling_time",
-                f"settling time DO4SMC < DO1SMC < SMC, {what} (Table 6.6){label}", holds, book,
-                [fmt.format(k=k) for k in ("do4smc", "do1smc", "smc")],
-                None if holds or not book else ev.order(fmt, tag, ck, "settling_time"),
-            ))  # fmt: skip
-            settled = all(np.isfinite(metrics[f"{pre}{tag}{k}.settling_time"]) for k in KINDS)
-            why = None
-            if book and not settled:
-                fallen = ev.fallen(pre, tag)
-                why = ev.speed_cap(3) or (
-                    ev.payload(tag)
-                    if fallen
-                    else (
-                        "implementation",
-                        "all up; never in (-9, -5) rad/s after the stick: "
-                        + _values_text(metrics, fmt)
-                        + " (not explained)",
-                    )
-                )
-            claims.append(_claim(
-                f"{pre}settle.{tag or 'case3.'}".rstrip("."),
-                f"all three cross the stick and settle in (-9, -5) rad/s, {what}{label}",
-                settled, book, [f"{pre}{tag}{k}.settling_time" for k in KINDS], why,
-            ))  # fmt: skip
+    for case, tag in cases:
+        book = case == 3
+        what = "Case 3" if case == 3 else "stick without payload (extra)"
+        fmt = tag + "{k}.settling_time"
+        holds = _ordered(_order_values(metrics, fmt))
+        ev = _Evidence(study, cfg, {k: runs[f"{tag}{k}"] for k in KINDS}, metrics, ab)
+        why = None
+        if book and not holds:
+            why = ev.speed_cap(3) or (ev.fall(3) if ev.fallen() else (
+                "implementation", f"{_values_text(metrics, fmt)}: all up, the ordering "
+                "differs (not explained)"))  # fmt: skip
+        claims.append(_claim(
+            f"order.{tag or 'case3.'}settling_time",
+            f"settling time DO4SMC < DO1SMC < SMC, {what} (Table 6.6)", holds, book,
+            [fmt.format(k=k) for k in ("do4smc", "do1smc", "smc")], why,
+        ))  # fmt: skip
+        settled = all(np.isfinite(metrics[f"{tag}{k}.settling_time"]) for k in KINDS)
+        why = None
+        if book and not settled:
+            why = ev.speed_cap(3) or (ev.fall(3) if ev.fallen() else (
+                "implementation",
+                "all up; never in (-9, -5) rad/s after the stick: "
+                + _values_text(metrics, fmt) + " (not explained)"))  # fmt: skip
+        claims.append(_claim(
+            f"settle.{tag or 'case3.'}".rstrip("."),
+            f"all three cross the stick and settle in (-9, -5) rad/s, {what}",
+            settled, book, [f"{tag}{k}.settling_time" for k in KINDS], why,
+        ))  # fmt: skip
     stick = _stick_doc(cfg)
+    tables = write_ablation(ab, folder, ("settling_time", "rms_theta", "t_end"))
     doc = metrics_document(
         study, SOURCE_OBSTACLE, metrics, PUBLISHED_OBSTACLE, claims, _runs_doc(runs),
-        _settings(cfg, {"q1d_dot": speed, "band": list(BAND), "stick": stick,
-                        "stick_speed": cfg["stick_speed"]},
-                  duration, (cfg["rms_start"], stick_start)),
+        _settings(cfg, tw, {"q1d_dot": speed, "band": list(BAND), "stick": stick,
+                            "stick_speed": cfg["stick_speed"]},
+                  duration, (cfg["rms_start"], stick_start), tables),
     )  # fmt: skip
     folder.mkdir(parents=True, exist_ok=True)
     _figure(runs, speed, folder / f"{study}.png", study, cases=("",))

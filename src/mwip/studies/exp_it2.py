@@ -3,8 +3,9 @@
 Set-up (SPEC.md section 5; book Sec. 6.2.3): the Chapter 5 controller of Fig. 5.3 - PDC
 balance law (5.10) ``u = sum_i m_i(theta) G_i x`` plus the Mamdani position and direction
 FLSs of Section 5.3.2 (Tables 5.1-5.2), :class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` -
-runs on the digital twin (:mod:`mwip.hardware.twin`, Case 1: the real robot of Table 6.1,
-complementary IMU fusion, encoders, RE25 drives, 5 ms sampling) against its type-1
+runs on the digital twin of the run (:func:`mwip.studies.robot.twin`, the twin file's
+configuration, default the default twin; Case 1: the real robot of Table 6.1, sampled at the
+twin's ``Ts``) against its type-1
 counterpart (same rules and gains, type-1 sets at the middle of each footprint, weighted
 average; docs/fuzzy.md). Initial condition ``x0 = [0.48, 0, 0, 0]``, 15 s:
 
@@ -47,14 +48,21 @@ IT2-T1 pitch difference, the position error left and what the position FLS still
 The plant is the robot's plant (Table 6.1 by default, ``Db, Dw`` as SPEC.md section 2 reads
 them; nothing here chooses a reading).
 
-All runs are one batch on the twin (:class:`BatchFuzzyController`), which costs about as much
-as two single runs. Outputs: ``metrics.json``, one ``.npz`` per run, ``exp-it2.png``
-(Figs. 6.17-6.19's layout).
+All runs are one batch on the twin (the library's Fig. 5.3 controller for a batch,
+:class:`mwip.fuzzy.fig53.Fig53Controller`), which costs about as much as two single runs.
+Outputs: ``metrics.json``, one ``.npz`` per run, ``exp-it2.png`` (Figs. 6.17-6.19's layout).
 
 Settings (``scenarios/exp-it2.toml``, :mod:`mwip.studies.settings`): ``theta0``,
 ``epsilon``, ``rho``, ``uncertainty``, ``exp2_p_d``, ``exp3_p_d``, ``exp3_alpha_d``,
-``duration``, ``rms_start``, ``Ts``, ``record_every``, ``seed`` and the twin's
-:data:`~mwip.studies.twin_settings.TWIN_KEYS`.
+``duration``, ``rms_start``, ``record_every``, ``seed`` (the twin's numbers are the twin
+file's).
+
+The ablation (:mod:`mwip.hardware.ablation`): every run of the batch on the ideal robot, then
+with the twin's elements added in turn (one batched run per run), keys
+``ablation.<step>.<kind>.exp<e>.case1.<quantity>`` (those of :func:`run_metrics`, ``fell``,
+``t_end``), tables ``ablation.md``/``.html`` named in ``settings.ablation_table``; an IT2
+fall on the full twin is located along it (``twin-model`` when IT2 balances with the ideal
+robot).
 """
 
 from __future__ import annotations
@@ -66,19 +74,24 @@ from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
-from numpy.typing import NDArray
 
-from mwip.fuzzy.mamdani import FuzzyMWIPController
+from mwip.fuzzy.fig53 import Fig53Controller
 from mwip.fuzzy.pdc import PDCDesign, check_design, design_pdc, uncertainty_models
-from mwip.fuzzy.ts_model import nie_tan_weights, type1_weights
+from mwip.hardware.ablation import Ablation, run_ablation
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms
-from mwip.params import Params
 from mwip.sim import SimResult
-from mwip.sim.sensors import Measurement
-from mwip.studies import robot, settings
+from mwip.studies import robot
 from mwip.studies.common import metrics_document, save_figure, write_metrics
-from mwip.studies.twin_settings import robot_label, twin_doc, twin_from
+from mwip.studies.twin_settings import (
+    ABLATION_FIELD,
+    fall_evidence,
+    first_fall,
+    robot_label,
+    study_settings,
+    twin_doc,
+    write_ablation,
+)
 
 SOURCE = "Sec. 6.2.3, Figs. 6.17-6.19"
 NAME = "exp-it2"
@@ -104,7 +117,7 @@ CRITERIA = {
 
 
 def _cfg(cfg: Mapping[str, Any] | None) -> Mapping[str, Any]:
-    return settings.current(NAME) if cfg is None else cfg
+    return study_settings(NAME)[0] if cfg is None else cfg
 
 
 def targets(cfg: Mapping[str, Any] | None = None) -> dict[int, tuple[float | None, float | None]]:
@@ -134,99 +147,6 @@ class Row:
     alpha_d: float | None
 
 
-class BatchFuzzyController:
-    """Fig. 5.3 for a batch: row ``i`` is ``FuzzyMWIPController(designs[i], kind=kinds[i],
-    p_d=p_d[i], alpha_d=alpha_d[i])``, evaluated for all rows at once (one call of each FLS per
-    kind and sample instead of one per run). Same law, term by term:
-
-    ``theta_off = FLS_p(r_nom psi - p_d, theta')`` (0 without a position target),
-    ``x = [theta - theta_off, theta', psi or 0, psi']`` (the wheel-angle feedback is dropped
-    when the position FLS closes that loop), ``u_p = (1/2) sum_i m_i(theta) G_i x`` (5.10),
-    ``u_alpha = FLS_alpha(alpha - alpha_d, alpha')``, ``u = [u_p + u_alpha, u_p - u_alpha]``.
-    Tested equal to :class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` row by row.
-    """
-
-    static = True
-
-    def __init__(
-        self,
-        designs: Sequence[PDCDesign],
-        kinds: Sequence[str],
-        p_d: Sequence[float | None],
-        alpha_d: Sequence[float | None],
-        *,
-        params: Params | None = None,
-        Ts: float | None = 0.005,
-    ) -> None:
-        if params is None:  # the robot's nominal model, at call time
-            params = robot.nominal()
-        n = len(designs)
-        if not (len(kinds) == len(p_d) == len(alpha_d) == n) or n == 0:
-            raise ValueError("designs, kinds, p_d and alpha_d must have the same length > 0")
-        # the FLSs are built by FuzzyMWIPController itself (Table 5.1 ranges, footprints)
-        self._ref = {k: FuzzyMWIPController(designs[0], kind=k, params=params) for k in
-                     sorted(set(kinds))}  # fmt: skip
-        self._groups = {k: np.array([i for i in range(n) if kinds[i] == k]) for k in self._ref}
-        self.G = np.stack([d.G for d in designs])
-        self.pos_on = np.array([v is not None for v in p_d])
-        self.dir_on = np.array([v is not None for v in alpha_d])
-        self.p_d = np.array([0.0 if v is None else float(v) for v in p_d])
-        self.alpha_d = np.array([0.0 if v is None else float(v) for v in alpha_d])
-        self.r = float(params.r)
-        self.Ts = Ts
-        self._scale = {k: _direction_as_position(c) for k, c in self._ref.items()}
-        self._log: dict[str, NDArray[np.float64]] = {}
-
-    def reset(self, meas: Measurement) -> None:
-        """Nothing to reset (static law)."""
-
-    def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
-        y = meas.y
-        n = y.shape[0]
-        theta_off, u_a, m = np.zeros(n), np.zeros(n), np.zeros((n, 2))
-        for kind, rows in self._groups.items():
-            ref, yr, sc = self._ref[kind], y[rows], self._scale[kind]
-            pe, thd = self.r * yr[:, 0] - self.p_d[rows], yr[:, 4]
-            ae, ad = yr[:, 2] - self.alpha_d[rows], yr[:, 5]
-            if sc is None:
-                theta_off[rows] = ref.position(pe, thd)
-                u_a[rows] = ref.direction(ae, ad)
-            else:  # one FLS call for both loops (the FLS cost dominates a twin run)
-                both = ref.position(np.concatenate([pe, sc[0] * ae]),
-                                    np.concatenate([thd, sc[1] * ad]))  # fmt: skip
-                theta_off[rows], u_a[rows] = both[: rows.size], sc[2] * both[rows.size :]
-            m[rows] = (nie_tan_weights if kind == "it2" else type1_weights)(yr[:, 1])
-        theta_off = np.where(self.pos_on, theta_off, 0.0)
-        u_a = np.where(self.dir_on, u_a, 0.0)
-        x = np.stack([y[:, 1] - theta_off, y[:, 4], np.where(self.pos_on, 0.0, y[:, 0]),
-                      y[:, 3]], -1)  # fmt: skip
-        u_p = 0.5 * np.einsum("ni,nij,nj->n", m, self.G, x)
-        self._log = {"theta_off": theta_off, "u_alpha": u_a}
-        return np.stack([u_p + u_a, u_p - u_a], -1)
-
-    def log(self) -> Mapping[str, NDArray[np.float64]]:
-        return self._log
-
-
-def _direction_as_position(c: FuzzyMWIPController) -> tuple[float, float, float] | None:
-    """``(a1, a2, b)`` with ``direction(x1, x2) = b * position(a1 x1, a2 x2)``, or ``None``.
-
-    Both FLSs are uniform partitions with the same number of sets, footprint, rules, kind and
-    reducer, only the ranges differ (Table 5.1); memberships of uniform triangular partitions
-    scale with the range and the outputs are linear in the consequent centroids, so the
-    direction FLS is the position FLS with scaled inputs and output (exact up to rounding;
-    tested).
-    """
-    p, d = c.position, c.direction
-    same = (p.rules == d.rules and p.kind == d.kind and (p.m, p.n) == (d.m, d.n)
-            and all((a.n, a.fou) == (b.n, b.fou) for a, b in
-                    ((p.in1, d.in1), (p.in2, d.in2), (p.out, d.out))))  # fmt: skip
-    if not same:
-        return None
-    return (p.in1.half_range / d.in1.half_range, p.in2.half_range / d.in2.half_range,
-            d.out.half_range / p.out.half_range)  # fmt: skip
-
-
 def rows_for(cfg: Mapping[str, Any] | None = None) -> list[Row]:
     """The batch: every experiment x kind, named ``{kind}.exp{e}`` (targets from the settings
     ``cfg``, default: the study's current settings)."""
@@ -243,17 +163,17 @@ def run_batch(
     cfg: Mapping[str, Any] | None = None,
 ) -> dict[str, SimResult]:  # fmt: skip
     """Run ``rows`` as one batch on the twin (Case 1 plant, the PDC design ``pdc``, default
-    :func:`design`; the twin of the settings by default); the initial lean, sampling, records,
-    and the defaults of ``duration`` and ``seed`` from the settings ``cfg`` (default: the
-    study's current settings)."""
+    :func:`design`; the run's twin by default, :func:`mwip.studies.robot.twin`); the initial
+    lean, sampling (``Ts``: the twin's), records, and the defaults of ``duration`` and
+    ``seed`` from the settings ``cfg`` (default: the study's current settings)."""
     c = _cfg(cfg)
     des = design(c) if pdc is None else pdc
     plant = case_plant(1, base=robot.plant())
-    ctrl = BatchFuzzyController([des] * len(rows), [r.kind for r in rows],
-                                [r.p_d for r in rows], [r.alpha_d for r in rows],
-                                Ts=c["Ts"])  # fmt: skip
+    ctrl = Fig53Controller([des] * len(rows), [r.kind for r in rows],
+                           [r.p_d for r in rows], [r.alpha_d for r in rows],
+                           params=robot.nominal(), Ts=c["Ts"])  # fmt: skip
     q0 = np.tile([0.0, c["theta0"], 0.0], (len(rows), 1))
-    res = run_on_twin(ctrl, 1, twin=twin_from(c) if twin is None else twin, plant=plant,
+    res = run_on_twin(ctrl, 1, twin=robot.twin() if twin is None else twin, plant=plant,
                       q0=q0, duration=c["duration"] if duration is None else duration,
                       record_every=c["record_every"],
                       seed=c["seed"] if seed is None else seed)  # fmt: skip
@@ -341,9 +261,10 @@ def fails(m: Mapping[str, Any], name: str) -> bool:
     return not _errors_within(m, name)
 
 
-def claims_from(m: Mapping[str, Any]) -> list[dict[str, Any]]:
+def claims_from(m: Mapping[str, Any], ab: Ablation | None = None) -> list[dict[str, Any]]:
     """The book's claim per experiment (``"book": true``, with cause and evidence when it
-    fails) and its two halves (extras), computed from the metrics."""
+    fails) and its two halves (extras), computed from the metrics; a fall on the full twin is
+    located along the ablation ``ab``."""
     out = []
     for e in EXPERIMENTS:
         t1 = f"Exp {e}: T1 oscillates persistently or keeps a steady-state error"
@@ -353,7 +274,7 @@ def claims_from(m: Mapping[str, Any]) -> list[dict[str, Any]]:
                 "holds": t1_holds and it2_holds, "book": True,
                 "keys": [f"{k}.exp{e}.osc_amp" for k in KINDS]}  # fmt: skip
         if not book["holds"]:
-            book["cause"], book["evidence"] = _why(m, e, t1_holds, it2_holds)
+            book["cause"], book["evidence"] = _why(m, e, t1_holds, it2_holds, ab)
         out += [
             book,
             {"id": f"exp{e}.t1", "text": f"{t1} [extra: half of the book's claim]",
@@ -368,15 +289,37 @@ def _fmt(v: Any, spec: str = ".4f") -> str:
     return "fell" if not _finite(v) else format(float(v), spec)
 
 
-def _why(m: Mapping[str, Any], e: int, t1_holds: bool, it2_holds: bool) -> tuple[str, str]:
-    """Cause and evidence of the book's claim failing in experiment ``e``."""
+def _why(
+    m: Mapping[str, Any], e: int, t1_holds: bool, it2_holds: bool, ab: Ablation | None = None
+) -> tuple[str, str]:
+    """Cause and evidence of the book's claim failing in experiment ``e`` (an IT2 fall on the
+    full twin: where it stops balancing along the ablation ``ab``)."""
+    if not it2_holds and not _finite(m[f"it2.exp{e}.osc_amp"]) and ab is not None:
+        text = "IT2 fell on the full twin; ablation: " + "; ".join(
+            fall_evidence(ab, f"{k}.exp{e}", 1, f"{k.upper()} (exp {e})") for k in KINDS
+        )
+        if first_fall(ab, f"it2.exp{e}", 1) == "ideal":
+            return "implementation", text + " (not explained)"
+        pre = "ablation.ideal."
+        mi = {k[len(pre) :].replace(".case1.", "."): v for k, v in ab.metrics.items()
+              if k.startswith(pre)}  # fmt: skip
+        t1_i, it2_i = fails(mi, f"t1.exp{e}"), stable_and_accurate(mi, f"it2.exp{e}")
+        if t1_i and it2_i:
+            return "twin-model", text + "; with the ideal robot the claim holds"
+        _, ideal = _why(mi, e, t1_i, it2_i)
+        return "twin-model", f"{text}; with the ideal robot the claim fails too: {ideal}"
     parts = []
     if not t1_holds:
         parts.append(
             f"T1 neither oscillates nor keeps an error: osc_amp {_fmt(m[f't1.exp{e}.osc_amp'])}"
-            f" rad (IT2 {_fmt(m[f'it2.exp{e}.osc_amp'])}, threshold {OSC_TOL} rad), and the "
-            f"two pitch traces differ by at most {_fmt(m.get(f'diff.exp{e}.max_abs_dtheta'))} "
-            "rad: our T1 counterpart shares the PDC gains and rules, and the book does not say "
+            f" rad (IT2 {_fmt(m[f'it2.exp{e}.osc_amp'])}, threshold {OSC_TOL} rad)"
+            + (
+                f", and the two pitch traces differ by at most "
+                f"{_fmt(m[f'diff.exp{e}.max_abs_dtheta'])} rad"
+                if f"diff.exp{e}.max_abs_dtheta" in m
+                else ""
+            )
+            + ": our T1 counterpart shares the PDC gains and rules, and the book does not say "
             "how its T1 FLS was built"
         )
     if not it2_holds:
@@ -406,18 +349,53 @@ def _why(m: Mapping[str, Any], e: int, t1_holds: bool, it2_holds: bool) -> tuple
     return "unprinted-setting", "; ".join(parts)
 
 
+def _ablation(
+    cfg: Mapping[str, Any], tw: Twin, rows: Sequence[Row], pdc: PDCDesign, duration: float,
+    osc_window: float, rms_window: tuple[float, float],
+) -> Ablation:  # fmt: skip
+    """Every run of the batch: the ideal robot, then the twin's elements added in turn (one
+    batched run per run: its Fig. 5.3 law drives the 13 twins); quantities of
+    :func:`run_metrics` plus ``fell`` and ``t_end``."""
+    by_name = {r.name: r for r in rows}
+
+    def fn(res: SimResult, run: str, case: int) -> dict[str, float]:
+        out = run_metrics(res, by_name[run], osc_window=osc_window, rms_window=rms_window)
+        out["fell"] = 0.0 if _ok(res) else 1.0
+        out["t_end"] = float(res.t_end[0])
+        return out
+
+    def claim(e: int) -> tuple[str, Any]:
+        def test(m: Mapping[str, float]) -> bool:
+            m1 = {k.replace(".case1.", "."): v for k, v in m.items()}
+            return fails(m1, f"t1.exp{e}") and stable_and_accurate(m1, f"it2.exp{e}")
+
+        return f"Exp {e}: T1 oscillates or keeps an error; IT2 stable and accurate", test
+
+    def factory(r: Row) -> Any:
+        return lambda: Fig53Controller([pdc], [r.kind], [r.p_d], [r.alpha_d],
+                                       params=robot.nominal(), Ts=tw.Ts)  # fmt: skip
+
+    return run_ablation(
+        [(r.name, factory(r)) for r in rows], tw, cases=(1,), metrics=fn,
+        plant=lambda case: case_plant(1, base=robot.plant()),
+        run_kwargs={"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
+                    "record_every": cfg["record_every"], "seed": cfg["seed"]},
+        claims=[claim(e) for e in EXPERIMENTS],
+    )  # fmt: skip
+
+
 def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     """Run the experiment into ``out/exp-it2``; returns the metrics document."""
     study = NAME
     folder = Path(out) / study
-    cfg = settings.current(NAME)
+    cfg, tw = study_settings(NAME)
     duration = min(QUICK_DURATION, cfg["duration"]) if quick else cfg["duration"]
     osc_window = duration / 2 if quick else OSC_WINDOW
     rms_window = (1.0 if quick else cfg["rms_start"], duration)
     pdc = design(cfg)
     experiments = targets(cfg)
     rows = rows_for(cfg)
-    runs = run_batch(rows, duration=duration, pdc=pdc, cfg=cfg)
+    runs = run_batch(rows, duration=duration, pdc=pdc, cfg=cfg, twin=tw)
     metrics: dict[str, float] = {}
     for row in rows:
         for k, v in run_metrics(runs[row.name], row, osc_window=osc_window,
@@ -429,15 +407,18 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         metrics[f"diff.exp{e}.max_abs_dtheta"] = (
             float(np.max(np.abs(a.theta - b.theta))) if same else float("nan")
         )
-    claims = claims_from(metrics)
+    ab = _ablation(cfg, tw, rows, pdc, duration, osc_window, rms_window)
+    metrics.update(ab.metrics)
+    claims = claims_from(metrics, ab)
+    tables = write_ablation(ab, folder, ("rms_theta", "osc_amp", "t_end"))
     used = {
         "x0": [cfg["theta0"], 0.0, 0.0, 0.0],
         "x0_reading": "[theta, theta', psi, psi'] (Sec. 5.2)", "duration": duration,
-        "Ts": cfg["Ts"], "dt": cfg["dt"], "record_every": cfg["record_every"],
-        "record_period": cfg["Ts"] * cfg["record_every"], "seed": cfg["seed"],
+        "Ts": tw.Ts, "dt": tw.dt, "record_every": cfg["record_every"],
+        "record_period": tw.Ts * cfg["record_every"], "seed": cfg["seed"],
         "plant": f"the robot's plant, Case 1 ({robot_label(robot.plant())})",
         "design": "the robot's nominal model",
-        "mode": f"sampled on the digital twin ({cfg['Ts'] * 1e3:g} ms)",
+        "mode": f"sampled on the digital twin ({tw.Ts * 1e3:g} ms)",
         "batch": [r.name for r in rows],
         "batch_note": "one batched twin run; each row's sensor noise depends on its row index",
         "experiments": {f"exp{e}": {"p_d": pd, "alpha_d": ad} for e, (pd, ad) in
@@ -450,7 +431,10 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         "tolerances": {"osc": OSC_TOL, "pos": POS_TOL, "alpha": ALPHA_TOL, "theta": THETA_TOL},
         "criteria": CRITERIA,
         "t1": "same PDC gains and Mamdani rules, type-1 sets at the middle of each footprint",
-        "twin": twin_doc(cfg),
+        "twin": twin_doc(tw),
+        "ablation": "each run on the ideal robot, then the twin's elements added in turn "
+                    "(keys ablation.<step>.<run>.case1.*; one batched run per run)",
+        ABLATION_FIELD: tables,
     }  # fmt: skip
     doc = metrics_document(
         study, SOURCE, metrics, {}, claims,

@@ -15,6 +15,10 @@
     [settings]                   # optional: the study's own numbers (:mod:`.settings`)
     theta0 = -0.2                # e.g. the initial pitch (rad)
 
+A Chapter 6 study file may name the digital twin it runs on: ``[robot] twin = "my_twin.toml"``
+(a twin file, ``mwip twin show``) and/or ``[twin]`` tables of its own that override it key by
+key (:mod:`mwip.hardware.twin_config`); ``mwip run --twin FILE`` replaces both.
+
 Every study ships its file with all its settings (``mwip scenario STUDY`` prints it). Paths are
 relative to the study file. Unknown tables or keys are errors; every error is a one-line
 ``ValueError`` naming the field.
@@ -34,8 +38,9 @@ __all__ = ["StudyFile", "load_study_file"]
 
 _TABLES = {
     "study": ("name", "quick"),
-    "robot": ("params", "nominal", "damping"),
+    "robot": ("params", "nominal", "damping", "twin"),
     "settings": (),
+    "twin": (),  # the twin's [twin] tables (mwip.hardware.twin_config)
     "open": (),  # documentation of the settings the book leaves open (settings.open_settings)
     "report": (),  # the texts of the HTML report (settings.report_texts); ignored in a run
 }
@@ -51,6 +56,7 @@ class StudyFile:
     plant: Params
     nominal: Params
     settings: dict[str, Any] = field(default_factory=dict)
+    twin: Any = None  # mwip.hardware.twin.Twin, or None: the run's twin
 
 
 def _robot(value: object, key: str, base: Params, folder: Path, damping: str) -> Params:
@@ -80,7 +86,7 @@ def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
         if not isinstance(body, dict):
             raise ValueError(f"{path.name}: [{table}] must be a table")
         for key in body:
-            if table not in ("settings", "open", "report") and key not in _TABLES[table]:
+            if table not in ("settings", "open", "report", "twin") and key not in _TABLES[table]:
                 allowed = ", ".join(_TABLES[table])
                 raise ValueError(f"[{table}] {key}: unknown key; allowed: {allowed}")
     study = data.get("study", {})
@@ -103,4 +109,23 @@ def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
                      book_params("nominal", reading), folder, reading)  # fmt: skip
     overrides = validate(name, data.get("settings", {}))
     return StudyFile(path=path, name=name, quick=quick, plant=plant, nominal=nominal,
-                     settings=overrides)  # fmt: skip
+                     settings=overrides, twin=_twin(robot.get("twin"), data.get("twin"),
+                                                    folder))  # fmt: skip
+
+
+def _twin(path: object, tables: Any, folder: Path) -> Any:
+    """The twin of ``[robot] twin`` (a twin file) overridden by the file's ``[twin]`` tables;
+    ``None`` when the study file names neither."""
+    if path is None and tables is None:
+        return None
+    from mwip.hardware.twin_config import load_twin, twin_from_dict
+
+    base = None
+    if path is not None:
+        if not isinstance(path, str) or not path:
+            raise ValueError(f"[robot] twin must be a twin file path, got {path!r}")
+        full = (folder / path).resolve()
+        if not full.is_file():
+            raise ValueError(f"[robot] twin: no such twin file {str(full)!r}")
+        base = load_twin(full)
+    return base if tables is None else twin_from_dict(tables, base)

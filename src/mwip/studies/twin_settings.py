@@ -1,73 +1,72 @@
-"""The digital twin a Chapter 6 study runs on, built from the study's settings.
+"""The digital twin a Chapter 6 study runs on, and its ablation.
 
-The book prints the robot's sample period (5 ms), its sensors and motor by name (Sec. 2.5,
-Table 2.1) but not the numbers the twin needs: IMU noise and bias, the fusion constant, the
-encoder's counts per turn, the gear ratio, the driver's current limit and PWM resolution, the
-plant's integration step. They are settings of every twin study (``scenarios/exp-*.toml``,
-declared in its ``[open]`` table with a range and the reason for the default; docs/twin.md,
-"Open settings") and reach the twin only through :func:`twin_from`.
+One source of the twin's numbers: the twin configuration (:mod:`mwip.hardware.twin_config`,
+``[twin]`` TOML tables; the default twin is the hardware data with their sources,
+``mwip twin show``). A run takes it from ``mwip run/reproduce --twin FILE`` or from a study
+file's ``[robot] twin = FILE`` / ``[twin]`` tables (:mod:`mwip.studies.study_file`), through
+:func:`mwip.studies.robot.twin`. The studies' own settings hold only what the book prints
+for the experiment (gains, initial state, durations); the controllers sample at the twin's
+``Ts``.
+
+Every Chapter 6 study also runs the ablation of :mod:`mwip.hardware.ablation`: the ideal
+robot, then each physical element added in turn (cumulative, in the order of
+:data:`mwip.hardware.elements.ELEMENTS`), one batched twin run per controller and case
+. Its table goes to ``ablation.md`` and ``ablation.html`` in the study's
+folder, named in metrics.json under ``settings.ablation_table`` (:data:`ABLATION_FIELD`), and
+its numbers are the evidence of a claim that fails on the full twin (:func:`fall_evidence`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
-from mwip.hardware.encoder import EncoderSpec
-from mwip.hardware.imu import FusionSpec, ImuNoise
-from mwip.hardware.motor import DriveSpec
+import numpy as np
+
+from mwip.hardware.ablation import Ablation
+from mwip.hardware.elements import ELEMENTS
 from mwip.hardware.twin import Twin
+from mwip.io import write_text_atomic
 from mwip.params import Params
+from mwip.studies import robot, settings
 
-__all__ = ["TWIN_KEYS", "robot_label", "twin_doc", "twin_from"]
+__all__ = [
+    "ABLATION_FIELD",
+    "fall_evidence",
+    "finite",
+    "first_fall",
+    "balances",
+    "BALANCE_RMS",
+    "robot_label",
+    "study_settings",
+    "twin_doc",
+    "write_ablation",
+]
 
-#: The settings every twin study carries (besides ``Ts``) and :func:`twin_from` reads.
-TWIN_KEYS = (
-    "dt",
-    "fusion_tau",
-    "accel_sigma",
-    "accel_bias",
-    "gyro_sigma",
-    "gyro_bias",
-    "gyro_bias_walk",
-    "imu_height",
-    "encoder_cpr",
-    "gear_ratio",
-    "current_limit",
-    "pwm_levels",
-)
-
-
-def twin_from(cfg: Mapping[str, Any], *, ideal: bool = False) -> Twin:
-    """The twin of the settings ``cfg`` (sampled every ``cfg["Ts"]``, plant step
-    ``cfg["dt"]``); ``ideal=True``: the same sampling with ideal sensors and actuator (the
-    plain simulation, :meth:`Twin.ideal`)."""
-    if ideal:
-        return Twin.ideal(Ts=cfg["Ts"], dt=cfg["dt"])
-    imu = ImuNoise(accel_sigma=cfg["accel_sigma"], accel_bias=cfg["accel_bias"],
-                   gyro_sigma=cfg["gyro_sigma"], gyro_bias=cfg["gyro_bias"],
-                   gyro_bias_walk=cfg["gyro_bias_walk"], height=cfg["imu_height"])  # fmt: skip
-    return Twin(
-        imu=imu,
-        fusion=FusionSpec(kind="complementary", tau=cfg["fusion_tau"]),
-        encoder=EncoderSpec(cpr=cfg["encoder_cpr"], gear_ratio=cfg["gear_ratio"]),
-        drive=DriveSpec(
-            gear_ratio=cfg["gear_ratio"],
-            current_limit=cfg["current_limit"],
-            pwm_levels=cfg["pwm_levels"],
-        ),  # fmt: skip
-        Ts=cfg["Ts"],
-        dt=cfg["dt"],
-    )
+#: Key of metrics.json's ``settings`` naming the ablation table files (``{"html": ...,
+#: "md": ...}``, relative to the study's folder).
+ABLATION_FIELD = "ablation_table"
 
 
-def twin_doc(cfg: Mapping[str, Any]) -> str:
-    """One line naming the twin of ``cfg`` (for the recorded settings)."""
+def study_settings(name: str) -> tuple[dict[str, Any], Twin]:
+    """The current settings of study ``name`` with the twin's ``Ts`` and ``dt`` (the
+    controllers sample at the twin's period), and the twin (:func:`mwip.studies.robot.twin`)."""
+    tw = robot.twin()
+    return {**settings.current(name), "Ts": tw.Ts, "dt": tw.dt}, tw
+
+
+def twin_doc(twin: Twin) -> str:
+    """One line naming the twin (for the recorded settings)."""
+    off = [e for e in ELEMENTS if e not in twin.active]
+    d = twin.drive
     return (
-        f"complementary fusion (tau {cfg['fusion_tau']:g} s), IMU at {cfg['imu_height']:g} m, "
-        f"encoders {cfg['encoder_cpr']} cpr, RE25 + {cfg['gear_ratio']:g}:1, 24 V, "
-        f"{cfg['current_limit']:g} A, {cfg['pwm_levels']} PWM levels, plant step "
-        f"{cfg['dt'] * 1e3:g} ms"
+        f"{d.mode} drive (RE25 + {d.gear_ratio:g}:1, {d.supply_voltage:g} V, "
+        f"{d.current_limit:g} A, {d.pwm_levels} PWM levels), {twin.fusion.kind} fusion "
+        f"(tau {twin.fusion.tau:g} s), "
+        f"encoders {twin.encoder.cpr} cpr, sampled every {twin.Ts * 1e3:g} ms with "
+        f"{twin.delay:g} Ts delay, plant step {twin.dt * 1e3:g} ms; elements off: "
+        f"{', '.join(off) or 'none'} (mwip twin show)"
     )
 
 
@@ -78,3 +77,78 @@ def robot_label(plant: Params) -> str:
         f"plant mb {float(plant.mb):g} kg, r {float(plant.r):g} m, "
         f"Db {float(plant.Db):.3g}, Dw {float(plant.Dw):.3g} N m s/rad"
     )
+
+
+def write_ablation(ab: Ablation, folder: Path, quantities: Sequence[str]) -> dict[str, str]:
+    """Write the tables of ``quantities`` (``rms_theta``, ``t_end``, ...) to
+    ``folder/ablation.md`` and ``folder/ablation.html``; returns ``{"md": ..., "html": ...}``
+    (names relative to ``folder``) for metrics.json's ``settings[ABLATION_FIELD]``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    md = "\n\n".join(ab.table(q) for q in quantities) + "\n"
+    html = "\n".join(f"<h4>{q}</h4>\n{ab.table(q, html=True)}" for q in quantities) + "\n"
+    write_text_atomic(folder / "ablation.md", md)
+    write_text_atomic(folder / "ablation.html", html)
+    return {"md": "ablation.md", "html": "ablation.html"}
+
+
+#: a run "balances" at an ablation step when it stays up with an RMS pitch below this (rad)
+BALANCE_RMS = 0.35
+
+
+def _steps(ab: Ablation) -> list[str]:
+    return [s for s, _ in ab.steps]
+
+
+def _key(ab: Ablation, step: str, run: str, case: int, q: str) -> float:
+    return float(ab.metrics.get(f"ablation.{step}.{run}.case{case}.{q}", float("nan")))
+
+
+def balances(ab: Ablation, step: str, run: str, case: int) -> bool:
+    """Run ``run`` stays up at ablation step ``step`` (Case ``case``) with an RMS pitch below
+    :data:`BALANCE_RMS`."""
+    th = _key(ab, step, run, case, "rms_theta")
+    return _key(ab, step, run, case, "fell") != 1.0 and bool(np.isfinite(th)) and th < BALANCE_RMS
+
+
+def first_fall(ab: Ablation, run: str, case: int) -> str | None:
+    """The first ablation step at which ``run`` no longer balances in Case ``case``
+    (:func:`balances`; ``None``: it balances at every step)."""
+    for s in _steps(ab):
+        if not balances(ab, s, run, case):
+            return s
+    return None
+
+
+def fall_evidence(ab: Ablation, run: str, case: int, label: str | None = None) -> str:
+    """Where run ``run`` (Case ``case``) stops balancing along the ablation, with the numbers:
+    e.g. "SMC balances with the ideal robot (RMS theta 0.0011 rad) and up to `delay` (RMS theta
+    0.004 rad); falls at 0.52 s once `friction` is added"."""
+    name = label or run.upper()
+    steps = _steps(ab)
+
+    def state(step: str) -> str:
+        if _key(ab, step, run, case, "fell") == 1.0:
+            return f"falls at {_key(ab, step, run, case, 't_end'):.2f} s"
+        return f"stays up but leans with RMS theta {_key(ab, step, run, case, 'rms_theta'):.2g} rad"
+
+    first = first_fall(ab, run, case)
+    ideal = _key(ab, "ideal", run, case, "rms_theta")
+    if first == "ideal":
+        return f"{name} {state('ideal')} already with the ideal robot (no twin element)"
+    head = f"{name} balances with the ideal robot (RMS theta {ideal:.2g} rad)"
+    if first is None:
+        full = _key(ab, steps[-1], run, case, "rms_theta")
+        return f"{head} and with every element added (full twin: RMS theta {full:.2g} rad)"
+    last = steps[steps.index(first) - 1]
+    if last != "ideal":
+        head += f" and up to `{last}` (RMS theta {_key(ab, last, run, case, 'rms_theta'):.2g} rad)"
+    text = f"{head}; {state(first)} once `{first}` is added"
+    again = [s for s in steps[steps.index(first) + 1 :] if balances(ab, s, run, case)]
+    if again:
+        text += f" (balances again from `{again[0]}` on)"
+    return text
+
+
+def finite(x: Any) -> bool:
+    """A metric that is a finite number (``None``/NaN: the run fell)."""
+    return x is not None and bool(np.isfinite(x))
