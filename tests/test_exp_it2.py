@@ -129,7 +129,7 @@ def test_it2_full_duration_upright_and_converging(it2_full: dict[str, Any]) -> N
     runs = it2_full["runs"]
     for r in it2_full["rows"]:
         res = runs[r.name]
-        duration = settings.current("exp-it2")["duration"]
+        duration = settings.defaults("exp-it2")["duration"]
         assert res.status[0] == "ok" and res.t_end[0] == pytest.approx(duration)
         tail = res.t >= res.t[-1] - 5.0
         assert np.ptp(res.theta[tail]) < exp_it2.OSC_TOL

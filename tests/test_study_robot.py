@@ -18,7 +18,7 @@ STUDIES_DIR = Path(mwip.studies.__file__).parent
 #: registry.py holds the defaults, study.py names them (plant_label); study_file.py maps a
 #: study file's "real"/"nominal" to the book's parameter sets (it chooses the robot, it does
 #: not run on one).
-ALLOWED = {"registry.py", "study.py", "study_file.py", "robot.py"}
+ALLOWED = {"registry.py", "study.py", "study_file.py"}
 STUDY_MODULES = sorted(p for p in STUDIES_DIR.glob("*.py") if p.name not in ALLOWED)
 #: modules that declare studies
 DECLARING = sorted({registry.get(n).run.__module__ for n in registry.names()})
@@ -64,8 +64,6 @@ def test_studies_do_not_import_each_other_or_module_state(module: str) -> None:
     path = STUDIES_DIR / f"{module.rsplit('.', 1)[1]}.py"
     imported = _imports(path)
     others = {m for m in DECLARING if m != module}
-    if module.endswith("ch6_legacy"):  # the temporary adapter of the Chapter 6 modules
-        return
     assert not imported & others, f"{path.name} imports another study: {imported & others}"
     assert "mwip.studies.robot" not in imported, f"{path.name}: use ctx.plant / ctx.nominal"
     assert "mwip.studies.settings.current" not in imported

@@ -80,12 +80,8 @@ def relative_diff(ours: Any, published: Any) -> float | None:
 def load_catalog() -> dict[str, dict[str, str]]:
     """The per-study texts (title, set-up, the book's figure, gaps, docs) shipped with mwip:
     the ``[report]`` table of each study file ``mwip/studies/scenarios/<study>.toml``."""
-    package = resources.files("mwip.studies")
-    folder = package.joinpath("scenarios")
+    folder = resources.files("mwip.studies").joinpath("scenarios")
     out: dict[str, dict[str, str]] = {}
-    legacy = package.joinpath("catalog.toml")
-    if legacy.is_file():  # texts not yet moved into their study files
-        out.update(tomllib.loads(legacy.read_text("utf-8")))
     for entry in sorted(folder.iterdir(), key=lambda e: e.name):
         if entry.name.endswith(".toml"):
             texts = tomllib.loads(entry.read_text("utf-8")).get("report")

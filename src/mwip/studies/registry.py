@@ -91,8 +91,8 @@ def context(
     0) and, for the Chapter 6 studies, the twin configuration ``twin`` (default: the default
     twin, :class:`mwip.hardware.twin.Twin`)."""
     study = get(name)
-    try:  # TRANSITIONAL: current() folds in settings.using() of not yet converted callers
-        base = study_settings.current(name)
+    try:
+        base = study_settings.defaults(name)
     except ValueError:  # a study without a study file has no settings (e.g. in a test)
         base = {}
     cfg = {**base, **study_settings.validate(name, overrides or {})}

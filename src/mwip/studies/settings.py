@@ -1,11 +1,13 @@
 """Study settings as data: each study's numbers (initial state, gains, durations, ...) live in
 its study file ``mwip/studies/scenarios/<study>.toml``, table ``[settings]``.
 
-A study reads them at run time with :func:`current` (the packaged defaults, overridden by the
-``[settings]`` of a user's study file inside :func:`using`). A user copies a study file
+A study reads them from its context, ``ctx.settings`` (:mod:`mwip.studies.study`): the
+packaged defaults (:func:`defaults`) with the overrides of a run (a user's study file, a
+campaign's draw), validated here (:func:`validate`). A user copies a study file
 (``mwip scenario STUDY --out FILE.toml``), edits it and runs it with
 ``mwip run --scenario FILE.toml``. Overrides are validated against the defaults: unknown keys
-and values of another type or length are one-line ``ValueError`` naming the field.
+and values of another type or length are one-line ``ValueError`` naming the field. The file's
+``[report]`` table holds the texts of the HTML report (:func:`report_texts`).
 
 Open settings. Some settings are not printed by the book (a boundary layer, a first-order
 observer gain, an initial adaptive gain, a noise level, the integration step). Each study file
@@ -24,23 +26,12 @@ from __future__ import annotations
 
 import math
 import tomllib
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Mapping
 from functools import cache
 from importlib import resources
 from typing import Any
 
-__all__ = [
-    "current",
-    "defaults",
-    "open_settings",
-    "packaged_text",
-    "report_texts",
-    "using",
-    "validate",
-]
-
-_overrides: dict[str, dict[str, Any]] = {}
+__all__ = ["defaults", "open_settings", "packaged_text", "report_texts", "validate"]
 
 
 def packaged_text(name: str) -> str:
@@ -142,22 +133,3 @@ def validate(name: str, overrides: Mapping[str, Any]) -> dict[str, Any]:
             raise ValueError(f"[settings] {key}: unknown for study {name!r}; allowed: {allowed}")
         out[key] = _check(name, key, base[key], value)
     return out
-
-
-def current(name: str) -> dict[str, Any]:
-    """The settings study ``name`` runs with now: defaults, then the active overrides."""
-    return {**defaults(name), **_overrides.get(name, {})}
-
-
-@contextmanager
-def using(name: str, overrides: Mapping[str, Any] | None) -> Iterator[None]:
-    """Run study ``name`` inside the block with ``overrides`` (validated) of its settings."""
-    saved = _overrides.get(name)
-    _overrides[name] = validate(name, overrides or {})
-    try:
-        yield
-    finally:
-        if saved is None:
-            _overrides.pop(name, None)
-        else:
-            _overrides[name] = saved
