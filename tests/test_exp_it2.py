@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mwip.hardware.twin import Twin
-from mwip.studies import exp_it2, settings
+from mwip.studies import exp_it2, run_study, settings
 from mwip.studies.common import CAUSES
 from mwip.studies.twin_settings import ABLATION_FIELD
 
@@ -31,7 +31,7 @@ def pdc() -> Any:
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Any]]:
     out = tmp_path_factory.mktemp("exp-it2")
-    return out, exp_it2.run(out, quick=True)
+    return out, run_study("exp-it2", out, quick=True)
 
 
 def _ok(v: Any, tol: float) -> bool:
