@@ -23,9 +23,24 @@ def test_every_study_ships_a_study_file_that_loads(name, tmp_path):
     path.write_text(text)
     sf = load_study_file(path)
     assert sf.name == name and sf.settings == data["settings"] and sf.quick is False
+    assert {"title", "setup", "book", "gaps", "docs"} <= set(data["report"])  # the report's texts
+    assert registry.get(name).title == data["report"]["title"]
     ctx = registry.context(name, tmp_path)
     assert dict(ctx.settings) == settings.defaults(name) == data["settings"]
     assert ctx.out == tmp_path / name and ctx.seed == data["settings"].get("seed", 0)
+
+
+def test_one_module_and_one_study_file_per_study():
+    """Every study file belongs to a registered study and every study has one; the registry
+    orders them by their place in the book."""
+    from importlib import resources
+
+    files = {p.name.removesuffix(".toml")
+             for p in resources.files("mwip.studies").joinpath("scenarios").iterdir()
+             if p.name.endswith(".toml")}  # fmt: skip
+    assert files == set(study_names())
+    places = [registry.get(n).place for n in study_names()]
+    assert places == sorted(places) and places[0][0] == 3 and places[-1][0] == 6
 
 
 def test_validation_names_the_field():
