@@ -210,8 +210,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
         series={"timeseries": res},
         figures={"do-comparison.png": _figure(res, td_star, Mn, series, errors, Ts,
                                               ctx.plant_label)},
-        arrays={"actual_disturbance.npz": lambda fh: np.savez_compressed(
-            fh, t=res.t, tau_d=td, tau_d_star=td_star)},
+        arrays={"actual_disturbance.npz": {"t": res.t, "tau_d": td, "tau_d_star": td_star}},
     )  # fmt: skip
 
 

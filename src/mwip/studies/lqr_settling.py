@@ -33,7 +33,8 @@ def run(ctx: StudyContext) -> dict[str, Any]:
     """Run the study into ``ctx.out``; returns the metrics document."""
     cfg = ctx.settings
     duration = min(4.0, cfg["duration"]) if ctx.quick else cfg["duration"]
-    starts = np.linspace(*cfg["theta0_range"], cfg["n_starts"])
+    lo, hi = cfg["theta0_range"]
+    starts = np.linspace(lo, hi, cfg["n_starts"])
     gain = design_lqr(ctx.nominal, np.diag(cfg["Q_diag"]), np.diag(cfg["R_diag"]), Ts=cfg["Ts"])
     q0 = np.column_stack([np.zeros_like(starts), starts, np.zeros_like(starts)])
     res = simulate(LQR(gain), ctx.plant, q0=q0, duration=duration, Ts=cfg["Ts"])

@@ -22,9 +22,11 @@ from __future__ import annotations
 import types
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from matplotlib.figure import Figure
 
 from mwip.hardware.twin import Twin
@@ -116,15 +118,16 @@ def save_study(
     published: dict[str, Any] | None = None,
     series: Mapping[str, Any] | None = None,
     figures: Mapping[str, Figure] | None = None,
-    arrays: Mapping[str, Callable[[Any], None]] | None = None,
+    arrays: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> dict[str, Any]:
     """Write what every study saves into ``ctx.out`` and return the metrics document.
 
     The document is :func:`~mwip.studies.common.metrics_document` of the arguments (SPEC.md
     section 6). ``series`` maps a file stem to a run result (anything with ``to_npz``), saved
     as ``<stem>.npz``; ``figures`` maps a file name (``.png``) to a figure; ``arrays`` maps a
-    file name to a writer ``fh -> None`` of extra data. Every file is written atomically
-    (:mod:`mwip.io`), ``metrics.json`` last, so a folder with it is complete.
+    file name (``.npz``) to named arrays of extra data (saved compressed). Every file is
+    written atomically (:mod:`mwip.io`), ``metrics.json`` last, so a folder with it is
+    complete.
     """
     from mwip.io import write_atomic
 
@@ -135,7 +138,7 @@ def save_study(
         save_figure(fig, ctx.out / fname)
     for stem, res in (series or {}).items():
         res.to_npz(ctx.out / f"{stem}.npz")
-    for fname, writer in (arrays or {}).items():
-        write_atomic(ctx.out / fname, writer)
+    for fname, data in (arrays or {}).items():
+        write_atomic(ctx.out / fname, partial(np.savez_compressed, **data))
     write_metrics(ctx.out, doc)
     return doc

@@ -217,7 +217,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
         suffix = "" if name == "tsmc" else "_lean"
         figures[f"tsmc-circle{suffix}.png"] = state_figure(res, targets, title, xy=True)
         logs = {"t": res.t, **replay(ctrls[name], res)}
-        arrays[f"{name}_sliding.npz"] = lambda fh, logs=logs: np.savez_compressed(fh, **logs)
+        arrays[f"{name}_sliding.npz"] = logs
     return save_study(
         ctx,
         metrics=metrics,

@@ -108,7 +108,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
         [ts.theta[-1], ts.alpha[-1], ts.q_dot[-1, 1], ts.q_dot[-1, 2]])))  # fmt: skip
     v_after = ts.v[tail] if tail.any() else ts.v[-1:]
     metrics["tsmc.v_max_rise_after_Tf"] = float(np.max(np.diff(np.abs(v_after)), initial=0.0))
-    metrics["lqr.slowest_pole"] = slowest_lqr_pole(lqr.K, ctx.plant, ctx.nominal.r)
+    metrics["lqr.slowest_pole"] = slowest_lqr_pole(lqr.K, ctx.plant, float(ctx.nominal.r))
     tol = 0.01  # of a norm that starts at 1.12
     u_rel = 0.01  # "converge to zero": 1 % of the run's peak torque (scale-free)
     t_end, book_T = float(ts.t[-1]), 20.0
@@ -202,7 +202,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
         settings=doc_settings,
         series=runs,
         figures=figures,
-        arrays={"tsmc_sliding.npz": lambda fh: np.savez_compressed(fh, t=t_rec, **logs)},
+        arrays={"tsmc_sliding.npz": {"t": t_rec, **logs}},
     )
 
 

@@ -170,7 +170,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
         settings=doc_settings,
         series=runs,
         figures=figures,
-        arrays={"tsmc_sliding.npz": lambda fh: np.savez_compressed(fh, t=t_rec, **logs)},
+        arrays={"tsmc_sliding.npz": {"t": t_rec, **logs}},
     )
 
 
