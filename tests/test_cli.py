@@ -31,6 +31,7 @@ def test_simulate_writes_outputs(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "status: ok" in text and "settling time" in text and "max |u|" in text
     assert sorted(p.name for p in out.iterdir()) == [
+        ".mwip-output",  # the marker: mwip's own folder (mwip.outdir)
         "plant.toml",  # the simulated robot, for `mwip animate`
         "summary.json",
         "timeseries.csv",
@@ -176,6 +177,7 @@ def test_reproduce_reports_a_failing_study_and_runs_the_others(tmp_path, capsys,
     old = tmp_path / "bad"
     old.mkdir()
     (old / "metrics.json").write_text("{}")  # an earlier result of the failing study is kept
+    (tmp_path / ".mwip-output").write_text("")  # ... in an earlier mwip output folder
     declared = {"bad": Study("bad", "x", bad, place=(1,)), "good": Study("good", "test", good,
                                                                       place=(2,))}  # fmt: skip
     monkeypatch.setattr(registry, "_discover", lambda: declared)

@@ -13,7 +13,7 @@ import pytest
 from mwip.hardware.twin import Twin
 from mwip.studies import exp_it2, run_study, settings
 from mwip.studies.common import CAUSES
-from mwip.studies.twin_settings import ABLATION_FIELD
+from mwip.studies.twin_settings import ABLATION_FIELD, study_settings
 
 KINDS = ("it2", "t1")
 REQUIRED = (
@@ -152,3 +152,18 @@ def test_deterministic_for_a_seed(pdc: Any) -> None:
         np.testing.assert_array_equal(a[r.name].states, b[r.name].states)
         np.testing.assert_array_equal(a[r.name].inputs, b[r.name].inputs)
         assert not np.array_equal(a[r.name].inputs, c[r.name].inputs)  # the noise matters
+
+
+def test_merged_ablation_equals_run_ablation(pdc: Any) -> None:
+    """The study's ablation as one merged batch (all runs x steps) gives the numbers and the
+    per-step verdicts of :func:`mwip.hardware.ablation.run_ablation` (one batch per run)."""
+    cfg, tw = study_settings("exp-it2")
+    rows = exp_it2.rows_for(cfg)[-2:]  # experiment 3, IT2 and T1
+    args = (cfg, tw, rows, pdc, 0.5, 0.25, (0.25, 0.5))
+    a = exp_it2._ablation(*args)
+    b = exp_it2._ablation(*args, merged=False)
+    # 2 runs x 13 steps x 15 quantities (13 of run_metrics for exp 3, fell, t_end)
+    assert a.metrics.keys() == b.metrics.keys() and len(a.metrics) == 2 * 13 * 15
+    for k, v in a.metrics.items():
+        assert v == b.metrics[k] or (np.isnan(v) and np.isnan(b.metrics[k])), k
+    assert a.claims == b.claims and a.table("rms_theta") == b.table("rms_theta")

@@ -315,7 +315,8 @@ def test_study_file_and_params_run_a_study_on_another_robot(tmp_path, capsys):
     study.write_text('[study]\nname = "lqr-gain"\n[robot]\nparms = "robot.toml"\n')
     assert main(["run", "--scenario", str(study), "--out", str(out)]) == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
-        "mwip: error: [robot] parms: unknown key; allowed: params, nominal, damping"
+        f"mwip: error: study file {str(study)!r}: [robot] parms: unknown key; "
+        "allowed: params, nominal, damping, twin"
     )
 
 

@@ -89,5 +89,7 @@ def test_scenario_command_and_a_study_file_with_settings(tmp_path, capsys):
     path.write_text(text.replace("theta0 = -0.05", "theta0 = [1.0]"))
     assert main(["run", "--scenario", str(path), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["mwip: error: [settings] theta0 must be a number, got [1.0]"]
+    assert err == [
+        f"mwip: error: study file {str(path)!r}: [settings] theta0 must be a number, got [1.0]"
+    ]
     assert main(["scenario", "no-such-study"]) == 2

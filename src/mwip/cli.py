@@ -7,6 +7,7 @@ written atomically.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import sys
@@ -35,13 +36,40 @@ def _params(value: str, what: str, base: str | None = None, damping: str = "unit
     if key in ("real", "nominal"):
         return book_params(key, damping)
     path = Path(value)
-    if not path.exists():
+    if not value.strip() or not path.exists():
         raise click.BadParameter(
             f"must be 'real', 'nominal' or an existing TOML file, got {value!r}", param_hint=what
         )
     if base is None:
         base = "real" if what in ("--plant", "--params") else "nominal"
     return load_params(path, base=book_params(base, damping))
+
+
+class _Path(click.Path):
+    """``click.Path`` that refuses an empty name (``Path("")`` would be the current folder)."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str) and not value.strip():
+            self.fail("the name is empty; give a path", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+_FORCE = click.option(
+    "--force",
+    is_flag=True,
+    help="Write into OUT even if it is a non-empty folder that mwip did not create "
+    "(entries of the same names are replaced).",
+)
+
+
+def _out_ok(out: Path, force: bool) -> Path:
+    """OUT if mwip may write there (:mod:`mwip.outdir`), else exit 2 naming --out."""
+    from mwip.outdir import check
+
+    try:
+        return check(out, force)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
 
 
 _DAMPING = click.option(
@@ -65,10 +93,23 @@ def _in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = 
 
 
 @contextmanager
-def _progress(n: int, label: str) -> Iterator[Callable[[int], None] | None]:
-    """A click progress bar on stderr when it is a terminal; nothing otherwise."""
+def _progress(n: int, label: str, long: bool = False) -> Iterator[Callable[[int], None] | None]:
+    """A click progress bar on stderr when it is a terminal; otherwise, for a ``long`` run,
+    a line at every tenth of the way; nothing for a short one."""
     if not sys.stderr.isatty():
-        yield None
+        if not long:
+            yield None
+            return
+        done = [0, 0]
+
+        def lines(k: int) -> None:
+            done[0] += k
+            tenth = 10 * done[0] // max(n, 1)
+            if tenth > done[1]:
+                done[1] = tenth
+                click.echo(f"{label}: {10 * tenth}% ({done[0]}/{n})", err=True)
+
+        yield lines
         return
     with click.progressbar(length=n, label=label, file=sys.stderr) as bar:
         yield bar.update
@@ -169,17 +210,31 @@ def cli() -> None:
 )
 @click.option(
     "--out",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=_Path(file_okay=False, path_type=Path),
     default=None,
     help="Folder for timeseries.csv, timeseries.npz and summary.json.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--plot", is_flag=True, help="Also draw OUT/run.png (needs --out).")
 @_DAMPING
+@_FORCE
+@click.option(
+    "--max-steps",
+    type=float,
+    default=None,
+    help="Refuse runs needing more integration steps (or sample periods) than this "
+    "(default 2e9 steps, 2e7 sample periods; mwip.budget).",
+)
+@click.option(
+    "--max-memory",
+    type=float,
+    default=None,
+    help="Refuse runs needing more memory for their records than this, in GiB (default 4).",
+)
 @click.option(
     "--scenario",
     "scenario_file",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=_Path(dir_okay=False, path_type=Path),
     default=None,
     help="A scenario TOML (see examples/); options given on the command line override it.",
 )
@@ -189,8 +244,8 @@ def simulate(
     seed: int,
     theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
-    disturbance: str, out: Path | None, as_json: bool, plot: bool, damping: str,
-    scenario_file: Path | None,
+    disturbance: str, out: Path | None, as_json: bool, plot: bool, damping: str, force: bool,
+    max_steps: float | None, max_memory: float | None, scenario_file: Path | None,
 ) -> None:  # fmt: skip
     """Simulate a closed loop and print status, settling time and max |u|.
 
@@ -215,12 +270,22 @@ def simulate(
     for name, val in (("--alpha0", alpha0), ("--v0", v0)):
         if not (math.isfinite(val) and abs(val) <= 1e3):
             raise click.BadParameter(f"must be in [-1000, 1000], got {val!r}", param_hint=name)
+    from mwip.budget import DEFAULT, Budget, estimate
+    from mwip.sim.engine import DEFAULT_DT
+
+    steps = None if max_steps is None else _in_range("--max-steps", max_steps, 0.0, 1e18)
+    budget = Budget(
+        max_steps=DEFAULT.max_steps if steps is None else steps,
+        max_samples=DEFAULT.max_samples if steps is None else steps,  # a sample is >= 1 step
+        max_bytes=DEFAULT.max_bytes if max_memory is None
+        else _in_range("--max-memory", max_memory, 0.0, 1e6) * 2**30,
+    )  # fmt: skip
     if plot and out is None:
         raise click.BadParameter("needs --out FOLDER to write run.png into", param_hint="--plot")
-    if out is not None and out.exists() and not out.is_dir():
-        raise click.BadParameter(f"{str(out)!r} exists and is not a folder", param_hint="--out")
+    if out is not None:
+        _out_ok(out, force)
     if scenario_file is not None:
-        if not scenario_file.exists():
+        if not str(scenario_file).strip() or not scenario_file.exists():
             raise click.BadParameter(f"{str(scenario_file)!r} does not exist",
                                      param_hint="--scenario")  # fmt: skip
         sc = load_scenario(scenario_file)
@@ -263,9 +328,14 @@ def simulate(
         sc = sc.with_overrides(initial=initial, **changes)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
+    cost = estimate(sc.duration, sc.Ts, sc.dt if sc.dt is not None else min(sc.Ts, DEFAULT_DT))
+    budget.check(cost, "this simulation")
+    long = cost.seconds() > 5.0
+    if long:
+        click.echo(f"mwip: {cost.text()}, about {cost.seconds():.0f} s", err=True)
     n = max(int(round(sc.duration / sc.Ts)), 1)
-    with _progress(n, "simulating") as prog:
-        res = sc.run(progress=prog)
+    with _progress(n, "simulating", long) as prog:
+        res = sc.run(progress=prog, budget=budget)
     mode, Ts = sc.mode, sc.Ts
     summary: dict[str, Any] = dict(res.summary())
     summary.update(
@@ -281,7 +351,9 @@ def simulate(
                for k, v in summary.items()}  # fmt: skip
     if out is not None:
         from mwip.io import write_json_atomic
+        from mwip.outdir import claim
 
+        claim(out)
         res.to_csv(out / "timeseries.csv")
         res.to_npz(out / "timeseries.npz")
         write_json_atomic(out / "summary.json", summary)
@@ -502,8 +574,12 @@ def check() -> None:
 
 
 def _floats(text: str, hint: str) -> tuple[float, ...]:
+    items = text.replace(" ", "").split(",")
+    if any(not x for x in items):
+        raise click.BadParameter(f"must be comma-separated numbers with none left empty, "
+                                 f"got {text!r}", param_hint=hint)  # fmt: skip
     try:
-        return tuple(float(x) for x in text.replace(" ", "").split(",") if x)
+        return tuple(float(x) for x in items)
     except ValueError:
         raise click.BadParameter(f"must be comma-separated numbers, got {text!r}",
                                  param_hint=hint) from None  # fmt: skip
@@ -606,7 +682,7 @@ def params_show(which: str, as_json: bool, damping: str) -> None:
 
 @params.command("save")
 @click.argument("which")
-@click.argument("path", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("path", type=_Path(dir_okay=False, path_type=Path))
 @_DAMPING
 def params_save(which: str, path: Path, damping: str) -> None:
     """Write parameters (real or nominal) to a TOML file to edit for your own robot.
@@ -637,7 +713,7 @@ def list_cmd() -> None:
 
 _OUT = click.option(
     "--out",
-    type=click.Path(file_okay=False, path_type=Path),
+    type=_Path(file_okay=False, path_type=Path),
     default=Path("out"),
     show_default=True,
     help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json.",
@@ -691,7 +767,7 @@ def _execute(
 ) -> None:  # fmt: skip
     """Run ``names`` with a progress bar, then print the one-screen summary (not
     ``summary``: its headline only, on stderr); exits 1 if a study failed. ``twin``: the
-    Chapter 6 studies' twin configuration, default the default twin."""
+    Chapter 6 studies' twin configuration (default: the default twin)."""
     from mwip.report import load_results, summary_lines
     from mwip.report.claims import find_compare, load_comparison
     from mwip.studies.runner import run_studies
@@ -759,7 +835,7 @@ def _run_scenarios(
     "--scenario",
     "scenarios",
     multiple=True,
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=_Path(dir_okay=False, path_type=Path),
     help="A study file (TOML; `mwip scenario STUDY` prints one to copy); repeatable.",
 )
 @_OUT
@@ -770,6 +846,7 @@ def _run_scenarios(
 @TWIN_OPTION
 @_JOBS
 @_VERBOSE
+@_FORCE
 @click.pass_context
 def run_cmd(
     ctx: click.Context,
@@ -783,6 +860,7 @@ def run_cmd(
     twin_file: Path | None,
     jobs: int,
     verbose: bool,
+    force: bool,
 ) -> None:
     """Run one or more studies (see `mwip list`) and update OUT/index.html."""
     from mwip.studies import study_names
@@ -795,6 +873,7 @@ def run_cmd(
             )
     if not studies and not scenarios:
         raise click.UsageError("give at least one STUDY or --scenario FILE")
+    _out_ok(out, force)
     plant, design = _robot(params_file, nominal_file, damping)
     twin = None if twin_file is None else load_twin_option(twin_file)
     if scenarios:
@@ -815,6 +894,7 @@ def run_cmd(
 @TWIN_OPTION
 @_JOBS
 @_VERBOSE
+@_FORCE
 @click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
 @click.option(
     "--compare/--no-compare",
@@ -832,6 +912,7 @@ def reproduce(
     twin_file: Path | None,
     jobs: int,
     verbose: bool,
+    force: bool,
     list_only: bool,
     compare: bool,
 ) -> None:
@@ -847,10 +928,14 @@ def reproduce(
         for s in all_studies():
             click.echo(f"{s.name:24s} {s.source}")
         return
+    _out_ok(out, force)
     plant, design = _robot(params_file, nominal_file, damping)
     twin = None if twin_file is None else load_twin_option(twin_file)
     code = 0
     if compare:  # first the other reading, so that the main report finds it
+        from mwip.outdir import claim
+
+        claim(out)  # OUT holds the comparison (and its staging) from now on: mark it as mwip's
         other = next(d for d in DAMPING_READINGS if d != damping)
         click.echo(f"under the {other} damping reading, into {out / f'compare-{other}'}:",
                    err=True)  # fmt: skip
@@ -870,7 +955,7 @@ def reproduce(
 @click.argument("study")
 @click.option(
     "--out",
-    type=click.Path(dir_okay=False, path_type=Path),
+    type=_Path(dir_okay=False, path_type=Path),
     default=None,
     help="Write the study file here (default: print it).",
 )
@@ -899,7 +984,7 @@ def scenario(study: str, out: Path | None) -> None:
 @cli.command()
 @click.option(
     "--out",
-    type=click.Path(file_okay=False, exists=True, path_type=Path),
+    type=_Path(file_okay=False, exists=True, path_type=Path),
     default=Path("out"),
     show_default=True,
     help="Results folder to report on.",
@@ -938,11 +1023,17 @@ def report(out: Path, compare: Path | None, claims_campaign: Path | None, verbos
                                  param_hint="--claims")  # fmt: skip
     path = write_report(out, names, compare, claims_campaign)
     cmp = load_comparison(compare) if compare is not None else None
-    for line in summary_lines(load_results(out, names), verbose=verbose,
+    results = load_results(out, names)
+    for line in summary_lines(results, verbose=verbose,
                               damping=load_run_record(out).get("damping"),
                               compare=cmp):  # fmt: skip
         click.echo(line)
     click.echo(f"report: {path}")
+    bad = [r.error for r in results if r.doc is None and r.error and "metrics.json" in r.error]
+    for message in bad:
+        click.echo(f"mwip: error: {message}", err=True)
+    if bad:
+        sys.exit(1)
 
 
 cli.add_command(_controllers_cmd)
@@ -962,7 +1053,23 @@ _register()
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point: run the CLI, turning input errors into one-line messages (exit code 2)."""
+    """Entry point: run the CLI, turning input errors into one-line messages (exit code 2).
+
+    Never a traceback: bad input is exit 2, Ctrl-C exit 130 (a second Ctrl-C while the first
+    is being handled ends the process at once), any other failure one line and exit 1
+    (``MWIP_TRACEBACK=1`` shows the traceback).
+    """
+    with _interrupts():
+        try:
+            return _main(argv)
+        except KeyboardInterrupt:  # raised outside click's own handling (start-up, clean-up)
+            click.echo("mwip: interrupted; earlier results are left as they were", err=True)
+            return 130
+
+
+def _main(argv: list[str] | None) -> int:
+    import os
+
     try:
         cli.main(args=argv, prog_name="mwip", standalone_mode=False)
     except click.exceptions.Exit as exc:
@@ -976,12 +1083,67 @@ def main(argv: list[str] | None = None) -> int:
     except click.Abort:
         click.echo("mwip: interrupted; earlier results are left as they were", err=True)
         return 130
-    except (ValueError, FileNotFoundError) as exc:
-        click.echo(f"mwip: error: {exc}", err=True)
+    except (ValueError, TypeError, FileNotFoundError) as exc:
+        click.echo(f"mwip: error: {_one_line(exc)}", err=True)
         return 2
+    except BrokenPipeError:  # the reader went away (`mwip list | head -1`)
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except OSError as exc:  # the file system said no (permissions, full disk, ...)
+        where = f" {exc.filename!r}" if exc.filename else ""
+        click.echo(f"mwip: error:{where} {exc.strerror or exc}", err=True)
+        return 2 if isinstance(exc, PermissionError | IsADirectoryError) else 1
     except SystemExit as exc:
-        return int(exc.code or 0)
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    except (MemoryError, RecursionError) as exc:
+        click.echo(f"mwip: error: {type(exc).__name__}: the input asks for more than this "
+                   "machine can give; reduce the sizes or durations", err=True)  # fmt: skip
+        return 1
+    except Exception as exc:  # noqa: BLE001 - a bug: one line, the traceback on request
+        if os.environ.get("MWIP_TRACEBACK"):
+            raise
+        click.echo(f"mwip: internal error: {type(exc).__name__}: {_one_line(exc)} "
+                   "(set MWIP_TRACEBACK=1 to see where)", err=True)  # fmt: skip
+        return 1
     return 0
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+@contextmanager
+def _interrupts() -> Iterator[None]:
+    """SIGINT: the first raises ``KeyboardInterrupt`` (clean-up runs); a second one while
+    that is under way ends the process at once with exit code 130, without a traceback."""
+    import os
+    import signal
+    import threading
+
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is signal.SIG_IGN):  # fmt: skip
+        yield
+        return
+    seen = [False]
+
+    def handler(signum: int, frame: Any) -> None:
+        if seen[0]:
+            with contextlib.suppress(OSError):
+                os.write(2, b"\nmwip: interrupted again; stopping now\n")
+            os._exit(130)
+        seen[0] = True
+        raise KeyboardInterrupt
+
+    try:
+        old = signal.signal(signal.SIGINT, handler)
+    except ValueError:  # not the main interpreter
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 if __name__ == "__main__":  # pragma: no cover
@@ -989,5 +1151,28 @@ if __name__ == "__main__":  # pragma: no cover
 
 
 def entry() -> None:
-    """Console-script entry point (exits with :func:`main`'s code)."""
-    sys.exit(main())
+    """Console-script entry point (exits with :func:`main`'s code).
+
+    After Ctrl-C the process ends at once (``os._exit`` once the output is flushed): the
+    clean-up that matters (the staging folder, the worker processes) is done by then, and
+    the interpreter's own exit handlers (joining pools and queues) would only add delay, or
+    another Ctrl-C and a traceback.
+    """
+    import os
+    import signal
+
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        signal.signal(signal.SIGINT, _exit_130)  # outside main(): stop at once, quietly
+    code = main()
+    if code == 130:
+        with contextlib.suppress(Exception):
+            sys.stdout.flush()
+            sys.stderr.flush()
+        os._exit(130)
+    sys.exit(code)
+
+
+def _exit_130(signum: int, frame: Any) -> None:
+    import os
+
+    os._exit(130)

@@ -42,6 +42,8 @@ def linearize(p: Params, *, as_statespace: bool = False, Ts: float | None = None
         return statespace(p, Ts=Ts)
     if Ts is not None:
         raise ValueError("Ts is only used with as_statespace=True (see mwip.control.lqr.zoh)")
+    if not isinstance(p, Params):
+        raise TypeError(f"p must be a mwip.params.Params, got {type(p).__name__}")
     shape = p.batch_shape
     one = np.ones(shape)
     m11, m12, m22, m33 = p.m11 * one, p.m12 * one, p.m22 * one, p.m33 * one

@@ -92,6 +92,16 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
 }
 
 
+#: Physically plausible sizes (SI) of each field, from a toy robot to a car: a value outside
+#: them (e.g. r = 1e-300 m) passes the sign check but overflows the derived coefficients.
+_PLAUSIBLE: dict[str, tuple[float, float]] = {
+    "mb": (1e-6, 1e5), "mw": (1e-6, 1e5),
+    "Iby": (1e-12, 1e5), "Ibz": (1e-12, 1e5), "Iwa": (1e-12, 1e5), "Iwd": (1e-12, 1e5),
+    "l": (1e-6, 1e3), "b": (1e-6, 1e3), "r": (1e-6, 1e3),
+    "Db": (1e-12, 1e6), "Dw": (1e-12, 1e6), "g": (1e-3, 1e3),
+}  # fmt: skip
+
+
 def _range_text(name: str) -> str:
     lo, hi, closed = _RANGES[name]
     return f"{'[' if closed else '('}{lo:g}, {'inf' if math.isinf(hi) else f'{hi:g}'})"
@@ -128,16 +138,26 @@ class Params:
         for f in fields(self):
             raw = getattr(self, f.name)
             try:
-                value = np.asarray(raw, dtype=float)
+                kind = np.asarray(raw).dtype.kind
+                value = np.asarray(raw, dtype=float) if kind in "iuf" else None
             except (TypeError, ValueError):
+                value = None
+            if value is None:  # a string, a bool, a ragged list, an object
                 raise ValueError(
                     f"parameter {f.name!r} must be a number in {_range_text(f.name)}, got {raw!r}"
-                ) from None
+                )
             lo, hi, closed = _RANGES[f.name]
             ok_lo = value >= lo if closed else value > lo
             if not (np.all(np.isfinite(value)) and np.all(ok_lo) and np.all(value < hi)):
                 raise ValueError(
                     f"parameter {f.name!r} must be finite and in {_range_text(f.name)}, got {raw!r}"
+                )
+            plo, phi = _PLAUSIBLE[f.name]
+            if np.any((value < plo) & (value != 0)) or np.any(value > phi):
+                raise ValueError(
+                    f"parameter {f.name!r} must be in [{plo:g}, {phi:g}] {UNITS[f.name]} "
+                    f"(a physically plausible size; 0 allowed where the range says so), "
+                    f"got {raw!r}"
                 )
             object.__setattr__(self, f.name, float(value) if value.ndim == 0 else value)
         try:
@@ -145,6 +165,16 @@ class Params:
         except ValueError:
             raise ValueError("parameter arrays must have broadcastable shapes") from None
         object.__setattr__(self, "_batch_shape", shape)  # derived once: fields are frozen
+        with np.errstate(all="ignore"):
+            derived = {k: np.asarray(getattr(self, k), dtype=float)
+                       for k in ("m11", "m12", "m22", "m33", "Ibl", "Gb")}  # fmt: skip
+            det = derived["m11"] * derived["m22"] - derived["m12"] ** 2
+        for k, v in {**derived, "m11 m22 - m12^2": det}.items():
+            if not (np.all(np.isfinite(v)) and np.all(v > 0)):
+                raise ValueError(
+                    f"parameters give a derived coefficient {k} of (2.32) = {v!r} that is not "
+                    "finite and > 0; check the sizes of mb, mw, the inertias, l, b and r"
+                )
 
     # ---- derived coefficients of (2.32) --------------------------------------------------
     @property
@@ -357,16 +387,29 @@ def load_params(path: str | os.PathLike[str], *, base: Params | None = None) -> 
     """
     p = Path(path)
     data = read_toml(p, "parameter file")
+    try:
+        return _params_from_file_data(data, base)
+    except ValueError as exc:
+        raise ValueError(f"parameter file {str(p)!r}: {exc}") from None
+
+
+def _params_from_file_data(data: dict[str, Any], base: Params | None) -> Params:
     if "params" in data and isinstance(data["params"], dict):
         extra = {k: v for k, v in data.items() if k not in ("params", "base")}
         if extra:
-            raise ValueError(f"unknown key {sorted(extra)[0]!r} in {str(p)!r}")
+            raise ValueError(f"unknown key {sorted(extra)[0]!r}; allowed: params, base")
         body = data["params"]
     else:
         body = {k: v for k, v in data.items() if k != "base"}
+    for key, value in body.items():
+        if key in _RANGES and (isinstance(value, bool) or not isinstance(value, int | float)):
+            raise ValueError(
+                f"parameter {key!r} must be a number in {_range_text(key)} (one robot: no "
+                f"arrays, strings or tables), got {value!r}"
+            )
     if "base" in data:
         named = {"real": REAL, "nominal": NOMINAL}
-        key = str(data["base"]).lower()
+        key = str(data["base"]).lower() if isinstance(data["base"], str) else None
         if key not in named:
             raise ValueError(f"'base' must be one of 'real', 'nominal', got {data['base']!r}")
         base = named[key]

@@ -44,6 +44,7 @@ silently ignored); every error is a one-line ``ValueError`` naming the field.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -67,21 +68,24 @@ _INITIAL = ("theta", "alpha", "v", "theta_dot", "alpha_dot", "psi", "x", "y")
 def _number(
     table: str, key: str, value: Any, lo: float, hi: float, *, lo_open: bool = True
 ) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"[{table}] {key} must be a number, got {value!r}") from None
+    allowed = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"[{table}] {key} must be a number in {allowed}, got {value!r}")
+    x = float(value)
     ok = math.isfinite(x) and (x > lo if lo_open else x >= lo) and x <= hi
     if not ok:
-        raise ValueError(
-            f"[{table}] {key} must be in {'(' if lo_open else '['}{lo:g}, {hi:g}], got {value!r}"
-        )
+        raise ValueError(f"[{table}] {key} must be in {allowed}, got {value!r}")
     return x
 
 
 def _params_table(name: str, data: Mapping[str, Any], default: Params, where: Path) -> Params:
     body = dict(data)
-    base_name = str(body.pop("base", "")).strip()
+    base_value = body.pop("base", "")
+    if not isinstance(base_value, str):
+        raise ValueError(
+            f"[{name}] base must be 'real', 'nominal' or a parameter file path, got {base_value!r}"
+        )
+    base_name = base_value.strip()
     if not base_name:
         base = default
     elif base_name.lower() in ("real", "nominal"):
@@ -91,6 +95,9 @@ def _params_table(name: str, data: Mapping[str, Any], default: Params, where: Pa
         if not path.is_absolute():
             path = where.parent / path
         base = load_params(path, base=default)
+    for key, value in body.items():
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f"[{name}] {key} must be a number (one robot), got {value!r}")
     try:
         return Params.from_dict(body, base=base)
     except ValueError as exc:
@@ -143,11 +150,17 @@ class Scenario:
         _number("scenario", "Ts", self.Ts, 0.0, 1.0)
         if self.dt is not None:
             _number("scenario", "dt", self.dt, 0.0, self.Ts)
+        if not isinstance(self.plant, Params) or not isinstance(self.design, Params):
+            raise ValueError("[plant] and [design] must be parameter sets (mwip.params.Params)")
+        if not isinstance(self.initial, Mapping):
+            raise ValueError(f"[initial] must be a table, got {self.initial!r}")
         for key, val in self.initial.items():
             if key not in _INITIAL:
                 raise ValueError(f"[initial] unknown key {key!r}; allowed: {', '.join(_INITIAL)}")
             bound = math.pi / 2 if key == "theta" else 1e3
-            _number("initial", key, abs(val), 0.0, bound * (1 - 1e-12), lo_open=False)
+            _number("initial", key, val, -bound, bound)
+            if abs(val) >= bound and key == "theta":
+                raise ValueError(f"[initial] theta must be in (-1.5708, 1.5708), got {val!r}")
 
     def initial_state(self) -> dict[str, tuple[float, ...]]:
         """``q0, qdot0, pos0`` for :func:`mwip.sim.simulate` (``v`` via the plant's radius)."""
@@ -174,6 +187,7 @@ class Scenario:
             base = self.twin_config if self.twin_config is not None else Twin()
             tw = replace(base, Ts=self.Ts, dt=base.dt if self.dt is None else self.dt)
             kwargs.pop("progress", None)  # the twin's runner reports no progress
+            kwargs.pop("budget", None)  # the twin's fixed Ts, dt: the default budget applies
             return run_on_twin(
                 self.build_controller(), self.case, twin=tw,
                 plant=case_plant(self.case, base=self.plant), q0=init["q0"],
@@ -194,18 +208,31 @@ class Scenario:
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    """Read a scenario TOML file; errors name the table and key."""
+    """Read a scenario TOML file; errors name the file, the table and the key."""
     p = Path(path)
     data = read_toml(p, "scenario file")
+    try:
+        return _scenario_from_data(data, p)
+    except ValueError as exc:
+        raise ValueError(f"scenario file {str(p)!r}: {exc}") from None
+
+
+def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
     allowed = {"scenario", "controller", "plant", "design", "initial", "disturbance"}
     unknown = sorted(set(data) - allowed)
     if unknown:
-        raise ValueError(f"unknown table [{unknown[0]}] in {str(p)!r}; allowed: {sorted(allowed)}")
+        raise ValueError(f"unknown table [{unknown[0]}]; allowed: {sorted(allowed)}")
+    for table in allowed:
+        if table in data and not isinstance(data[table], dict):
+            raise ValueError(f"[{table}] must be a table, got {data[table]!r}")
     sc = dict(data.get("scenario", {}))
     known = {"controller", "duration", "Ts", "dt", "mode", "twin", "case", "seed"}
     extra = sorted(set(sc) - known)
     if extra:
         raise ValueError(f"[scenario] unknown key {extra[0]!r}; allowed: {sorted(known)}")
+    for key in ("controller", "mode"):
+        if key in sc and not isinstance(sc[key], str):
+            raise ValueError(f"[scenario] {key} must be a string, got {sc[key]!r}")
     kwargs: dict[str, Any] = dict(sc)
     kwargs["settings"] = dict(data.get("controller", {}))
     kwargs["plant"] = _params_table("plant", data.get("plant", {}), REAL, p)
@@ -223,6 +250,6 @@ def load_scenario(path: str | Path) -> Scenario:
     if "disturbance" in data:
         try:
             kwargs["disturbance"] = disturbance_from_dict(data["disturbance"])
-        except ValueError as exc:
+        except (ValueError, TypeError) as exc:
             raise ValueError(f"[disturbance] {exc}") from None
     return Scenario(**kwargs)

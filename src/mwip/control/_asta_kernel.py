@@ -10,6 +10,8 @@ inputs, and benchmarks/mutate_kernels.py checks that a sign flip here fails them
 
 from __future__ import annotations
 
+import math
+
 import numba
 
 from mwip.models._compiled import f_g_scalar
@@ -31,3 +33,40 @@ def asta_terms(c, q, qd, lam, ref, s, a, b):  # noqa: ANN001, ANN201 - compiled 
         a[i, 1] = f3 + l3 * qd[i, 2]
         b[i, 0] = g2 + l2 * g1
         b[i, 1] = g3
+
+
+@numba.njit(cache=True)
+def asta_sample(a, b, s, K, rate, eps, Ts, asmc, Gamma, w, u):  # noqa: ANN001, ANN201
+    """The law and the state update of one sample, for a batch (the one implementation of
+    :class:`mwip.control.asta.ASTA` and :class:`~mwip.control.asta.ASMC`'s ``__call__``).
+
+    Fills ``u`` (N, 2) = ``[u_r, u_l]`` from ``a, b, s`` (N, 2) of :func:`asta_terms`:
+    ASTA (4.7) ``u_i = (-a_i - K_i |s_i|^(1/2) sgn s_i + w_i) / b_i``; ASMC (``asmc``) the same
+    with ``-Gamma_i sgn s_i`` for ``w_i``. Then, in place, ASTA's integrator (4.4)
+    ``w <- w - Ts Gamma sgn s`` (with the current gain) and the adaptive law (4.5)
+    ``Gamma <- Gamma + Ts rate |s|`` where ``|s| >= eps`` (forward Euler over ``Ts``).
+    """
+    for i in range(s.shape[0]):
+        uab0 = 0.0
+        uab1 = 0.0
+        for j in range(2):
+            sj = s[i, j]
+            sg = (sj > 0.0) - (sj < 0.0)
+            sta = -K[j] * math.sqrt(abs(sj)) * sg  # (4.3)'s proportional term
+            if asmc:
+                v = (-a[i, j] + sta + (-Gamma[i, j] * sg)) / b[i, j]
+            else:
+                v = (-a[i, j] + sta + w[i, j]) / b[i, j]
+            if j == 0:
+                uab0 = v
+            else:
+                uab1 = v
+        u[i, 0] = 0.5 * (uab0 + uab1)
+        u[i, 1] = 0.5 * (uab0 - uab1)
+        for j in range(2):
+            sj = s[i, j]
+            sg = (sj > 0.0) - (sj < 0.0)
+            if not asmc:
+                w[i, j] = w[i, j] - Ts * Gamma[i, j] * sg
+            grow = rate[j] * abs(sj) if abs(sj) >= eps else 0.0
+            Gamma[i, j] = Gamma[i, j] + Ts * grow

@@ -51,8 +51,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.control._asta_kernel import asta_terms
-from mwip.core import Measurement
+from mwip.control._asta_kernel import asta_sample, asta_terms
+from mwip.core import LAW_ASTA, CompiledLaw, Measurement
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
 
@@ -204,12 +204,8 @@ class _AdaptiveSliding:
         """Sliding variables (4.1) of a measurement, (N, 2)."""
         return asta_surface(meas.q, meas.qdot, self.lam, self.ref)
 
-    def _control(self, a: NDArray, b: NDArray, s: NDArray) -> NDArray[np.float64]:
-        raise NotImplementedError
-
-    def _advance(self, s: NDArray[np.float64]) -> None:
-        assert self.Ts is not None
-        self.Gamma = self.Gamma + self.Ts * adaptive_rate(s, self.rate, self.eps)
+    #: ASMC: the switching term acts directly (no super-twisting integrator ``w``).
+    _asmc = False
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         if self.Gamma.shape[0] != meas.y.shape[0]:
@@ -220,10 +216,28 @@ class _AdaptiveSliding:
         # oracle is tests/oracle_laws.py)
         asta_terms(self._coef, np.ascontiguousarray(meas.q), np.ascontiguousarray(meas.qdot),
                    self.lam, self.ref, s, a, b)  # fmt: skip
-        u = self._control(a, b, s)
         self._log = {"sigma": s, "Gamma": self.Gamma.copy(), "w": self.w.copy()}
-        self._advance(s)
+        # the law (4.7) (or ASMC's) and the updates (4.4)-(4.5) over Ts, compiled (the one
+        # implementation; the compiled closed loop calls the same kernel)
+        assert self.Ts is not None
+        self.Gamma = np.ascontiguousarray(self.Gamma, dtype=float)
+        self.w = np.ascontiguousarray(self.w, dtype=float)
+        u = np.empty((n, 2))
+        asta_sample(a, b, s, self.K, self.rate, self.eps, self.Ts, self._asmc, self.Gamma,
+                    self.w, u)  # fmt: skip
         return u
+
+    def compiled_law(self) -> CompiledLaw:
+        """The law for the compiled closed loop (:mod:`mwip.sim.loop`): the same kernels
+        (:func:`~mwip.control._asta_kernel.asta_terms`, ``asta_sample``); the gains start at
+        ``Gamma0`` and ``w`` at zero, as after :meth:`reset`."""
+        assert self.Ts is not None
+        return CompiledLaw(
+            LAW_ASTA, coef=self._coef, lam=self.lam, refs=self.ref, C=self.K, Gam=self.rate,
+            offset=self.Gamma0, scalars=np.array([self.eps, self.Ts, float(self._asmc), 0, 0, 0],
+                                                 dtype=float),
+            log_names=(("sigma", 2), ("Gamma", 2), ("w", 2)),
+        )  # fmt: skip
 
     def log(self) -> Mapping[str, NDArray[np.float64]]:
         return self._log
@@ -239,18 +253,11 @@ class ASTA(_AdaptiveSliding):
     Logs ``sigma``, ``Gamma`` and ``w`` (N, 2) at each sample.
     """
 
-    def _control(self, a: NDArray, b: NDArray, s: NDArray) -> NDArray[np.float64]:
-        return asta_law(a, b, s, self.K, self.w)
-
-    def _advance(self, s: NDArray[np.float64]) -> None:
-        assert self.Ts is not None
-        self.w = self.w - self.Ts * self.Gamma * np.sign(s)  # (4.4) with the current gain
-        super()._advance(s)
+    _asmc = False
 
 
 class ASMC(_AdaptiveSliding):
     """Adaptive SMC baseline: same surface (4.1), gains and adaptive law (4.5) as
     :class:`ASTA`, with the switching term ``-Gamma sgn(sigma)`` applied directly."""
 
-    def _control(self, a: NDArray, b: NDArray, s: NDArray) -> NDArray[np.float64]:
-        return asmc_law(a, b, s, self.K, self.Gamma)
+    _asmc = True

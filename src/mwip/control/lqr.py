@@ -26,9 +26,11 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.core import Measurement
+from mwip.control._lqr_kernel import lqr_law
+from mwip.core import LAW_LINEAR, CompiledLaw, Measurement
 from mwip.linearize import linearize
 from mwip.params import NOMINAL, Params
+from mwip.validate import finite_array, real
 
 __all__ = [
     "BOOK_Q", "BOOK_R", "lqr", "dlqr", "zoh", "LQRDesign", "design_lqr", "LQR",
@@ -106,9 +108,18 @@ def design_lqr(
     R: ArrayLike = BOOK_R,
     Ts: float | None = 0.005,
 ) -> LQRDesign:
-    """Design the LQR on ``params`` (nominal by default); ``Ts=None`` gives the continuous gain."""
+    """Design the LQR on ``params`` (nominal by default); ``Ts=None`` gives the continuous gain.
+
+    Bad arguments raise ``TypeError``/``ValueError`` naming the argument.
+    """
+    if not isinstance(params, Params):
+        raise TypeError(f"params must be a mwip.params.Params, got {type(params).__name__}")
+    if params.batch_shape != ():
+        raise ValueError(f"params must be one robot, got a batch of shape {params.batch_shape}")
+    if Ts is not None:
+        Ts = real("Ts", Ts, 0.0, 1e3)
+    Qa, Ra = finite_array("Q", Q), finite_array("R", R)
     A, B = linearize(params)
-    Qa, Ra = np.asarray(Q, dtype=float), np.asarray(R, dtype=float)
     K, _, poles = lqr(A, B, Qa, Ra) if Ts is None else dlqr(A, B, Qa, Ra, Ts)
     return LQRDesign(K=K, Ts=Ts, Q=Qa, R=Ra, poles=poles, params=params)
 
@@ -127,10 +138,12 @@ class LQR:
         design: LQRDesign,
         reference: ArrayLike = (0.0, 0.0, 0.0, 0.0, 0.0),
     ) -> None:
+        if not isinstance(design, LQRDesign):
+            raise TypeError(f"design must be an LQRDesign, got {type(design).__name__}")
         self.K = np.asarray(design.K, dtype=float)
         self.Ts = design.Ts
         self.r_nominal = float(design.params.r)
-        self.reference = np.asarray(reference, dtype=float)
+        self.reference = finite_array("reference", reference)
         if self.reference.shape != (5,):
             raise ValueError(f"reference must have 5 entries, got shape {self.reference.shape}")
         # x = y[:, :6] @ sel with v = r_nom psi': fold the selection into the gain once
@@ -138,8 +151,8 @@ class LQR:
         sel[1, 0] = sel[2, 1] = sel[4, 2] = sel[5, 4] = 1.0
         sel[3, 3] = self.r_nominal
         self._sel = sel
-        self._gain = -sel @ self.K.T  # (6, 2)
-        self._offset = self.reference @ self.K.T  # (2,)
+        self._gain = np.ascontiguousarray(-sel @ self.K.T)  # (6, 2)
+        self._offset = np.ascontiguousarray(self.reference @ self.K.T)  # (2,)
 
     def reset(self, meas: Measurement) -> None:
         """Nothing to reset (static law)."""
@@ -149,7 +162,12 @@ class LQR:
         return meas.y[:, :6] @ self._sel
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
-        return meas.y[:, :6] @ self._gain + self._offset
+        y = np.ascontiguousarray(meas.y, dtype=float)
+        return lqr_law(y, self._gain, self._offset, np.empty((y.shape[0], 2)))
+
+    def compiled_law(self) -> CompiledLaw:
+        """The law for the compiled closed loop (:mod:`mwip.sim.loop`): the same kernel."""
+        return CompiledLaw(LAW_LINEAR, gain=self._gain, offset=self._offset)
 
     def log(self) -> Mapping[str, NDArray[np.float64]]:
         return {}

@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mwip.control._smc_kernel import smc_step
 from mwip.control.switching import Switching
-from mwip.core import Measurement, Observer
+from mwip.core import LAW_SMC, CompiledLaw, Measurement, Observer
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
 
@@ -183,6 +183,31 @@ class SlidingModeController:
         )  # fmt: skip
         self._u, self._S, self._tau = u, S, tau_hat
         return u
+
+    def compiled_law(self) -> CompiledLaw | None:
+        """The law for the compiled closed loop (:mod:`mwip.sim.loop`), which calls the same
+        kernels (:func:`~mwip.control._smc_kernel.smc_step`, and the observer's
+        :func:`~mwip.observers._hodo_kernel.hodo_update`); ``None`` when the observer is not a
+        :class:`~mwip.observers.HighOrderDO` on the default model (the Python loop runs it)."""
+        from mwip.observers._hodo_kernel import HOLD_CODES
+        from mwip.observers.hodo import HighOrderDO
+
+        sw = self.switching
+        scalars = np.array([self.gains.K1, self.gains.K2, float(sw.kind == "sat"), sw.phi,
+                            self.q1d_dot, self.q3d], dtype=float)  # fmt: skip
+        logs = (("S1", 1), ("S2", 1), ("tau_hat", 3))
+        if self.observer is None:
+            return CompiledLaw(LAW_SMC, coef=self._coef, lam=self._lam, scalars=scalars,
+                               log_names=logs)  # fmt: skip
+        obs = self.observer
+        if type(obs) is not HighOrderDO or obs._coef is None:
+            return None
+        return CompiledLaw(
+            LAW_SMC, coef=self._coef, lam=self._lam, scalars=scalars,
+            Phi=np.ascontiguousarray(obs.Phi, dtype=float),
+            Gamma=np.ascontiguousarray(obs.Gamma, dtype=float),
+            obs=np.array([obs.Ts, HOLD_CODES[obs.model_hold]], dtype=float), log_names=logs,
+        )  # fmt: skip
 
     def disturbance_estimate(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         """``tau^`` for the law: advance the observer with the torque just held (or zeros)."""

@@ -128,6 +128,11 @@ def check_smc_design(
     ``damping=False`` is the book's analysis; ``damping=True`` adds the nominal wheel
     damping ``Dw`` that (3.58) omits (see module docstring).
     """
+    if isinstance(lambdas, str | bytes) or not all(
+        isinstance(x, int | float | np.integer | np.floating) and not isinstance(x, bool)
+        for x in np.atleast_1d(np.asarray(lambdas, dtype=object))
+    ):
+        raise TypeError(f"lambdas must be 3 or 4 numbers, got {lambdas!r}")
     lam = tuple(float(x) for x in lambdas)
     if len(lam) not in (3, 4) or not all(np.isfinite(x) and x > 0 for x in lam):
         raise ValueError(f"lambdas must be 3 or 4 finite numbers in (0, inf), got {lambdas!r}")

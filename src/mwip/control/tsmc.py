@@ -54,7 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.switching import Switching
-from mwip.core import Measurement
+from mwip.core import LAW_TSMC, CompiledLaw, Measurement
 from mwip.models.reduced import coefficients
 from mwip.models.steady import lean_for_speed
 from mwip.params import NOMINAL, Params
@@ -211,3 +211,18 @@ class TSMC:
 
     def log(self) -> Mapping[str, NDArray[np.float64]]:
         return self._log
+
+    def compiled_law(self) -> CompiledLaw | None:
+        """The law for the compiled closed loop (:mod:`mwip.sim.loop`), which calls the same
+        kernel (:func:`~mwip.control._tsmc_kernel.tsmc_step`); after :meth:`reset` (the fitted
+        cubics are part of it), else ``None``."""
+        if self._coeffs is None:
+            return None
+        sw = self.switching
+        scalars = np.array([self.Tf, self.Ftilde_ratio, float(sw.kind == "sat"), sw.phi,
+                            self._t0, 0.0])  # fmt: skip
+        return CompiledLaw(
+            LAW_TSMC, coef=self._coef, scalars=scalars, C=self.C, Gam=self.Gamma, D=self.D,
+            IDinv=self._IDinv, refs=self._refs, cubic=self._coeffs,
+            log_names=(("s", 2), ("k", 2), ("aug", 2)),
+        )  # fmt: skip

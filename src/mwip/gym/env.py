@@ -41,7 +41,8 @@ from numpy.typing import NDArray
 from mwip.models.reduced import coefficients
 from mwip.params import REAL, Params
 from mwip.sim.disturbance import Disturbance
-from mwip.sim.kernel import OK, advance_batch
+from mwip.sim.engine import choose_integrator
+from mwip.sim.kernel import OK, ROS2W, advance_batch
 from mwip.sim.sensors import IdealSensor, Sensor
 
 __all__ = ["MwipEnv", "EnvConfig", "observation", "reward", "WHEEL_TORQUE_LIMIT", "FALL_PENALTY"]
@@ -83,7 +84,11 @@ class EnvConfig:
         if plant.batch_shape not in ((),):
             raise ValueError("plant must be one robot (scalar fields) for MwipEnv")
         _positive("Ts", Ts, 1.0)
-        dt = min(Ts, 0.0005) if dt is None else dt
+        if dt is not None:
+            _positive("dt", dt, Ts)
+        coef = np.ascontiguousarray(coefficients(plant).reshape(1, 10))
+        # the engine's choice of integrator and step (mwip.sim.engine.choose_integrator)
+        method, dt = choose_integrator(coef, float(Ts), dt)
         _positive("dt", dt, Ts)
         n_sub = int(round(Ts / dt))
         if abs(n_sub * dt - Ts) > 1e-9 * Ts:
@@ -100,7 +105,8 @@ class EnvConfig:
         self.max_torque, self.init_theta = float(max_torque), float(init_theta)
         self.v_ref_range, self.yaw_rate_ref_range = float(v_ref_range), float(yaw_rate_ref_range)
         self.disturbance = disturbance
-        self.coef = np.ascontiguousarray(coefficients(plant).reshape(1, 10))
+        self.coef = coef
+        self.method = method
 
     def spaces(self) -> tuple[spaces.Box, spaces.Box]:
         """Observation and action spaces of one robot."""
@@ -150,20 +156,22 @@ def advance(
     their times ``t`` (scalar or (N,): robots of a vector env restart at different times);
     returns the kernel status per robot (0 ok, 1 fell, 2 diverged)."""
     n = y.shape[0]
+    # disturbance at the step boundaries (ROS2-W) or half steps (RK4), as the engine
+    sub = (np.arange(cfg.n_sub + 1) * cfg.dt if cfg.method == ROS2W
+           else np.arange(2 * cfg.n_sub + 1) * (0.5 * cfg.dt))  # fmt: skip
     if cfg.disturbance is None:
-        tau = np.zeros((cfg.n_sub + 1, 1, 3))
+        tau = np.zeros((sub.size, 1, 3))
     else:
-        sub = np.arange(cfg.n_sub + 1) * cfg.dt
         times = np.broadcast_to(np.asarray(t, dtype=float), (n,))[None, :] + sub[:, None]
         d = np.asarray(cfg.disturbance(times.ravel()), dtype=float)
         if d.shape != (times.size, 3):
             raise ValueError("the disturbance must return (K, 3) for K times (one per robot)")
-        tau = np.ascontiguousarray(d.reshape(cfg.n_sub + 1, n, 3))
+        tau = np.ascontiguousarray(d.reshape(sub.size, n, 3))
     status = np.zeros(n, dtype=np.int64)
     t_end = np.full(n, np.inf)
     t0 = float(np.min(t))  # only used by the kernel to time events, which the env ignores
     advance_batch(y, np.ascontiguousarray(u, dtype=float), tau, coef, cfg.dt, cfg.n_sub,
-                  status, t0, t_end)  # fmt: skip
+                  status, t0, t_end, cfg.method)  # fmt: skip
     return status
 
 

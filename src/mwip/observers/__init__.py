@@ -5,27 +5,15 @@
 - :mod:`mwip.observers.design`: error dynamics (3.31)-(3.32), impulse-to-energy gain
   (3.35)/(3.39)-(3.41), the LMI problem (3.36), a prescribed-ie design, and the book's
   published gain sets.
+
+The names are imported on first use (PEP 562), so that the compiled observer update
+(:mod:`mwip.observers._hodo_kernel`) loads without cvxpy.
 """
 
-from mwip.observers.design import (
-    PUBLISHED_GAIN_SETS,
-    GainDesign,
-    ObserverDesignError,
-    PublishedGainSet,
-    as_gain_matrices,
-    compare_published,
-    design_for_ie,
-    error_dynamics,
-    format_comparison,
-    impulse_to_energy_gain,
-    lmi_matrices,
-    published_gain_sets,
-    solve_ie_lmi,
-    stacked_gain,
-)
-from mwip.observers.first_order import FirstOrderDO
-from mwip.observers.hodo import HODO, HighOrderDO, discretize_observer, euler_substeps_needed
-from mwip.observers.second_order import SecondOrderDO
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 __all__ = [
     "HighOrderDO",
@@ -49,3 +37,19 @@ __all__ = [
     "as_gain_matrices",
     "stacked_gain",
 ]
+
+_WHERE = {
+    **{
+        n: "mwip.observers.hodo"
+        for n in ("HighOrderDO", "HODO", "discretize_observer", "euler_substeps_needed")
+    },
+    "FirstOrderDO": "mwip.observers.first_order",
+    "SecondOrderDO": "mwip.observers.second_order",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in __all__:
+        module = _WHERE.get(name, "mwip.observers.design")
+        return getattr(importlib.import_module(module), name)
+    raise AttributeError(f"module 'mwip.observers' has no attribute {name!r}")

@@ -69,12 +69,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
+
+if TYPE_CHECKING:  # cvxpy is imported where an LMI is solved (it takes ~1 s to import)
+    import cvxpy as cp
 
 __all__ = [
     "GainsLike",
@@ -305,6 +307,8 @@ def _build_problem(
     ``t_n^2 c E^T P^ E = E^T P^ E <= alpha I`` and the disk ``[[-r P^, P^ A~ + W^ B], ...]``.
     With ``rho = 1`` this is (3.36) literally.
     """
+    import cvxpy as cp
+
     A, B, E = lmi_matrices(n, m)
     T, c = _scaling(n, m, rho)
     Tinv = np.diag(1.0 / np.diag(T))
@@ -328,7 +332,7 @@ def _build_problem(
     return cp.Problem(cp.Minimize(alpha), cons), P, W, alpha, r
 
 
-_OK_STATUS = (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
+_OK_STATUS = ("optimal", "optimal_inaccurate")  # cvxpy's OPTIMAL, OPTIMAL_INACCURATE
 
 
 def _finish(
@@ -406,7 +410,7 @@ def _check_args(n: int, eps: float, structure: str, radius: float | None) -> int
     return 3 if structure == "full" else 1
 
 
-ProblemParts = tuple[cp.Problem, cp.Variable, cp.Variable, cp.Variable, cp.Parameter | None]
+ProblemParts = tuple[Any, Any, Any, Any, Any]  # cvxpy Problem, P, W, alpha, radius
 
 
 def _solve_scaled(
@@ -424,6 +428,8 @@ def _solve_scaled(
 
     Raises ``ObserverDesignError`` on a solver failure or a status other than optimal.
     """
+    import cvxpy as cp
+
     prob, P, W, alpha, r = (
         parts if parts is not None else _build_problem(n, m, eps, radius is not None, rho)
     )

@@ -68,6 +68,7 @@ import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.models._compiled import f_plus_g_u
+from mwip.observers._hodo_kernel import HOLD_CODES, hodo_update
 from mwip.observers.design import GainsLike, as_gain_matrices, error_dynamics, stacked_gain
 from mwip.params import Params
 
@@ -302,6 +303,16 @@ class HighOrderDO:
                 f"update expects q (N, 3), qdot (N, 3), u (N, 2) with N={N}; got "
                 f"{qq.shape}, {qd.shape}, {uu.shape}"
             )
+        if self._coef is not None:  # the default model: the compiled update, one loop
+            z = np.ascontiguousarray(self._z)
+            q_prev = np.array(qq if self._q_prev is None else self._q_prev, dtype=float)
+            qd_prev = np.array(self._qdot_prev, dtype=float)
+            Phi, Gam = np.ascontiguousarray(self.Phi), np.ascontiguousarray(self.Gamma)
+            hodo_update(self._coef, Phi, Gam, self.Ts, HOLD_CODES[self.model_hold], z, q_prev,
+                        qd_prev, np.ascontiguousarray(qq), np.ascontiguousarray(qd),
+                        np.ascontiguousarray(uu), np.empty(z.shape[1]))  # fmt: skip
+            self._z, self._q_prev, self._qdot_prev = z, q_prev, qd_prev
+            return self._z[:, :3].copy()
         uAB = uu @ _TO_AB  # [u_A, u_B] = [u_r + u_l, u_r - u_l]
         q_start = qq if self._q_prev is None else self._q_prev
         if self.model_hold == "start":

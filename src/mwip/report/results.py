@@ -105,9 +105,28 @@ def load_run_record(out: Path) -> dict[str, Any]:
     """``OUT/run.json`` as written by ``mwip reproduce`` ({} if absent or unreadable)."""
     path = Path(out) / RUN_RECORD
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError):
         return {}
+    if not isinstance(doc, dict):
+        return {}
+    if not isinstance(doc.get("studies", {}), dict):
+        doc["studies"] = {}
+    return {**doc, "studies": {k: v for k, v in doc.get("studies", {}).items()
+                               if isinstance(v, dict)}}  # fmt: skip
+
+
+def _shape_problem(doc: Any) -> str | None:
+    """What makes ``doc`` unusable as a metrics document (SPEC.md section 6), if anything."""
+    if not isinstance(doc, dict):
+        return f"a JSON {type(doc).__name__}, not an object"
+    for key in ("metrics", "published", "runs", "settings"):
+        if key in doc and not isinstance(doc[key], dict):
+            return f"'{key}' must be an object, got a {type(doc[key]).__name__}"
+    claims = doc.get("claims", [])
+    if not isinstance(claims, list) or not all(isinstance(c, dict) for c in claims):
+        return "'claims' must be a list of objects"
+    return None
 
 
 def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]:
@@ -128,15 +147,27 @@ def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]
         folder = out / name
         rec = per_study.get(name, {})
         doc: dict[str, Any] | None
+        path = folder / "metrics.json"
+        bad = None
         try:
-            doc = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
             doc = None
-        error = rec.get("error") or (None if doc is not None else "not run")
+        except (OSError, ValueError, RecursionError) as exc:
+            doc, bad = None, " ".join(str(exc).split()) or type(exc).__name__
+        if doc is not None:
+            problem = _shape_problem(doc)
+            if problem is not None:
+                doc, bad = None, problem
+        if bad is not None:
+            error: str | None = f"{path} is unreadable: {bad}"
+        else:
+            error = rec.get("error") or (None if doc is not None else "not run")
         figures = tuple(sorted(folder.glob("*.png"))) if folder.is_dir() else ()
         results.append(
             StudyResult(name=name, folder=folder, doc=doc, figures=figures, error=error,
                         wall_s=rec.get("wall_s"), info=study_texts(name),
-                        settings=dict(rec.get("settings") or {}))
+                        settings=dict(rec.get("settings") or {}) if isinstance(
+                            rec.get("settings"), dict) else {})
         )  # fmt: skip
     return results

@@ -28,9 +28,16 @@ Disturbance = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
 
 def _vec3(name: str, value: Sequence[float] | float) -> tuple[float, float, float]:
-    arr = np.broadcast_to(np.asarray(value, dtype=float), (3,))
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"disturbance {name!r} must be finite, got {value!r}")
+    what = f"disturbance {name!r} must be a number or 3 numbers (N m, rad/s or rad)"
+    try:
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "iuf":
+            raise ValueError
+        arr = np.broadcast_to(raw.astype(float), (3,))
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}, got {value!r}") from None
+    if not np.all(np.isfinite(arr)) or np.any(np.abs(arr) > 1e6):
+        raise ValueError(f"{what}, finite and in [-1e6, 1e6], got {value!r}")
     return (float(arr[0]), float(arr[1]), float(arr[2]))
 
 
@@ -64,6 +71,10 @@ class Pulse:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "value", _vec3("value", self.value))
+        for name in ("start", "width"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float):
+                raise ValueError(f"pulse {name!r} must be a number (s), got {v!r}")
         if not (np.isfinite(self.start) and np.isfinite(self.width) and self.width > 0):
             raise ValueError(f"pulse 'width' must be finite and in (0, inf), got {self.width!r}")
 
@@ -96,8 +107,11 @@ BOOK_SINUSOIDS = Sinusoid(
 def disturbance_from_dict(data: Mapping[str, Any]) -> Disturbance:
     """Build a disturbance from scenario data: ``{"kind": "sinusoid", ...}`` or ``"pulse"``."""
     kinds: dict[str, type] = {"sinusoid": Sinusoid, "pulse": Pulse}
+    if not isinstance(data, Mapping):
+        raise ValueError(f"disturbance must be a table, got {data!r}")
     d = dict(data)
-    kind = str(d.pop("kind", "")).lower()
+    kind_value = d.pop("kind", "")
+    kind = kind_value.lower() if isinstance(kind_value, str) else repr(kind_value)
     if kind == "book":
         return BOOK_SINUSOIDS
     if kind not in kinds:

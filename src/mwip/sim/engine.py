@@ -28,13 +28,18 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.core import Actuator, Controller, Sensor
+from mwip.budget import DEFAULT as DEFAULT_BUDGET
+from mwip.budget import Budget, estimate
+from mwip.core import Actuator, CompiledLaw, Controller, Sensor
 from mwip.models.reduced import coefficients
 from mwip.params import REAL, Params
 from mwip.sim.disturbance import Disturbance
 from mwip.sim.kernel import (
     GAMMA,
+    METHOD_NAMES,
     OK,
+    RK4,
+    ROS2W,
     STATUS_NAMES,
     advance_batch,
     rhs_batch,
@@ -43,14 +48,87 @@ from mwip.sim.kernel import (
 )
 from mwip.sim.result import SimResult
 from mwip.sim.sensors import IdealSensor
+from mwip.validate import finite_array, integer, real
 
-__all__ = ["simulate", "DEFAULT_TS", "DEFAULT_DT", "initial_state"]
+__all__ = [
+    "simulate", "DEFAULT_TS", "DEFAULT_DT", "DEFAULT_DT_RK4", "RK4_MAX_HRHO", "initial_state",
+    "fastest_rate", "choose_integrator",
+]  # fmt: skip
 
 DEFAULT_TS = 0.005
-#: Default integration step (s). Chosen from the step-halving study in docs/engine.md:
-#: with ROS2-W at 0.5 ms a closed-loop LQR run differs from the 0.25 ms run by < 1e-4
-#: (1 ms: ~4e-4 in the rates, from the fast damping transients after each input step).
+#: Default integration step (s) of ROS2-W on a stiff plant. Chosen from the step-halving study
+#: in docs/engine.md: with ROS2-W at 0.5 ms a closed-loop LQR run on the literal-reading plant
+#: differs from the 0.25 ms run by < 1e-4 (1 ms: ~4e-4 in the rates, from the fast damping
+#: transients after each input step).
 DEFAULT_DT = 0.0005
+#: Default step (s) of RK4 on a non-stiff plant (capped at ``Ts``): from the convergence study
+#: in docs/engine.md (benchmarks/convergence.py).
+DEFAULT_DT_RK4 = 0.005
+#: RK4 is chosen when ``dt`` times the plant's fastest linear rate is at most this (RK4's
+#: stability interval on the negative real axis is 2.785; at 1 the fastest mode's one-step
+#: factor is 0.375 against exp(-1) = 0.368).
+RK4_MAX_HRHO = 1.0
+
+
+def fastest_rate(coef: NDArray[np.float64]) -> float:
+    """The largest ``|lambda|`` (rad/s) of the plant linearised about upright at rest, over the
+    batch: the ``(psi, theta)`` block ``[[0, I], [M0^-1 K, -M0^-1 D]]`` of (2.33) (``K`` the
+    gravity stiffness ``Gb`` on ``theta``, ``D`` the damping of (2.32)) and the yaw rate
+    ``2 b^2 (Db + Dw) / (r^2 m33)``. Units reading: ~24 rad/s; literal reading: ~3000 rad/s."""
+    c = np.asarray(coef, dtype=float).reshape(-1, 10)
+    key = c.tobytes() if c.shape[0] <= 4 else None  # single runs: computed once per plant
+    if key is not None and key in _RATE_CACHE:
+        return _RATE_CACHE[key]
+    m11, m12, m22, m33, _, Gb, Db, Dw, b, r = c.T
+    n = c.shape[0]
+    M = np.empty((n, 2, 2))
+    M[:, 0, 0], M[:, 0, 1], M[:, 1, 0], M[:, 1, 1] = m11, m12, m12, m22
+    K = np.zeros((n, 2, 2))
+    K[:, 1, 1] = Gb
+    D = np.empty((n, 2, 2))
+    D[:, 0, 0], D[:, 0, 1], D[:, 1, 0], D[:, 1, 1] = 2 * (Dw + Db), -2 * Db, -2 * Db, 2 * Db
+    Minv = np.linalg.inv(M)
+    A = np.zeros((n, 4, 4))
+    A[:, 0:2, 2:4] = np.eye(2)
+    A[:, 2:4, 0:2] = Minv @ K
+    A[:, 2:4, 2:4] = -Minv @ D
+    rho = np.max(np.abs(np.linalg.eigvals(A)))
+    yaw = np.max(2.0 * b * b * (Db + Dw) / (r * r * m33))
+    out = float(max(rho, yaw))
+    if key is not None and len(_RATE_CACHE) < 256:
+        _RATE_CACHE[key] = out
+    return out
+
+
+_RATE_CACHE: dict[bytes, float] = {}
+
+
+def choose_integrator(
+    coef: NDArray[np.float64], Ts: float, dt: float | None, integrator: str = "auto"
+) -> tuple[int, float]:
+    """The method code (:data:`~mwip.sim.kernel.ROS2W` or :data:`~mwip.sim.kernel.RK4`) and the
+    step for a sampled run.
+
+    ``"auto"``: RK4 when ``dt * fastest_rate <= RK4_MAX_HRHO`` (the plant is not stiff at this
+    step), else ROS2-W. Without ``dt`` the candidate is ``min(Ts, DEFAULT_DT_RK4)`` for RK4 and
+    ``min(Ts, DEFAULT_DT)`` for ROS2-W, shortened to divide ``Ts``.
+    """
+    if integrator not in ("auto", "rk4", "ros2w"):
+        raise ValueError(f"integrator must be 'auto', 'rk4' or 'ros2w', got {integrator!r}")
+
+    def fit(h: float) -> float:
+        h = min(Ts, h)
+        return h if abs(round(Ts / h) * h - Ts) <= 1e-9 * Ts else Ts / np.ceil(Ts / h)
+
+    if integrator == "ros2w":
+        return ROS2W, fit(DEFAULT_DT) if dt is None else dt
+    if integrator == "rk4":
+        return RK4, fit(DEFAULT_DT_RK4) if dt is None else dt
+    rho = fastest_rate(coef)
+    h = fit(DEFAULT_DT_RK4) if dt is None else dt
+    if h * rho <= RK4_MAX_HRHO:
+        return RK4, h
+    return ROS2W, fit(DEFAULT_DT) if dt is None else dt
 
 
 def initial_state(
@@ -66,7 +144,7 @@ def initial_state(
         (slice(3, 6), qdot0, "qdot0", 3),
         (slice(6, 8), pos0, "pos0", 2),
     ):
-        a = np.asarray(val, dtype=float)
+        a = finite_array(name, val)
         if a.shape[-1:] != (width,) or a.ndim > 2:
             raise ValueError(f"{name} must have shape ({width},) or (N, {width}), got {a.shape}")
         if not np.all(np.isfinite(a)):
@@ -137,6 +215,9 @@ def simulate(
     record_every: int = 1,
     seed: int | None = 0,
     progress: Callable[[int], None] | None = None,
+    budget: Budget = DEFAULT_BUDGET,
+    integrator: Literal["auto", "rk4", "ros2w"] = "auto",
+    compiled: bool | None = None,
 ) -> SimResult:
     """Simulate the closed loop of ``controller`` on ``plant`` (default: the real robot).
 
@@ -153,7 +234,9 @@ def simulate(
     Ts : float, optional
         Sample period (s). Default: ``controller.Ts`` if set, else 5 ms.
     dt : float, optional
-        Integration step (s), must divide ``Ts``. Default ``min(Ts, 0.5 ms)``.
+        Integration step (s), must divide ``Ts``. Default: by :func:`choose_integrator`,
+        ``min(Ts, DEFAULT_DT_RK4)`` with RK4 on a non-stiff plant, ``min(Ts, 0.5 ms)`` with
+        ROS2-W on a stiff one; continuous mode ``min(Ts, 0.5 ms)``.
     mode : "sampled" or "continuous"
         See module docstring.
     disturbance : callable, optional
@@ -171,9 +254,41 @@ def simulate(
         Seed handed to the sensor (noise) so results are reproducible.
     progress : callable, optional
         Called with the number of samples done since the previous call.
+    integrator : "auto", "rk4" or "ros2w"
+        Sampled mode's plant integrator (:func:`choose_integrator`; docs/engine.md).
+        Continuous mode always uses ROS2 with the closed loop's Jacobian.
+    compiled : bool, optional
+        Run the whole loop compiled (:mod:`mwip.sim.loop`): ``None`` (default) when the
+        controller offers ``compiled_law()`` and the loop has the ideal sensor and no actuator
+        model; ``False`` forces the Python loop; ``True`` raises if it cannot be compiled.
+    budget : Budget
+        Bounds on the run's cost (:mod:`mwip.budget`), checked before it starts; a run above
+        them raises :class:`mwip.budget.BudgetError` (a ``ValueError``).
+
+    Bad arguments raise ``TypeError`` (wrong kind) or ``ValueError`` (out of range) naming
+    the argument, before any work is done.
     """
     if mode not in ("sampled", "continuous"):
         raise ValueError(f"mode must be 'sampled' or 'continuous', got {mode!r}")
+    if not isinstance(plant, Params):
+        raise TypeError(f"plant must be a mwip.params.Params, got {type(plant).__name__}")
+    if not callable(controller) or not hasattr(controller, "reset"):
+        raise TypeError(
+            f"controller must be a mwip controller (callable with reset()), got "
+            f"{type(controller).__name__}"
+        )
+    if not isinstance(budget, Budget):
+        raise TypeError(f"budget must be a mwip.budget.Budget, got {type(budget).__name__}")
+    duration = real("duration", duration, 0.0)
+    if Ts is not None:
+        Ts = real("Ts", Ts, 0.0)
+    if dt is not None:
+        dt = real("dt", dt, 0.0)
+    record_every = integer("record_every", record_every, 1, 2**62)
+    if seed is not None:
+        seed = integer("seed", seed, 0, 2**63 - 1)
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be callable, got {type(progress).__name__}")
     ctrl_ts = getattr(controller, "Ts", None)
     if Ts is None:
         Ts = ctrl_ts if ctrl_ts is not None else DEFAULT_TS
@@ -181,21 +296,28 @@ def simulate(
         raise ValueError(f"Ts={Ts:g} differs from the controller's design period {ctrl_ts:g}")
     if not (np.isfinite(Ts) and Ts > 0):
         raise ValueError(f"Ts must be finite and in (0, inf), got {Ts!r}")
-    if dt is None:
-        dt = min(Ts, DEFAULT_DT)
-        if abs(round(Ts / dt) * dt - Ts) > 1e-9 * Ts:
-            dt = Ts / np.ceil(Ts / dt)
+    coef = np.ascontiguousarray(coefficients(plant).reshape(-1, 10))
+    if mode == "continuous":
+        method = ROS2W
+        if dt is None:
+            dt = min(Ts, DEFAULT_DT)
+            if abs(round(Ts / dt) * dt - Ts) > 1e-9 * Ts:
+                dt = Ts / np.ceil(Ts / dt)
+    else:
+        method, dt = choose_integrator(coef, Ts, dt, integrator)
     n_sub = _steps(Ts, dt)
     if not (np.isfinite(duration) and duration > 0):
         raise ValueError(f"duration must be finite and in (0, inf), got {duration!r}")
     if int(record_every) != record_every or record_every < 1:
         raise ValueError(f"record_every must be an integer >= 1, got {record_every!r}")
+    q0, qdot0, pos0 = (finite_array(k, v) for k, v in (("q0", q0), ("qdot0", qdot0),
+                                                         ("pos0", pos0)))  # fmt: skip
+    n, batched = _batch_size(plant, [q0, qdot0, pos0])
+    budget.check(estimate(duration, Ts, dt, n, record_every), "simulate")
     n_samples = max(int(round(duration / Ts)), 1)
     duration = n_samples * Ts
 
-    n, batched = _batch_size(plant, [q0, qdot0, pos0])
     y = initial_state(n, q0, qdot0, pos0)
-    coef = np.ascontiguousarray(coefficients(plant).reshape(-1, 10))
     r = np.broadcast_to(np.asarray(plant.r, dtype=float), (n,)).copy()
     sensor = IdealSensor() if sensor is None else sensor
     sensor.reset(n, seed)
@@ -203,7 +325,7 @@ def simulate(
         actuator.reset(n, seed)
 
     settings: dict[str, Any] = {
-        "mode": mode, "Ts": Ts, "dt": dt, "duration": duration, "integrator": "ROS2-W",
+        "mode": mode, "Ts": Ts, "dt": dt, "duration": duration, "integrator": METHOD_NAMES[method],
         "record_every": int(record_every), "seed": seed,
     }  # fmt: skip
     if mode == "continuous":
@@ -226,13 +348,30 @@ def simulate(
     logs: dict[str, NDArray[np.float64]] = {}
     status = np.zeros(n, dtype=np.int64)
     t_end = np.full(n, duration)
-    sub_times = np.arange(n_sub + 1) * dt
+    # the disturbance is sampled at the step boundaries (ROS2-W) or half steps (RK4)
+    n_pts, spacing = (n_sub + 1, dt) if method == ROS2W else (2 * n_sub + 1, 0.5 * dt)
+    sub_times: NDArray[np.float64] = np.arange(n_pts, dtype=np.float64) * spacing
 
     meas = sensor(0.0, y)
     controller.reset(meas)
+    law = _compiled_law(controller, sensor, actuator, compiled)
+    if law is not None:
+        tau_all = _tau_all(disturbance, n_samples, Ts, sub_times, n)
+        if tau_all is not None:
+            settings["compiled"] = True
+            _run_compiled(law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts,
+                          np.asarray(rec_idx, dtype=np.int64), states, us, logs,
+                          status, t_end, n_rec)  # fmt: skip
+            if progress is not None:
+                progress(n_samples)
+            return _finish(t_rec, states, us, logs, status, t_end, y, r, batched, settings)
+        if compiled:
+            raise ValueError("compiled=True: the disturbance is too large to tabulate")
+    settings["compiled"] = False
     get_log = getattr(controller, "log", None)
-    no_tau = np.zeros((n_sub + 1, 1, 3))
+    no_tau = np.zeros((sub_times.size, 1, 3))
     row = 0
+    running = n
     for k in range(n_samples + 1):
         t = k * Ts
         if k > 0:
@@ -254,18 +393,116 @@ def simulate(
                     logs[name] = np.full((n, n_rec, arr.shape[1]), np.nan)
                 logs[name][:, row] = arr
             row += 1
-        if k == n_samples:
+        if k == n_samples or running == 0:  # a stop at a sample instant is recorded there
             break
         tau = no_tau if disturbance is None else _tau_block(disturbance, t + sub_times, n)
         u_hold = u if actuator is None else u_applied
         running = advance_batch(
-            y, np.ascontiguousarray(u_hold), tau, coef, dt, n_sub, status, t, t_end
+            y, np.ascontiguousarray(u_hold), tau, coef, dt, n_sub, status, t, t_end, method
         )
         if progress is not None:
             progress(1)
-        if running == 0:
-            break
     return _finish(t_rec, states, us, logs, status, t_end, y, r, batched, settings)
+
+
+def _compiled_law(
+    controller: Controller, sensor: Sensor, actuator: Actuator | None, compiled: bool | None
+) -> CompiledLaw | None:
+    """The controller's :class:`CompiledLaw` when the whole loop can run compiled."""
+    if compiled is False:
+        return None
+    get = getattr(controller, "compiled_law", None)
+    law = get() if get is not None else None
+    ok = law is not None and type(sensor) is IdealSensor and actuator is None
+    if compiled and not ok:
+        raise ValueError(
+            "compiled=True needs a controller with compiled_law(), the ideal sensor and no "
+            "actuator model"
+        )
+    return law if ok else None
+
+
+#: Largest tabulated disturbance (numbers) for the compiled loop; beyond it the Python loop
+#: samples the disturbance one sample period at a time.
+_TAU_MAX = 20_000_000
+
+
+def _tau_all(
+    disturbance: Disturbance | None,
+    n_samples: int,
+    Ts: float,
+    sub_times: NDArray[np.float64],
+    n: int,
+) -> NDArray[np.float64] | None:
+    """The disturbance at every sub-step time of the run, (n_samples, S, 1 or N, 3): the same
+    times ``k Ts + sub_times`` as the Python loop's; ``None`` if too large."""
+    S = sub_times.size
+    if disturbance is None:
+        return np.zeros((1, S, 1, 3))
+    probe = _tau_block(disturbance, np.array([0.0]), n)
+    if n_samples * S * probe.shape[1] * 3 > _TAU_MAX:
+        return None
+    times = (np.arange(n_samples) * Ts)[:, None] + sub_times[None, :]
+    blk = _tau_block(disturbance, times.reshape(-1), n)
+    return np.ascontiguousarray(blk.reshape(n_samples, S, blk.shape[1], 3))
+
+
+def _run_compiled(
+    law: CompiledLaw,
+    y: NDArray[np.float64],
+    coef: NDArray[np.float64],
+    tau_all: NDArray[np.float64],
+    method: int,
+    dt: float,
+    n_sub: int,
+    n_samples: int,
+    Ts: float,
+    rec_idx: NDArray[np.int64],
+    states: NDArray[np.float64],
+    us: NDArray[np.float64],
+    logs: dict[str, NDArray[np.float64]],
+    status: NDArray[np.int64],
+    t_end: NDArray[np.float64],
+    n_rec: int,
+) -> None:
+    """Run :mod:`mwip.sim.loop` and unpack its log columns into ``logs``."""
+    from mwip.sim import loop
+
+    n = y.shape[0]
+    width = sum(w for _, w in law.log_names)
+    log_arr = np.full((n, n_rec, width), np.nan)
+    if n >= loop.PARALLEL_MIN:
+        import numba
+
+        # dynamic scheduling in chunks of whole robots: a thread whose core is busy with
+        # another process takes fewer chunks instead of holding the others at the end
+        fn = loop.run_parallel
+        old = numba.set_parallel_chunksize(max(1, n // (16 * numba.get_num_threads())))
+    else:
+        fn, old = loop.run, None
+    try:
+        _call(fn, law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, states, us,
+              log_arr, status, t_end)  # fmt: skip
+    finally:
+        if old is not None:
+            numba.set_parallel_chunksize(old)
+    col = 0
+    for name, w in law.log_names:
+        logs[name] = log_arr[:, :, col : col + w]
+        col += w
+
+
+def _call(fn, law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, states, us,  # noqa: ANN001, ANN202, PLR0913
+          log_arr, status, t_end):  # fmt: skip
+    """``fn`` (:func:`mwip.sim.loop.run` or ``run_parallel``) with the law's arrays (fresh
+    writable C copies: one compiled signature whatever the controller keeps read-only)."""
+    f64 = np.float64
+    fn(y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, law.kind,
+       *(np.array(a, dtype=f64, order="C") for a in (law.gain, law.offset, law.coef, law.lam,
+                                                       law.scalars, law.Phi, law.Gamma, law.obs,
+                                                       law.C, law.Gam, law.D, law.IDinv,
+                                                       law.refs, law.cubic)),
+       states, us, log_arr, status, t_end)  # fmt: skip
 
 
 def _finish(

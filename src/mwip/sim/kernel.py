@@ -41,6 +41,10 @@ __all__ = [
     "FELL",
     "DIVERGED",
     "STATUS_NAMES",
+    "ROS2W",
+    "RK4",
+    "METHOD_NAMES",
+    "step_one",
     "advance",
     "advance_parallel",
     "rhs_batch",
@@ -48,6 +52,9 @@ __all__ = [
 
 GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
 OK, FELL, DIVERGED = 0, 1, 2
+#: Integrators: the linearly implicit ROS2-W (stiff plants) and classical RK4 (non-stiff).
+ROS2W, RK4 = 0, 1
+METHOD_NAMES = ("ROS2-W", "RK4")
 STATUS_NAMES = ("ok", "fell", "diverged")
 _FELL_ANGLE = 0.5 * math.pi
 
@@ -105,7 +112,55 @@ def _step(y, ur, ul, e0, e1, c, h):  # noqa: ANN001, ANN202 - compiled kernel
 
 
 @numba.njit(cache=True, inline="always")
-def _advance_one(i, y, u, tau, coef, h, n_sub, status, t0, t_end):  # noqa: ANN001, ANN202
+def _deriv(c, th, al, pd, td, ad, ur, ul, e):  # noqa: ANN001, ANN202 - compiled kernel
+    """Accelerations (2.33) and planar velocities (2.29) of one plant: 5 numbers."""
+    f1, f2, f3 = _gf(c[1], c[4], c[5], c[6], c[7], c[8], c[9], th, pd, td, ad, ur, ul,
+                     e[0], e[1], e[2])  # fmt: skip
+    a0, a1, a2 = _solve(c[0], c[1], c[2], c[3], c[4], c[6], c[7], c[8], c[9], th, 0.0,
+                        f1, f2, f3)  # fmt: skip
+    return a0, a1, a2, c[9] * pd * math.cos(al), c[9] * pd * math.sin(al)
+
+
+@numba.njit(cache=True, inline="always")
+def _rk4_step(y, ur, ul, e0, em, e1, c, h):  # noqa: ANN001, ANN202 - compiled kernel
+    """One classical RK4 step of one plant, in place on ``y`` (length 8); ``e0, em, e1`` the
+    external forces at the start, middle and end of the step."""
+    th, al, pd, td, ad = y[1], y[2], y[3], y[4], y[5]
+    h2 = 0.5 * h
+    a0, a1, a2, x1, y1 = _deriv(c, th, al, pd, td, ad, ur, ul, e0)
+    b0, b1, b2, x2, y2 = _deriv(c, th + h2 * td, al + h2 * ad, pd + h2 * a0, td + h2 * a1,
+                                ad + h2 * a2, ur, ul, em)  # fmt: skip
+    pd2, td2, ad2 = pd + h2 * a0, td + h2 * a1, ad + h2 * a2
+    c0, c1, c2, x3, y3 = _deriv(c, th + h2 * td2, al + h2 * ad2, pd + h2 * b0, td + h2 * b1,
+                                ad + h2 * b2, ur, ul, em)  # fmt: skip
+    pd3, td3, ad3 = pd + h2 * b0, td + h2 * b1, ad + h2 * b2
+    d0, d1, d2, x4, y4 = _deriv(c, th + h * td3, al + h * ad3, pd + h * c0, td + h * c1,
+                                ad + h * c2, ur, ul, e1)  # fmt: skip
+    pd4, td4, ad4 = pd + h * c0, td + h * c1, ad + h * c2
+    w = h / 6.0
+    y[0] += w * (pd + 2.0 * pd2 + 2.0 * pd3 + pd4)
+    y[1] += w * (td + 2.0 * td2 + 2.0 * td3 + td4)
+    y[2] += w * (ad + 2.0 * ad2 + 2.0 * ad3 + ad4)
+    y[3] += w * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
+    y[4] += w * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
+    y[5] += w * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
+    y[6] += w * (x1 + 2.0 * x2 + 2.0 * x3 + x4)
+    y[7] += w * (y1 + 2.0 * y2 + 2.0 * y3 + y4)
+
+
+@numba.njit(cache=True, inline="always")
+def step_one(yi, ur, ul, tau, k, ti, c, h, method):  # noqa: ANN001, ANN201 - compiled kernel
+    """Step ``k`` of a held interval for one plant with ``method`` (:data:`ROS2W` or
+    :data:`RK4`); ``tau`` holds the external forces at the step boundaries (ROS2-W, n_sub + 1
+    rows) or at the half steps (RK4, 2 n_sub + 1 rows)."""
+    if method == RK4:
+        _rk4_step(yi, ur, ul, tau[2 * k, ti], tau[2 * k + 1, ti], tau[2 * k + 2, ti], c, h)
+    else:
+        _step(yi, ur, ul, tau[k, ti], tau[k + 1, ti], c, h)
+
+
+@numba.njit(cache=True, inline="always")
+def _advance_one(i, y, u, tau, coef, h, n_sub, status, t0, t_end, method):  # noqa: ANN001, ANN202
     if status[i] != OK:
         return
     ti = i if tau.shape[1] > 1 else np.int64(0)
@@ -114,7 +169,7 @@ def _advance_one(i, y, u, tau, coef, h, n_sub, status, t0, t_end):  # noqa: ANN0
     c = coef[ci]
     ur, ul = u[i, 0], u[i, 1]
     for k in range(n_sub):
-        _step(yi, ur, ul, tau[k, ti], tau[k + 1, ti], c, h)
+        step_one(yi, ur, ul, tau, k, ti, c, h, method)
         finite = True
         for j in range(8):
             if not math.isfinite(yi[j]):
@@ -130,7 +185,7 @@ def _advance_one(i, y, u, tau, coef, h, n_sub, status, t0, t_end):  # noqa: ANN0
 
 
 @numba.njit(cache=True)
-def advance(y, u, tau, coef, h, n_sub, status, t0, t_end):  # noqa: ANN001, ANN201
+def advance(y, u, tau, coef, h, n_sub, status, t0, t_end, method=0):  # noqa: ANN001, ANN201
     """Advance every running plant ``n_sub`` steps of size ``h`` with ``u`` held.
 
     Parameters (all arrays C-contiguous float64 unless stated)
@@ -138,25 +193,27 @@ def advance(y, u, tau, coef, h, n_sub, status, t0, t_end):  # noqa: ANN001, ANN2
     y : (N, 8) state, updated in place
     u : (N, 2) wheel torques ``[u_r, u_l]`` held over the interval
     tau : (n_sub + 1, 1 or N, 3) external generalised forces at the step boundaries
+        (RK4: (2 n_sub + 1, 1 or N, 3), at the half steps)
     coef : (1 or N, 10) coefficients, :data:`mwip.models.reduced.COEFF_NAMES`
     status : (N,) int64, 0 ok / 1 fell / 2 diverged; updated in place
     t0 : time at the start of the interval; t_end : (N,) stop times, set on events
+    method : :data:`ROS2W` (0, default) or :data:`RK4` (1)
 
     Returns the number of plants still running.
     """
     running = 0
     for i in range(y.shape[0]):
-        _advance_one(i, y, u, tau, coef, h, n_sub, status, t0, t_end)
+        _advance_one(i, y, u, tau, coef, h, n_sub, status, t0, t_end, method)
         running += status[i] == OK
     return running
 
 
 @numba.njit(cache=True, parallel=True)
-def advance_parallel(y, u, tau, coef, h, n_sub, status, t0, t_end):  # noqa: ANN001, ANN201
+def advance_parallel(y, u, tau, coef, h, n_sub, status, t0, t_end, method=0):  # noqa: ANN001, ANN201
     """:func:`advance` with the plants spread over threads (for large batches)."""
     running = 0
     for i in numba.prange(y.shape[0]):
-        _advance_one(np.int64(i), y, u, tau, coef, h, n_sub, status, t0, t_end)
+        _advance_one(np.int64(i), y, u, tau, coef, h, n_sub, status, t0, t_end, method)
         running += status[i] == OK
     return running
 
@@ -239,7 +296,8 @@ def advance_batch(
     status: np.ndarray,
     t0: float,
     t_end: np.ndarray,
+    method: int = 0,
 ) -> int:
     """Dispatch to the serial or threaded kernel by batch size; returns the plants running."""
     fn = advance_parallel if y.shape[0] >= 256 else advance
-    return int(fn(y, u, tau, coef, h, n_sub, status, t0, t_end))
+    return int(fn(y, u, tau, coef, h, n_sub, status, t0, t_end, method))

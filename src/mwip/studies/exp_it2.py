@@ -68,7 +68,7 @@ robot).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -76,7 +76,8 @@ from matplotlib.figure import Figure
 
 from mwip.fuzzy.fig53 import Fig53Controller
 from mwip.fuzzy.pdc import PDCDesign, check_design, design_pdc, uncertainty_models
-from mwip.hardware.ablation import Ablation, run_ablation
+from mwip.hardware.ablation import Ablation, ablation_steps, run_ablation
+from mwip.hardware.elements import ELEMENTS
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms
 from mwip.params import Params
@@ -354,11 +355,20 @@ def _why(
 
 def _ablation(
     cfg: Mapping[str, Any], tw: Twin, rows: Sequence[Row], pdc: PDCDesign, duration: float,
-    osc_window: float, rms_window: tuple[float, float], plant: Params, nominal: Params,
+    osc_window: float, rms_window: tuple[float, float], plant: Params | None = None,
+    nominal: Params | None = None, *, merged: bool = True,
 ) -> Ablation:  # fmt: skip
-    """Every run of the batch on Case 1 of ``plant`` (designs on ``nominal``): the ideal
-    robot, then the twin's elements added in turn (one batched run per run: its Fig. 5.3 law
-    drives the 13 twins); quantities of :func:`run_metrics` plus ``fell`` and ``t_end``."""
+    """Every run of the batch on Case 1 of ``plant`` (designs on ``nominal``; default: the
+    book's): the ideal robot, then the twin's elements added in turn; quantities of
+    :func:`run_metrics` plus ``fell`` and ``t_end``, the book's claim per experiment judged at
+    every step.
+
+    ``merged`` (default): all runs x steps as one batched twin run (one Fig. 5.3 controller of
+    ``len(rows) x 13`` rows: one FLS call per kind and sample for all of them, a third of the
+    cost), every row with the IMU noise of a single run like the batches of
+    :func:`mwip.hardware.ablation.run_ablation`; ``merged=False``: that function, one batched
+    run per run (the same numbers, tested)."""
+    base, nominal = book_robot(plant, nominal)
     by_name = {r.name: r for r in rows}
 
     def fn(res: SimResult, run: str, case: int) -> dict[str, float]:
@@ -375,17 +385,44 @@ def _ablation(
 
         return f"Exp {e}: T1 oscillates or keeps an error; IT2 stable and accurate", test
 
-    def factory(r: Row) -> Any:
-        return lambda: Fig53Controller([pdc], [r.kind], [r.p_d], [r.alpha_d],
-                                       params=nominal, Ts=tw.Ts)  # fmt: skip
+    claims = [claim(e) for e in EXPERIMENTS]
+    plant = case_plant(1, base=base)
+    kw = {"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
+          "record_every": cfg["record_every"], "seed": cfg["seed"]}  # fmt: skip
+    if not merged:
 
-    return run_ablation(
-        [(r.name, factory(r)) for r in rows], tw, cases=(1,), metrics=fn,
-        plant=lambda case: case_plant(1, base=plant),
-        run_kwargs={"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
-                    "record_every": cfg["record_every"], "seed": cfg["seed"]},
-        claims=[claim(e) for e in EXPERIMENTS],
-    )  # fmt: skip
+        def factory(r: Row) -> Any:
+            return lambda: Fig53Controller([pdc], [r.kind], [r.p_d], [r.alpha_d],
+                                           params=nominal, Ts=tw.Ts)  # fmt: skip
+
+        return run_ablation([(r.name, factory(r)) for r in rows], tw, cases=(1,), metrics=fn,
+                            plant=lambda case: plant, run_kwargs=kw,
+                            claims=claims)  # fmt: skip
+    steps = ablation_steps()
+    batch = [(r, step, elements) for r in rows for step, elements in steps]
+    ctrl = Fig53Controller([pdc] * len(batch), [r.kind for r, _, _ in batch],
+                           [r.p_d for r, _, _ in batch], [r.alpha_d for r, _, _ in batch],
+                           params=nominal, Ts=tw.Ts)  # fmt: skip
+    full = replace(tw, elements=frozenset(ELEMENTS), ideal_sensors=False, ideal_actuator=False)
+    res = run_on_twin(ctrl, 1, twin=full, plant=plant, rows=[e for _, _, e in batch],
+                      **{**kw, "q0": np.tile(kw["q0"], (len(batch), 1))})  # fmt: skip
+    metrics: dict[str, float] = {}
+    for i, (r, step, _) in enumerate(batch):
+        for q, v in fn(res.plant(i), r.name, 1).items():
+            metrics[f"ablation.{step}.{r.name}.case1.{q}"] = float(v)
+    ab = Ablation(metrics, steps, [r.name for r in rows], (1,), [t for t, _ in claims])
+    for step, _ in steps:
+        m = ab.step_metrics(step)
+        ab.claims[step] = [_judge(test, m) for _, test in claims]
+    return ab
+
+
+def _judge(test: Any, m: Mapping[str, float]) -> bool | None:
+    """A claim's verdict at one ablation step (``None``: its runs are not in the batch)."""
+    try:
+        return bool(test(m))
+    except KeyError:
+        return None
 
 
 def run(ctx: StudyContext) -> dict[str, Any]:

@@ -10,10 +10,14 @@ Ctrl-C discards the staging folder and leaves ``out`` as it was.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
+import os
 import platform
 import queue as queue_module
+import signal
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -28,12 +32,13 @@ import scipy
 
 from mwip.hardware.twin import Twin
 from mwip.hardware.twin_config import twin_to_toml
-from mwip.io import write_json_atomic
+from mwip.io import write_json_atomic, write_text_atomic
+from mwip.outdir import MARKER, MARKER_TEXT
 from mwip.params import Params
 from mwip.report.html import write_report
 from mwip.report.posters import draw_poster
 from mwip.report.results import RUN_RECORD, load_run_record
-from mwip.report.staging import Staging
+from mwip.report.staging import Staging, signals_held
 from mwip.sim.engine import RUN_END_HOOKS
 from mwip.studies import registry, settings
 
@@ -70,8 +75,35 @@ _current_study: list[str] = [""]
 
 
 def _init_worker(q: Any) -> None:
-    """Worker start-up: report each finished simulation run of the current study on ``q``."""
+    """Worker start-up: report each finished simulation run of the current study on ``q``.
+
+    Workers ignore SIGINT: Ctrl-C reaches the whole process group, and the parent, not each
+    worker, decides what happens (it stops them, :func:`_stop_pool`).
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     RUN_END_HOOKS.append(lambda _res: q.put(_current_study[0]))
+    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+
+
+def _exit_with_parent(parent: int) -> None:
+    """A worker whose parent is gone (killed outright, SIGKILL or SIGTERM) stops too,
+    instead of finishing its study for nobody."""
+    while os.getppid() == parent:
+        time.sleep(0.5)
+    os._exit(1)
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop ``pool`` at once: kill its workers (their studies are abandoned), then reap them,
+    so that nothing is left for the interpreter to join at exit."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.kill()
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        with contextlib.suppress(Exception):
+            proc.join(timeout=1.0)
 
 
 def _counting_hook(name: str, on_run: Callable[[str], None] | None) -> Any:
@@ -175,27 +207,61 @@ def run_studies(
                         done(fut.result())
                 _drain(queue, on_run)
             except BaseException:
-                pool.shutdown(wait=False, cancel_futures=True)
+                _stop_pool(pool)
                 raise
             pool.shutdown()
-        record = load_run_record(out) if set(order) - set(names) else {}
-        studies = dict(record.get("studies", {}))
-        for name in names:
-            _, doc, error, wall = outcomes[name]
-            studies[name] = {"wall_s": round(wall, 3), "error": error,
-                             "settings": settings_of(name, overrides.get(name))}  # fmt: skip
-        record.update(_environment())
-        record.update({
-            "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
-            "quick": quick, "studies": {n: studies[n] for n in order if n in studies},
-            "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
-            "damping": damping, "twin": twin_to_toml(twin),
-        })  # fmt: skip
-        write_json_atomic(stage.path / RUN_RECORD, record)
-        ok = [n for n in names if outcomes[n][1] is not None]
-        stage.commit([*ok, RUN_RECORD])
-    write_report(out)
+        with stage.lock():  # OUT's record and report are read and replaced as one
+            record = load_run_record(out) if set(order) - set(names) else {}
+            studies = dict(record.get("studies", {}))
+            for name in names:
+                _, doc, error, wall = outcomes[name]
+                studies[name] = {"wall_s": round(wall, 3), "error": error,
+                                 "settings": settings_of(name, overrides.get(name))}  # fmt: skip
+            record.update(_environment())
+            record.update({
+                "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
+                "quick": quick, "studies": {n: studies[n] for n in order if n in studies},
+                "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
+                "damping": damping, "twin": twin_to_toml(twin),
+            })  # fmt: skip
+            write_json_atomic(stage.path / RUN_RECORD, record)
+            write_text_atomic(stage.path / MARKER, MARKER_TEXT)
+            ok = [n for n in names if outcomes[n][1] is not None]
+            _stage_report(stage.path, out, ok)
+            # the old report goes first, the new one last, after the run record it was made
+            # from: at any moment OUT's index.html is absent or matches OUT's run.json (and
+            # Ctrl-C is held back until the commit is done)
+            with signals_held():
+                stage.commit([*ok, MARKER, RUN_RECORD, REPORT], retire=(REPORT,))
     return record
+
+
+REPORT = "index.html"
+
+
+def _stage_report(stage: Path, out: Path, ok: list[str]) -> None:
+    """Write the report of OUT as it will be after the commit into the staging folder: the
+    studies of ``ok`` from the staging folder, everything else the report reads from OUT
+    (other studies, ``compare-*``, a claims campaign) linked in while it is rendered."""
+    import shutil
+
+    for name in registry.names():
+        if name not in ok:
+            shutil.rmtree(stage / name, ignore_errors=True)  # a failed study's partial output
+    links = []
+    try:
+        entries = sorted(out.iterdir()) if out.is_dir() else []
+        for old in entries:
+            dst = stage / old.name
+            if old.name.startswith(".") or old.name in ok or dst.exists() or dst.is_symlink():
+                continue
+            if old.is_dir() and not old.is_symlink():
+                dst.symlink_to(old.resolve(), target_is_directory=True)
+                links.append(dst)
+        write_report(stage)
+    finally:
+        for link in links:
+            link.unlink(missing_ok=True)
 
 
 def _longest_first(names: list[str]) -> list[str]:

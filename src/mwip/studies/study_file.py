@@ -42,6 +42,7 @@ _TABLES = {
     "settings": (),
     "twin": (),  # the twin's [twin] tables (mwip.hardware.twin_config)
     "open": (),  # documentation of the settings the book leaves open (settings.open_settings)
+    "ranges": (),  # the study's allowed values (settings.ranges), accepted unchanged
     "report": (),  # the texts of the HTML report (settings.report_texts); ignored in a run
 }
 
@@ -74,24 +75,35 @@ def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
     """Read and validate a study file (see the module docstring).
 
     ``damping`` (the CLI's ``--damping``), when given, replaces the file's ``[robot] damping``.
+    Every error is a one-line ``ValueError`` starting with the file's name.
     """
-    from mwip.studies import study_names
-
-    known = study_names()
     path = Path(path)
     data = read_toml(path, "study file")
+    try:
+        return _parse(path, data, damping)
+    except ValueError as exc:
+        raise ValueError(f"study file {str(path)!r}: {exc}") from None
+
+
+def _parse(path: Path, data: dict[str, Any], damping: str | None) -> StudyFile:
+    from mwip.studies import study_names
+    from mwip.studies.settings import packaged_ranges_text
+
+    known = study_names()
+    tables_free = ("settings", "open", "ranges", "report", "twin")  # keys not checked here
+
     for table, body in data.items():
         if table not in _TABLES:
-            raise ValueError(f"{path.name}: unknown table [{table}]; allowed: {', '.join(_TABLES)}")
+            raise ValueError(f"unknown table [{table}]; allowed: {', '.join(_TABLES)}")
         if not isinstance(body, dict):
             raise ValueError(f"{path.name}: [{table}] must be a table")
         for key in body:
-            if table not in ("settings", "open", "report", "twin") and key not in _TABLES[table]:
+            if table not in tables_free and key not in _TABLES[table]:
                 allowed = ", ".join(_TABLES[table])
                 raise ValueError(f"[{table}] {key}: unknown key; allowed: {allowed}")
     study = data.get("study", {})
     name = study.get("name")
-    if name not in known:
+    if not isinstance(name, str) or name not in known:
         raise ValueError(f"[study] name must be one of {', '.join(known)}; got {name!r}")
     quick = study.get("quick", False)
     if not isinstance(quick, bool):
@@ -107,6 +119,11 @@ def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
                    folder, reading)  # fmt: skip
     nominal = _robot(robot.get("nominal", "nominal"), "nominal",
                      book_params("nominal", reading), folder, reading)  # fmt: skip
+    if "ranges" in data and data["ranges"] != packaged_ranges_text(name):
+        raise ValueError(
+            f"[ranges] is the study's own table of allowed values and cannot be changed; "
+            f"remove it or copy it unchanged from `mwip scenario {name}`"
+        )
     overrides = validate(name, data.get("settings", {}))
     return StudyFile(path=path, name=name, quick=quick, plant=plant, nominal=nominal,
                      settings=overrides, twin=_twin(robot.get("twin"), data.get("twin"),

@@ -10,10 +10,11 @@ durations); the controllers sample at the twin's ``Ts``.
 
 Every Chapter 6 study also runs the ablation of :mod:`mwip.hardware.ablation`: the ideal
 robot, then each physical element added in turn (cumulative, in the order of
-:data:`mwip.hardware.elements.ELEMENTS`), one batched twin run per controller and case
-. Its table goes to ``ablation.md`` and ``ablation.html`` in the study's
-folder, named in metrics.json under ``settings.ablation_table`` (:data:`ABLATION_FIELD`), and
-its numbers are the evidence of a claim that fails on the full twin (:func:`fall_evidence`).
+:data:`mwip.hardware.elements.ELEMENTS`), one batched twin run per controller and case.
+Its tables go to ``ablation.md`` and ``ablation.html`` in the study's folder
+(:func:`write_ablation`), named in metrics.json under ``settings.ablation_table``
+(:data:`ABLATION_FIELD`), and its numbers are the evidence of a claim that fails on the full
+twin (:func:`fall_evidence`: where a run stops balancing, :func:`balances`).
 """
 
 from __future__ import annotations
@@ -39,7 +40,6 @@ __all__ = [
     "fall_evidence",
     "input_gain_ratio",
     "payload_evidence",
-    "finite",
     "first_fall",
     "balances",
     "BALANCE_RMS",
@@ -194,8 +194,3 @@ def fall_evidence(ab: Ablation, run: str, case: int, label: str | None = None) -
     if again:
         text += f" (balances again from `{again[0]}` on)"
     return text
-
-
-def finite(x: Any) -> bool:
-    """A metric that is a finite number (``None``/NaN: the run fell)."""
-    return x is not None and bool(np.isfinite(x))

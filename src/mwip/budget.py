@@ -1,0 +1,102 @@
+"""Bounded work: the cost of a simulation is estimated before it starts and a run above the
+budget is refused with one line saying what it would need.
+
+A run of ``n`` plants over ``n_samples = duration / Ts`` sample periods with ``n_sub = Ts / dt``
+integration steps per period costs
+
+- ``steps = n * n_samples * n_sub`` plant integration steps (the time: the compiled kernel
+  does some 10^7 of them a second on one core, and each sample period also costs a call of
+  the controller in Python);
+- ``bytes = n * n_rec * 8 * 10 * 3`` of records (``n_rec = n_samples / record_every + 1``
+  rows of 8 states and 2 inputs, float64; the factor 3 covers the controller's logs and the
+  copies made by :class:`~mwip.sim.SimResult` and its writers).
+
+The defaults (:data:`DEFAULT`) allow every study of the book with room to spare; raise them
+with ``Budget(max_steps=..., max_bytes=...)`` (``simulate(..., budget=...)``) or on the CLI
+with ``--max-steps`` and ``--max-memory``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["Budget", "BudgetError", "DEFAULT", "Cost", "estimate"]
+
+#: bytes per recorded row and plant: 10 float64 values, times 3 for logs and copies
+ROW_BYTES = 8 * 10 * 3
+
+
+#: rough speeds for :meth:`Cost.seconds`: kernel steps per second, Python time per sample
+STEPS_PER_S = 1e7
+SAMPLE_S = 2e-5
+
+
+class BudgetError(ValueError):
+    """A run would exceed its budget (a ``ValueError``: the input asks for too much)."""
+
+
+@dataclass(frozen=True)
+class Cost:
+    """Estimated cost of a run: integration steps, sample periods, bytes of records."""
+
+    steps: float
+    samples: float
+    bytes: float
+
+    def seconds(self) -> float:
+        """A rough wall time on one core: ``steps / 1e7 + samples * 2e-5`` s (the compiled
+        kernel's rate and the per-sample Python work of a simple controller)."""
+        return self.steps / STEPS_PER_S + self.samples * SAMPLE_S
+
+    def text(self) -> str:
+        return (
+            f"{self.steps:.3g} integration steps, {self.samples:.3g} sample periods, "
+            f"{self.bytes / 2**30:.3g} GiB of records"
+        )
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Upper bounds on one run: integration steps (all plants together), sample periods
+    (each one a Python call of the controller) and bytes of records."""
+
+    max_steps: float = 2e9
+    max_samples: float = 2e7
+    max_bytes: float = 4 * 2**30
+
+    def __post_init__(self) -> None:
+        for name in ("max_steps", "max_samples", "max_bytes"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not v > 0:
+                raise ValueError(f"Budget {name} must be a number > 0, got {v!r}")
+
+    def check(self, cost: Cost, what: str = "this run", hint: str | None = None) -> None:
+        """Raise :class:`BudgetError` when ``cost`` exceeds a bound (``hint``: what to do)."""
+        over = []
+        if cost.steps > self.max_steps:
+            over.append(f"{cost.steps:.3g} integration steps (budget {self.max_steps:.3g})")
+        if cost.samples > self.max_samples:
+            over.append(f"{cost.samples:.3g} sample periods (budget {self.max_samples:.3g})")
+        if cost.bytes > self.max_bytes:
+            over.append(
+                f"{cost.bytes / 2**30:.3g} GiB of memory (budget {self.max_bytes / 2**30:.3g} GiB)"
+            )
+        if over:
+            hint = hint or (
+                "shorten the duration, lengthen Ts or dt, or raise the budget "
+                "(CLI: --max-steps, --max-memory; API: budget=Budget(...))"
+            )
+            raise BudgetError(f"{what} would need {' and '.join(over)}; {hint}")
+
+
+DEFAULT = Budget()
+
+
+def estimate(duration: float, Ts: float, dt: float, n: int = 1, record_every: int = 1) -> Cost:
+    """The :class:`Cost` of ``n`` plants over ``duration`` (see the module docstring)."""
+    samples = max(round(duration / Ts), 1)
+    n_sub = max(round(Ts / dt), 1)
+    rows = math.ceil(samples / max(record_every, 1)) + 1
+    return Cost(steps=float(n) * samples * n_sub, samples=float(samples),
+                bytes=float(n) * rows * ROW_BYTES)  # fmt: skip

@@ -1,0 +1,86 @@
+"""Output folders mwip may write into.
+
+mwip writes only into a folder that it created or marked as its own, or an empty one: its
+results replace whole entries (a study's folder, ``index.html``, ``run.json``), and in a
+user's folder those names may be the user's files. A folder becomes mwip's when mwip first
+writes into it: it gets the marker file :data:`MARKER`. Any other folder (not empty, no
+marker) is refused unless the user names it with ``--force``; the current folder by an empty
+name (``--out ""``) is always refused.
+
+:func:`check` decides without writing anything (so a refused run changes nothing);
+:func:`claim` creates the folder and its marker when the results are about to be written.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from mwip.io import write_text_atomic
+
+__all__ = ["MARKER", "check", "claim", "is_owned"]
+
+#: The marker file: its presence says the folder is mwip's output folder.
+MARKER = ".mwip-output"
+MARKER_TEXT = (
+    "This folder holds mwip results. mwip replaces the entries it writes here "
+    "(<study>/, index.html, run.json, timeseries.*, summary.json).\n"
+)
+
+
+def is_owned(out: Path) -> bool:
+    """Whether ``out`` carries mwip's marker file."""
+    return (Path(out) / MARKER).is_file()
+
+
+def check(out: Path | str, force: bool = False, option: str = "--out") -> Path:
+    """``out`` as a path if mwip may write into it; otherwise ``ValueError`` naming ``option``.
+
+    Allowed: a folder that does not exist yet (its parent may not exist either), an empty
+    folder, a folder with :data:`MARKER`, and with ``force`` any folder. Never allowed: an
+    empty name, a path that exists and is not a folder.
+    """
+    text = str(out)
+    if not text.strip():
+        raise ValueError(f"{option}: the folder name is empty; give a folder such as 'out'")
+    path = Path(out)
+    if path.is_symlink() and not path.is_dir():
+        raise ValueError(f"{option}: {text!r} is a symbolic link that does not lead to a folder")
+    if not path.exists():
+        for parent in path.absolute().parents:
+            if parent.exists():
+                if not parent.is_dir():
+                    raise ValueError(f"{option}: {str(parent)!r} is not a folder")
+                if not os.access(parent, os.W_OK | os.X_OK):
+                    raise ValueError(f"{option}: cannot create a folder in {str(parent)!r}")
+                break
+        return path
+    if not path.is_dir():
+        raise ValueError(f"{option}: {text!r} exists and is not a folder")
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise ValueError(f"{option}: {text!r} is not writable")
+    if force or is_owned(path):
+        return path
+    try:
+        entries = [e for e in os.listdir(path) if e != MARKER]
+    except OSError as exc:
+        raise ValueError(f"{option}: cannot read {text!r}: {exc.strerror or exc}") from None
+    if entries:
+        shown = ", ".join(sorted(entries)[:3]) + (", ..." if len(entries) > 3 else "")
+        raise ValueError(
+            f"{option}: {text!r} is not empty ({shown}) and is not an mwip output folder "
+            f"(no {MARKER}); give a new or empty folder, or add --force to write into it"
+        )
+    return path
+
+
+def claim(out: Path) -> Path:
+    """Create ``out`` (if needed) and its marker file; call after :func:`check`."""
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        if not is_owned(out):
+            write_text_atomic(out / MARKER, MARKER_TEXT)
+    except OSError as exc:
+        raise ValueError(f"--out: cannot write into {str(out)!r}: {exc.strerror or exc}") from None
+    return out
