@@ -539,4 +539,4 @@ def _figure(
     return fig
 
 
-STUDY = Study(NAME, SOURCE, run, place=(6, 17), cost=20)
+STUDY = Study(NAME, SOURCE, run, place=(6, 17), cost=8)
