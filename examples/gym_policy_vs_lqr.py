@@ -64,8 +64,9 @@ def main(iterations: int = 40) -> dict[str, float]:
     results = {
         "lqr": episode_returns(linear(-K), seed=123).mean(),
         "learned": episode_returns(linear(W), seed=123).mean(),
-        "random": episode_returns(lambda o: rng.uniform(-5.6, 5.6, (o.shape[0], 2)),
-                                  seed=123).mean(),  # fmt: skip
+        "random": episode_returns(
+            lambda o: rng.uniform(-5.6, 5.6, (o.shape[0], 2)), seed=123
+        ).mean(),  # fmt: skip
     }
     for name, value in results.items():
         print(f"{name:>8}: mean return {value:9.1f} (max 2000 = upright and still for 10 s)")

@@ -40,7 +40,7 @@ def _ordered(key: str, kinds: tuple[str, ...]) -> Callable[[Mapping[str, float]]
 
 
 def hodosmc(study: str, twin: Twin, quick: bool, alone: bool = False) -> Ablation:
-    cfg = {**settings.current(study), "Ts": twin.Ts}  # the controllers sample at the twin's Ts
+    cfg = {**settings.defaults(study), "Ts": twin.Ts}  # the controllers sample at the twin's Ts
     q1d = cfg["speed"]
     duration = 4.0 if quick else cfg["duration"]
     obstacle = study == exp_hodosmc.NAME_OBSTACLE
@@ -88,7 +88,7 @@ def hodosmc(study: str, twin: Twin, quick: bool, alone: bool = False) -> Ablatio
 
 
 def asta(twin: Twin, quick: bool, alone: bool = False) -> Ablation:
-    cfg = {**settings.current(exp_asta.NAME), "Ts": twin.Ts}
+    cfg = {**settings.defaults(exp_asta.NAME), "Ts": twin.Ts}
     duration = 4.0 if quick else cfg["duration"]
     window = (2.0, duration) if quick else tuple(cfg["rms_window"])
     base = rms_metrics(window)

@@ -339,11 +339,11 @@ seeds = { range = [0, 9], why = "test: any seed" }
 def synthetic_study(monkeypatch):
     """A study 'synthetic' whose file declares open settings and whose claims are decided on
     them: 'gain-above' holds iff gain > 0.5; the second claim (no id) iff seeds[0] is even."""
-    from mwip import studies
-    from mwip.studies import settings
+    from mwip.studies import registry, settings
+    from mwip.studies.study import Study
 
-    def run(out, *, quick=False):
-        s = settings.current("synthetic")
+    def run(ctx):
+        s = ctx.settings
         return {"claims": [
             {"id": "gain-above", "book": "Sec. 0", "text": "gain above 0.5",
              "holds": s["gain"] > 0.5},
@@ -351,7 +351,8 @@ def synthetic_study(monkeypatch):
         ]}  # fmt: skip
 
     real_text = settings.packaged_text
-    monkeypatch.setitem(studies.STUDIES, "synthetic", (run, "test"))
+    declared = {**registry._discover(), "synthetic": Study("synthetic", "test", run, place=(0,))}
+    monkeypatch.setattr(registry, "_discover", lambda: declared)
     monkeypatch.setattr(
         settings, "packaged_text", lambda n: SYNTHETIC if n == "synthetic" else real_text(n)
     )

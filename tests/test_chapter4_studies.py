@@ -12,6 +12,7 @@ from mwip.params import NOMINAL, REAL, REAL_LITERAL
 from mwip.studies import (
     asta_balance,
     asta_velocity,
+    run_study,
     settings,
     tsmc_circle,
     tsmc_equilibrium,
@@ -40,7 +41,7 @@ class _Runs(dict):
         self.out = out
 
     def __missing__(self, name: str) -> tuple[dict, Path]:
-        self[name] = (STUDIES[name][0].run(self.out, quick=True), self.out / name)
+        self[name] = (run_study(name, self.out, quick=True), self.out / name)
         return self[name]
 
 
@@ -53,7 +54,8 @@ def docs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[dict, Path
 def test_schema(docs, name):
     doc, folder = docs[name]
     assert json.loads((folder / "metrics.json").read_text()) == doc
-    assert doc["study"] == name and doc["source"] == STUDIES[name][0].SOURCE
+    module = STUDIES[name][0]
+    assert doc["study"] == name and doc["source"] == module.STUDY.source == module.SOURCE
     assert STUDIES[name][1] <= set(doc["metrics"])
     assert set(doc["published"]) <= set(doc["metrics"])
     assert all(r["status"] in ("ok", "fell", "diverged") for r in doc["runs"].values())
@@ -104,9 +106,10 @@ def test_tsmc_equilibrium_claims(docs):
 
 def test_tsmc_equilibrium_step_halved(tmp_path):
     """SPEC.md section 2: halving the integration step does not change the result."""
-    base = tsmc_equilibrium.run(tmp_path / "a", quick=True)["metrics"]
-    with settings.using("tsmc-equilibrium", {"dt": 0.0005}):
-        half = tsmc_equilibrium.run(tmp_path / "b", quick=True)["metrics"]
+    base = run_study("tsmc-equilibrium", tmp_path / "a", quick=True)["metrics"]
+    half = run_study("tsmc-equilibrium", tmp_path / "b", quick=True, overrides={"dt": 0.0005})[
+        "metrics"
+    ]
     # "materially": 1 % of the claims' 0.01 thresholds (rad, m/s, norm)
     for key in ("tsmc.abs_theta_at_Tf", "tsmc.abs_alpha_at_Tf", "tsmc.final_v", "lqr.final_norm"):
         assert half[key] == pytest.approx(base[key], abs=1e-4), key

@@ -162,30 +162,25 @@ def test_check_smc(capsys):
 
 
 def test_reproduce_reports_a_failing_study_and_runs_the_others(tmp_path, capsys, monkeypatch):
-    import mwip.studies as studies
-    from mwip.studies.common import metrics_document, write_metrics
+    from mwip.studies import registry
+    from mwip.studies.study import Study, save_study
 
-    def good(out, quick=False):
-        doc = metrics_document(
-            "good",
-            "test",
-            {"a.x": 1.0},
-            {},
-            [{"id": "x", "text": "x", "holds": True, "book": False, "keys": ["a.x"]}],
-            {"a": {"status": "ok"}},
-            {},
-        )
-        write_metrics(out / "good", doc)
-        return doc
+    def good(ctx):
+        return save_study(ctx, metrics={"a.x": 1.0},
+                          claims=[{"id": "x", "text": "x", "holds": True, "book": False,
+                                   "keys": ["a.x"]}],
+                          runs={"a": {"status": "ok"}}, settings={})  # fmt: skip
 
-    def bad(out, quick=False):
+    def bad(ctx):
         raise RuntimeError("boom")
 
     old = tmp_path / "bad"
     old.mkdir()
     (old / "metrics.json").write_text("{}")  # an earlier result of the failing study is kept
     (tmp_path / ".mwip-output").write_text("")  # ... in an earlier mwip output folder
-    monkeypatch.setattr(studies, "STUDIES", {"bad": (bad, "x"), "good": (good, "y")})
+    declared = {"bad": Study("bad", "x", bad, place=(1,)), "good": Study("good", "test", good,
+                                                                      place=(2,))}  # fmt: skip
+    monkeypatch.setattr(registry, "_discover", lambda: declared)
     args = ["reproduce", "--out", str(tmp_path), "--quick", "-j", "1", "-v", "--no-compare"]
     assert main(args) == 1
     cap = capsys.readouterr()

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mwip.hardware.twin import Twin
-from mwip.studies import exp_it2, settings
+from mwip.studies import exp_it2, run_study, settings
 from mwip.studies.common import CAUSES
 from mwip.studies.twin_settings import ABLATION_FIELD, study_settings
 
@@ -31,7 +31,7 @@ def pdc() -> Any:
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Any]]:
     out = tmp_path_factory.mktemp("exp-it2")
-    return out, exp_it2.run(out, quick=True)
+    return out, run_study("exp-it2", out, quick=True)
 
 
 def _ok(v: Any, tol: float) -> bool:
@@ -129,7 +129,7 @@ def test_it2_full_duration_upright_and_converging(it2_full: dict[str, Any]) -> N
     runs = it2_full["runs"]
     for r in it2_full["rows"]:
         res = runs[r.name]
-        duration = settings.current("exp-it2")["duration"]
+        duration = settings.defaults("exp-it2")["duration"]
         assert res.status[0] == "ok" and res.t_end[0] == pytest.approx(duration)
         tail = res.t >= res.t[-1] - 5.0
         assert np.ptp(res.theta[tail]) < exp_it2.OSC_TOL

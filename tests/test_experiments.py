@@ -11,7 +11,7 @@ import pytest
 from mwip.hardware.ablation import Ablation, ablation_steps
 from mwip.hardware.elements import ELEMENTS
 from mwip.hardware.twin import Twin
-from mwip.studies import exp_asta, exp_hodosmc
+from mwip.studies import exp_asta, exp_hodosmc, get_study, run_study
 from mwip.studies.common import CAUSES
 from mwip.studies.twin_settings import ABLATION_FIELD, fall_evidence, first_fall, study_settings
 
@@ -44,7 +44,8 @@ def _ordered(m: dict, keys: list[str]) -> bool:
 
 @pytest.mark.parametrize("study", list(RUNNERS))
 def test_quick_experiment_outputs(study: str, tmp_path: Path) -> None:
-    doc = RUNNERS[study](tmp_path, quick=True)
+    doc = run_study(study, tmp_path, quick=True)
+    assert get_study(study).run is RUNNERS[study]
     folder = tmp_path / study
     on_disk = json.loads((folder / "metrics.json").read_text())
     assert on_disk == doc

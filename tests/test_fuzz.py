@@ -299,10 +299,10 @@ def test_cli_scenario_tables_and_values_swapped(shape, table, value):
 
 
 def _study_settings():
-    from mwip.studies import STUDIES, settings
+    from mwip.studies import settings, study_names
 
     out = []
-    for name in STUDIES:
+    for name in study_names():
         for key, default in settings.defaults(name).items():
             out.append((name, key, default))
     return out

@@ -21,22 +21,20 @@ from pathlib import Path
 
 import pytest
 
-import mwip.studies as studies
 from mwip.cli import main
 from mwip.outdir import MARKER
 from mwip.report import render_html
-from mwip.studies.common import metrics_document, write_metrics
+from mwip.studies import registry
+from mwip.studies.study import Study, save_study
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def _fake_study(name: str = "good"):
-    def run(out, quick=False):
+    def run(ctx):
         claim = {"id": "x", "text": "x", "holds": True, "book": False, "keys": ["a.x"]}
-        doc = metrics_document(name, "test", {"a.x": 1.0}, {}, [claim], {"a": {"status": "ok"}},
-                               {})  # fmt: skip
-        write_metrics(out / name, doc)
-        return doc
+        return save_study(ctx, metrics={"a.x": 1.0}, claims=[claim],
+                          runs={"a": {"status": "ok"}}, settings={})  # fmt: skip
 
     return run
 
@@ -44,8 +42,9 @@ def _fake_study(name: str = "good"):
 @pytest.fixture
 def fake_studies(monkeypatch):
     """Two instant studies in place of the book's (for output-folder behaviour)."""
-    monkeypatch.setattr(studies, "STUDIES", {"good": (_fake_study("good"), "x"),
-                                             "other": (_fake_study("other"), "y")})  # fmt: skip
+    declared = {"good": Study("good", "x", _fake_study("good"), place=(1,)),
+                "other": Study("other", "y", _fake_study("other"), place=(2,))}  # fmt: skip
+    monkeypatch.setattr(registry, "_discover", lambda: declared)
 
 
 def _err_line(capsys) -> str:

@@ -10,7 +10,7 @@ import pytest
 from mwip.fuzzy.pdc import BOOK_G1, BOOK_G2
 from mwip.fuzzy.ts_model import vertex_matrices
 from mwip.params import NOMINAL
-from mwip.studies import it2_balance
+from mwip.studies import it2_balance, run_study
 
 
 def _claim(doc: dict, cid: str) -> dict:
@@ -20,7 +20,7 @@ def _claim(doc: dict, cid: str) -> dict:
 
 
 def test_it2_balance_quick(tmp_path):
-    doc = it2_balance.run(tmp_path, quick=True)
+    doc = run_study("it2-balance", tmp_path, quick=True)
     folder = tmp_path / "it2-balance"
     on_disk = json.loads((folder / "metrics.json").read_text())
     assert on_disk == doc

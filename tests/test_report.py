@@ -21,7 +21,9 @@ import pytest
 
 from mwip.cli import main
 from mwip.report import Staging, load_results, summary_lines
-from mwip.studies import STUDIES
+from mwip.studies import study_names
+
+STUDIES = study_names()
 
 ARTIFACTS = Path(
     os.environ.get("MWIP_TEST_ARTIFACTS", Path(__file__).parent.parent / "test-artifacts")
@@ -53,7 +55,7 @@ def test_reproduce_writes_every_study_the_record_and_the_report(quick_reproducti
     assert lines[0] == f"Book claims: {held} of {len(book)} reproduce (damping reading units)"
     extras = [c for d in docs for c in d["claims"] if not c["book"]]
     assert f"extras of ours (not the book's claims): {sum(c['holds'] for c in extras)} of " \
-        f"{len(extras)} hold; 14 studies" in stdout  # fmt: skip
+        f"{len(extras)} hold; {len(STUDIES)} studies" in stdout  # fmt: skip
     assert len(lines) <= 3 * len(STUDIES) + 4
 
 
@@ -210,11 +212,12 @@ def test_report_command_compares_with_another_reading(synthetic, tmp_path, capsy
 @pytest.mark.parametrize("reading", ["units", "literal"])
 def test_reproduce_runs_the_other_damping_reading_too(tmp_path, monkeypatch, capsys, reading):
     """The verdicts of each reading come from a run on that reading's robot."""
-    import mwip.studies as studies
-    from mwip.studies import robot
+    from mwip.studies import registry
+    from mwip.studies.study import Study
 
-    def study(folder, quick=False):
-        dw = float(robot.plant().Dw)  # units: 1.28e-3, literal: 0.8 N m s/rad
+    def study(ctx):
+        folder = ctx.out.parent
+        dw = float(ctx.plant.Dw)  # units: 1.28e-3, literal: 0.8 N m s/rad
         holds = dw < 0.01
         claim = {"id": "speed", "text": "the robot reaches -7 rad/s", "holds": holds,
                  "book": True}  # fmt: skip
@@ -226,7 +229,8 @@ def test_reproduce_runs_the_other_damping_reading_too(tmp_path, monkeypatch, cap
         (folder / "lqr-gain" / "metrics.json").write_text(json.dumps(doc))
         return doc
 
-    monkeypatch.setattr(studies, "STUDIES", {"lqr-gain": (study, "x")})
+    declared = {"lqr-gain": Study("lqr-gain", "x", study, place=(1,))}
+    monkeypatch.setattr(registry, "_discover", lambda: declared)
     out = tmp_path / "out"
     assert main(["reproduce", "--quick", "--out", str(out), "-j", "1", "--damping", reading]) == 0
     other = "literal" if reading == "units" else "units"
@@ -278,18 +282,20 @@ def test_staging_discards_on_interrupt_and_keeps_unrelated_files(tmp_path):
 
 
 def test_interrupted_reproduce_leaves_earlier_results(tmp_path, monkeypatch, capsys):
-    import mwip.studies as studies
+    from mwip.studies import registry
+    from mwip.studies.study import Study
 
     out = tmp_path / "out"
     assert main(["run", "lqr-gain", "--quick", "--out", str(out)]) == 0
     before = (out / "lqr-gain" / "metrics.json").read_bytes()
 
-    def interrupted(folder, quick=False):
-        (folder / "lqr-gain").mkdir(parents=True)
-        (folder / "lqr-gain" / "metrics.json").write_text("half")
+    def interrupted(ctx):
+        ctx.out.mkdir(parents=True)
+        (ctx.out / "metrics.json").write_text("half")
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(studies, "STUDIES", {"lqr-gain": (interrupted, "x")})
+    declared = {"lqr-gain": Study("lqr-gain", "x", interrupted, place=(1,))}
+    monkeypatch.setattr(registry, "_discover", lambda: declared)
     assert main(["reproduce", "--quick", "--out", str(out), "-j", "1"]) == 130
     assert "interrupted" in capsys.readouterr().err
     assert (out / "lqr-gain" / "metrics.json").read_bytes() == before

@@ -8,11 +8,11 @@ import tomllib
 import pytest
 
 from mwip.cli import main
-from mwip.studies import STUDIES, settings
+from mwip.studies import registry, settings, study_names
 from mwip.studies.study_file import load_study_file
 
 
-@pytest.mark.parametrize("name", list(STUDIES))
+@pytest.mark.parametrize("name", study_names())
 def test_every_study_ships_a_study_file_that_loads(name, tmp_path):
     text = settings.packaged_text(name)
     data = tomllib.loads(text)
@@ -23,7 +23,24 @@ def test_every_study_ships_a_study_file_that_loads(name, tmp_path):
     path.write_text(text)
     sf = load_study_file(path)
     assert sf.name == name and sf.settings == data["settings"] and sf.quick is False
-    assert settings.current(name) == settings.defaults(name) == data["settings"]
+    assert {"title", "setup", "book", "gaps", "docs"} <= set(data["report"])  # the report's texts
+    assert registry.get(name).title == data["report"]["title"]
+    ctx = registry.context(name, tmp_path)
+    assert dict(ctx.settings) == settings.defaults(name) == data["settings"]
+    assert ctx.out == tmp_path / name and ctx.seed == data["settings"].get("seed", 0)
+
+
+def test_one_module_and_one_study_file_per_study():
+    """Every study file belongs to a registered study and every study has one; the registry
+    orders them by their place in the book."""
+    from importlib import resources
+
+    files = {p.name.removesuffix(".toml")
+             for p in resources.files("mwip.studies").joinpath("scenarios").iterdir()
+             if p.name.endswith(".toml")}  # fmt: skip
+    assert files == set(study_names())
+    places = [registry.get(n).place for n in study_names()]
+    assert places == sorted(places) and places[0][0] == 3 and places[-1][0] == 6
 
 
 def test_validation_names_the_field():
@@ -40,15 +57,15 @@ def test_validation_names_the_field():
     assert settings.validate("lqr-gain", {"theta0": -1}) == {"theta0": -1}  # int for a float
 
 
-def test_using_overrides_and_restores():
-    before = settings.current("lqr-gain")
-    with settings.using("lqr-gain", {"theta0": 0.3}):
-        assert settings.current("lqr-gain")["theta0"] == 0.3
-        assert settings.current("lqr-gain")["Ts"] == before["Ts"]
-    assert settings.current("lqr-gain") == before
-    with pytest.raises(RuntimeError), settings.using("lqr-gain", {"theta0": 0.3}):
-        raise RuntimeError
-    assert settings.current("lqr-gain") == before
+def test_context_overrides_without_state(tmp_path):
+    before = settings.defaults("lqr-gain")
+    ctx = registry.context("lqr-gain", tmp_path, overrides={"theta0": 0.3})
+    assert ctx.settings["theta0"] == 0.3 and ctx.settings["Ts"] == before["Ts"]
+    with pytest.raises(TypeError):  # read-only
+        ctx.settings["theta0"] = 0.4  # type: ignore[index]
+    assert registry.context("lqr-gain", tmp_path).settings["theta0"] == before["theta0"]
+    with pytest.raises(ValueError, match=r"^\[settings\] theta1: unknown"):
+        registry.context("lqr-gain", tmp_path, overrides={"theta1": 0.3})
 
 
 def test_scenario_command_and_a_study_file_with_settings(tmp_path, capsys):

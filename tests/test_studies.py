@@ -9,15 +9,15 @@ import pytest
 from scipy import signal
 
 from mwip.cli import main
-from mwip.studies import STUDIES
+from mwip.studies import get_study, run_study, study_names
 
 
-@pytest.mark.parametrize("name", list(STUDIES))
+@pytest.mark.parametrize("name", study_names())
 def test_study_quick_writes_schema(quick_reproduction, name):
     out, code, _ = quick_reproduction
     assert code == 0
     doc = json.loads((out / name / "metrics.json").read_text())
-    assert doc["study"] == name and doc["source"] == STUDIES[name][1]
+    assert doc["study"] == name and doc["source"] == get_study(name).source
     assert set(doc) == {"study", "source", "metrics", "published", "claims", "runs", "settings"}
     assert set(doc["published"]) <= set(doc["metrics"])  # published keys are also measured
     for run in doc["runs"].values():
@@ -44,7 +44,7 @@ def _claims(doc: dict) -> dict[str, dict]:
 def test_lqr_gain_study_claims(tmp_path):
     """Under the units reading the printed gain is reproduced only in its yaw-angle entry; the
     yaw-rate entry is the literal reading's (SPEC sections 2-3); our run claims hold."""
-    doc = STUDIES["lqr-gain"][0](tmp_path, quick=True)
+    doc = run_study("lqr-gain", tmp_path, quick=True)
     c, m = _claims(doc), doc["metrics"]
     assert {k: v["book"] for k, v in c.items()} == {
         "gain.rows_equal": True, "gain.yaw": True, "gain.pitch_speed": True,
@@ -67,7 +67,7 @@ def test_lqr_gain_study_claims(tmp_path):
 def test_do_comparison_quick_claims_and_keys(tmp_path):
     """The book's ordering fails, as a book inconsistency: |H_n(jw)| of the printed gains ranks
     them do2 < do4 < do3 (SPEC section 3: 4.1e-4, 5.9e-3, 2.9e-3 at 2 rad/s)."""
-    doc = STUDIES["do-comparison"][0](tmp_path, quick=True)
+    doc = run_study("do-comparison", tmp_path, quick=True)
     m, c = doc["metrics"], _claims(doc)
     keys = {f"do{n}.rms_d{j}" for n in (2, 3, 4) for j in (1, 2, 3)}
     assert keys <= set(m) and keys == set(doc["published"])
@@ -93,7 +93,7 @@ def test_do_comparison_quick_claims_and_keys(tmp_path):
 def test_hodosmc_vs_smc_quick_claims(tmp_path):
     """On the surface both controllers share the sliding dynamics: equal RMS pitch and speed
     (a tie, cause claim-definition); HODOSMC chatters less and holds the surface closer."""
-    doc = STUDIES["hodosmc-vs-smc"][0](tmp_path, quick=True)
+    doc = run_study("hodosmc-vs-smc", tmp_path, quick=True)
     m, c = doc["metrics"], _claims(doc)
     assert set(doc["runs"]) == {"hodosmc", "smc"}
     assert all(r["status"] == "ok" for r in doc["runs"].values())

@@ -1,4 +1,5 @@
-"""Every study runs on :mod:`mwip.studies.robot`'s plant and nominal model, read at call time."""
+"""Every study runs on its context's plant and nominal model (:class:`StudyContext`), never on
+module state, and shares code with other studies only through the library or a kit module."""
 
 from __future__ import annotations
 
@@ -11,13 +12,16 @@ import pytest
 
 import mwip.studies
 from mwip.params import NOMINAL, REAL
-from mwip.studies import robot, run_study
+from mwip.studies import registry, run_study
 
 STUDIES_DIR = Path(mwip.studies.__file__).parent
-#: robot.py holds the defaults; study_file.py maps a study file's "real"/"nominal" to the book's
-#: parameter sets (it chooses the robot, it does not run on one).
-ALLOWED = {"robot.py", "study_file.py"}
+#: registry.py holds the defaults, study.py names them (plant_label); study_file.py maps a
+#: study file's "real"/"nominal" to the book's parameter sets (it chooses the robot, it does
+#: not run on one).
+ALLOWED = {"registry.py", "study.py", "study_file.py"}
 STUDY_MODULES = sorted(p for p in STUDIES_DIR.glob("*.py") if p.name not in ALLOWED)
+#: modules that declare studies
+DECLARING = sorted({registry.get(n).run.__module__ for n in registry.names()})
 
 
 def _book_names(path: Path) -> list[str]:
@@ -41,11 +45,32 @@ def test_study_modules_found() -> None:
 
 @pytest.mark.parametrize("path", STUDY_MODULES, ids=lambda p: p.name)
 def test_no_study_module_uses_the_book_parameters_directly(path: Path) -> None:
-    assert _book_names(path) == [], f"{path.name}: use robot.plant() / robot.nominal()"
+    assert _book_names(path) == [], f"{path.name}: use ctx.plant / ctx.nominal"
 
 
-def _metrics(name: str, out: Path) -> dict:
-    return run_study(name, out, quick=True)["metrics"]
+def _imports(path: Path) -> set[str]:
+    """Modules ``path`` imports (``from a.b import c`` counts ``a.b`` and ``a.b.c``)."""
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            found |= {node.module} | {f"{node.module}.{a.name}" for a in node.names}
+    return found
+
+
+@pytest.mark.parametrize("module", DECLARING)
+def test_studies_do_not_import_each_other_or_module_state(module: str) -> None:
+    path = STUDIES_DIR / f"{module.rsplit('.', 1)[1]}.py"
+    imported = _imports(path)
+    others = {m for m in DECLARING if m != module}
+    assert not imported & others, f"{path.name} imports another study: {imported & others}"
+    assert "mwip.studies.robot" not in imported, f"{path.name}: use ctx.plant / ctx.nominal"
+    assert "mwip.studies.settings.current" not in imported
+
+
+def _metrics(name: str, out: Path, **kw) -> dict:
+    return run_study(name, out, quick=True, **kw)["metrics"]
 
 
 def _val(m: dict, key: str) -> float:
@@ -61,23 +86,20 @@ PLANT_KEYS = [f"{k}.{q}" for k in ("continuous", "sampled") for q in ("max_abs_u
 def test_lqr_gain_follows_the_robot(tmp_path: Path) -> None:
     base = _metrics("lqr-gain", tmp_path / "base")
     heavy = replace(REAL, mb=REAL.mb * 1.3, r=0.05)
-    with robot.using(plant=heavy):
-        assert robot.plant() is heavy and robot.nominal() is NOMINAL
-        on_plant = _metrics("lqr-gain", tmp_path / "plant")
+    ctx = registry.context("lqr-gain", tmp_path, plant=heavy)
+    assert ctx.plant is heavy and ctx.nominal is NOMINAL
+    on_plant = _metrics("lqr-gain", tmp_path / "plant", plant=heavy)
     # the design is unchanged, the closed loop is not
     assert all(on_plant[k] == base[k] for k in GAIN_KEYS)
     assert any(_val(on_plant, k) != _val(base, k) for k in PLANT_KEYS)
 
     model = replace(NOMINAL, r=0.035, l=NOMINAL.l * 1.2)
-    with robot.using(nominal=model):
-        assert robot.plant() is REAL and robot.nominal() is model
-        designed = _metrics("lqr-gain", tmp_path / "nominal")
+    ctx = registry.context("lqr-gain", tmp_path, nominal=model)
+    assert ctx.plant is REAL and ctx.nominal is model
+    designed = _metrics("lqr-gain", tmp_path / "nominal", nominal=model)
     assert all(designed[k] != base[k] for k in GAIN_KEYS)
 
-    # the defaults are back after the blocks, also after an exception inside one
-    with pytest.raises(RuntimeError), robot.using(plant=heavy, nominal=model):
-        raise RuntimeError
-    assert robot.plant() is REAL and robot.nominal() is NOMINAL
+    # nothing is left behind by a run on another robot: the defaults give the same numbers
     again = _metrics("lqr-gain", tmp_path / "again")
     assert all(
         again[k] == base[k] or (np.isnan(_val(again, k)) and np.isnan(_val(base, k))) for k in base
@@ -89,10 +111,8 @@ def test_chapter6_study_runs_on_the_robot(tmp_path: Path) -> None:
             for q in ("rms_theta", "max_abs_u")]  # fmt: skip
     base = _metrics("exp-asta", tmp_path / "base")
     other = replace(REAL, mb=REAL.mb * 1.2, Iby=REAL.Iby * 1.2)
-    with robot.using(plant=other):
-        moved = _metrics("exp-asta", tmp_path / "other")
+    moved = _metrics("exp-asta", tmp_path / "other", plant=other)
     # Case 1 is the user's robot, Case 2 the user's robot with the payload
     for c in (1, 2):
         ck = [k for k in keys if f".case{c}." in k]
         assert any(_val(moved, k) != _val(base, k) for k in ck), f"case {c} did not change"
-    assert robot.plant() is REAL

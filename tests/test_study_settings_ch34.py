@@ -8,13 +8,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from mwip.params import REAL
+from mwip.sim.disturbance import sinusoid_from_settings
 from mwip.studies import (
-    STUDIES,
     asta_balance,
     asta_velocity,
     do_comparison,
+    get_study,
     hodosmc_vs_smc,
-    robot,
+    run_study,
     settings,
     tsmc_circle,
     tsmc_equilibrium,
@@ -49,10 +51,10 @@ CHANGES = {
 def _expected(name):
     """The changed metric where it follows exactly from the override (else None: compared
     with a run on the defaults)."""
-    real = robot.plant()
+    real = REAL  # the default robot of a study run
     if name == "do-comparison":  # the sinusoid prediction scales with the amplitude
         cfg = settings.defaults(name)
-        th = do_comparison.predicted_rms(tuple(cfg["do4_v"]), do_comparison.disturbance(cfg))
+        th = do_comparison.predicted_rms(tuple(cfg["do4_v"]), sinusoid_from_settings(cfg))
         return pytest.approx(2 * th[0], rel=1e-12)
     if name == "asta-velocity":
         lam = settings.defaults(name)["lam"]
@@ -77,8 +79,7 @@ LISTS = {
 
 
 def _run(tmp_path, name, overrides):
-    with settings.using(name, overrides):
-        return MODULES[name].run(tmp_path, quick=True)
+    return run_study(name, tmp_path, quick=True, overrides=overrides)
 
 
 @pytest.mark.parametrize("name", list(CHANGES))
@@ -100,19 +101,6 @@ def test_an_override_changes_the_run_and_is_recorded(name, tmp_path):
     assert recorded == next(iter(change.values()))
 
 
-def test_each_study_reads_its_own_settings(tmp_path):
-    """asta-velocity and tsmc-circle reuse helpers of asta-balance and tsmc-equilibrium, but
-    with their own settings: the other study's overrides do not reach them."""
-    with settings.using("asta-balance", {"K": [20.0, 0.3], "dt": 0.00025}):
-        doc = _run(tmp_path, "asta-velocity", {"duration": 0.3})
-    assert doc["settings"]["K"] == settings.defaults("asta-velocity")["K"]
-    assert doc["settings"]["dt"] == 0.0005
-    with settings.using("tsmc-equilibrium", {"phi": 0.1, "dt": 0.0025}):
-        doc = _run(tmp_path, "tsmc-circle", {"duration": 0.3, "Ts_record": 0.01})
-    assert doc["settings"]["tsmc"]["switching"] == "sat(s/0.05)"
-    assert doc["settings"]["dt"] == 0.001 and doc["settings"]["Ts"] == 0.01
-
-
 @pytest.mark.parametrize("name", list(MODULES))
 def test_bad_overrides_name_the_key(name, tmp_path):
     with pytest.raises(ValueError, match=rf"^\[settings\] no_such_key: unknown for study '{name}'"):
@@ -129,7 +117,7 @@ def test_bad_overrides_name_the_key(name, tmp_path):
 @pytest.mark.parametrize("name", list(MODULES))
 def test_module_docstring_lists_the_settings(name):
     mod = MODULES[name]
-    assert mod.NAME == name and STUDIES[name][0] is mod.run
+    assert mod.NAME == name and get_study(name).run is mod.run
     for key in settings.defaults(name):
         assert f"``{key}``" in (mod.__doc__ or ""), key
 

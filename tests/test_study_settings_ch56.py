@@ -33,8 +33,7 @@ NUMBER_KEY = {
 
 def _run(name: str, out: Path, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """The metrics document of a quick run of ``name`` with ``overrides`` of its settings."""
-    with settings.using(name, overrides):
-        return run_study(name, out, quick=True)
+    return run_study(name, out, quick=True, overrides=overrides)
 
 
 def _same(x: Any, y: Any) -> bool:
@@ -72,7 +71,7 @@ def test_override_changes_a_metric(
     assert not _same(base["metrics"][metric], new["metrics"][metric])
     key, value = recorded
     assert new["settings"][key] == value and base["settings"][key] != value
-    assert settings.current(name) == settings.defaults(name)  # the override ends with the block
+    assert _run(name, tmp_path / "again")["settings"][key] != value  # no state is left behind
 
 
 def test_override_recorded_hodosmc_speed_obstacle(tmp_path: Path) -> None:
@@ -96,20 +95,17 @@ def test_override_recorded_exp_it2(tmp_path: Path) -> None:
 @pytest.mark.parametrize("name", STUDIES)
 def test_unknown_key_is_named(name: str) -> None:
     with pytest.raises(ValueError, match=r"\[settings\] no_such_key: unknown"):
-        with settings.using(name, {"no_such_key": 1.0}):
-            pass
+        settings.validate(name, {"no_such_key": 1.0})
 
 
 @pytest.mark.parametrize("name", STUDIES)
 def test_wrong_type_is_named(name: str) -> None:
     key = NUMBER_KEY[name]
     with pytest.raises(ValueError, match=rf"\[settings\] {key} must be a number"):
-        with settings.using(name, {key: "fast"}):
-            pass
+        settings.validate(name, {key: "fast"})
     if "record_every" in settings.defaults(name):  # the twin studies
         with pytest.raises(ValueError, match=r"\[settings\] record_every must be an integer"):
-            with settings.using(name, {"record_every": 2.5}):
-                pass
+            settings.validate(name, {"record_every": 2.5})
 
 
 TWIN_STUDIES = STUDIES[1:]
@@ -149,7 +145,6 @@ def test_a_twin_file_value_reaches_the_run(tmp_path: Path) -> None:
     study runs on: the fusion constant changes the run and is recorded."""
     from mwip.hardware.twin import Twin
     from mwip.hardware.twin_config import save_twin
-    from mwip.studies import robot
     from mwip.studies.study_file import load_study_file
 
     save_twin(Twin(delay=0.4), tmp_path / "my_twin.toml")
@@ -159,11 +154,9 @@ def test_a_twin_file_value_reaches_the_run(tmp_path: Path) -> None:
     tw = load_study_file(study).twin
     assert tw.fusion.tau == 0.2 and tw.delay == 0.4 and tw.imu == Twin().imu
     base = _run("exp-asta", tmp_path / "base")
-    with robot.using(twin=tw):
-        new = _run("exp-asta", tmp_path / "new")
+    new = run_study("exp-asta", tmp_path / "new", quick=True, twin=tw)
     assert "tau 0.2 s" in new["settings"]["twin"] and "tau 0.5 s" in base["settings"]["twin"]
     assert not _same(base["metrics"]["asmc.case1.u_tv"], new["metrics"]["asmc.case1.u_tv"])
-    assert robot.twin() == Twin()  # the twin ends with the block
 
 
 def test_bad_twin_file_is_one_line_exit_2(tmp_path: Path) -> None:

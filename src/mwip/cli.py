@@ -705,10 +705,10 @@ cli.add_command(_twin_group)
 @cli.command("list")
 def list_cmd() -> None:
     """List the studies with their book sources."""
-    from mwip.studies import STUDIES
+    from mwip.studies import all_studies
 
-    for name, (_, source) in STUDIES.items():
-        click.echo(f"{name:24s} {source}")
+    for study in all_studies():
+        click.echo(f"{study.name:24s} {study.source}")
 
 
 _OUT = click.option(
@@ -863,12 +863,13 @@ def run_cmd(
     force: bool,
 ) -> None:
     """Run one or more studies (see `mwip list`) and update OUT/index.html."""
-    from mwip.studies import STUDIES
+    from mwip.studies import study_names
 
+    known = study_names()
     for study in studies:
-        if study not in STUDIES:
+        if study not in known:
             raise click.BadParameter(
-                f"unknown study {study!r}; choose from: {', '.join(STUDIES)}", param_hint="STUDY"
+                f"unknown study {study!r}; choose from: {', '.join(known)}", param_hint="STUDY"
             )
     if not studies and not scenarios:
         raise click.UsageError("give at least one STUDY or --scenario FILE")
@@ -921,11 +922,11 @@ def reproduce(
     OUT as it was). A study that fails is reported with its error and does not stop the
     others; the exit code is then 1.
     """
-    from mwip.studies import STUDIES
+    from mwip.studies import all_studies, study_names
 
     if list_only:
-        for name, (_, source) in STUDIES.items():
-            click.echo(f"{name:24s} {source}")
+        for s in all_studies():
+            click.echo(f"{s.name:24s} {s.source}")
         return
     _out_ok(out, force)
     plant, design = _robot(params_file, nominal_file, damping)
@@ -939,12 +940,12 @@ def reproduce(
         click.echo(f"under the {other} damping reading, into {out / f'compare-{other}'}:",
                    err=True)  # fmt: skip
         try:
-            _execute(list(STUDIES), out / f"compare-{other}", quick, _jobs(jobs),
+            _execute(study_names(), out / f"compare-{other}", quick, _jobs(jobs),
                      *_robot(params_file, nominal_file, other), damping=other,
                      summary=False, twin=twin)  # fmt: skip
         except SystemExit as exc:
             code = int(exc.code or 0)
-    _execute(list(STUDIES), out, quick, _jobs(jobs), plant, design, verbose, damping=damping,
+    _execute(study_names(), out, quick, _jobs(jobs), plant, design, verbose, damping=damping,
              twin=twin)  # fmt: skip
     if code:
         sys.exit(code)
@@ -964,12 +965,13 @@ def scenario(study: str, out: Path | None) -> None:
     Copy it, edit it, run it with `mwip run --scenario FILE.toml`.
     """
     from mwip.io import write_text_atomic
-    from mwip.studies import STUDIES
+    from mwip.studies import study_names
     from mwip.studies.settings import packaged_text
 
-    if study not in STUDIES:
+    known = study_names()
+    if study not in known:
         raise click.BadParameter(
-            f"unknown study {study!r}; choose from: {', '.join(STUDIES)}", param_hint="STUDY"
+            f"unknown study {study!r}; choose from: {', '.join(known)}", param_hint="STUDY"
         )
     text = packaged_text(study)
     if out is None:
@@ -1007,12 +1009,13 @@ def report(out: Path, compare: Path | None, claims_campaign: Path | None, verbos
     """Rebuild OUT/index.html from the results in OUT and print the summary."""
     from mwip.report import load_results, load_run_record, summary_lines, write_report
     from mwip.report.claims import find_compare, load_comparison
-    from mwip.studies import STUDIES
+    from mwip.studies import study_names
 
-    names = [n for n in STUDIES if (out / n / "metrics.json").exists()]
+    known = study_names()
+    names = [n for n in known if (out / n / "metrics.json").exists()]
     if not names:
         raise click.UsageError(f"--out: no study results in {out}")
-    if compare is not None and not any((compare / n / "metrics.json").is_file() for n in STUDIES):
+    if compare is not None and not any((compare / n / "metrics.json").is_file() for n in known):
         raise click.BadParameter(f"no study results in {compare}", param_hint="--compare")
     compare = compare if compare is not None else find_compare(out)
     if claims_campaign is not None and not (claims_campaign / "results.parquet").is_file():

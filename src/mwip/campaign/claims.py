@@ -4,8 +4,8 @@ Each study's file declares its open settings with plausible ranges (``[open]``,
 :func:`mwip.studies.settings.open_settings`). A claims campaign draws, for each study with open
 settings and each sample, every open setting uniformly from its range (each element of a
 list; integers, e.g. seeds, uniformly among the integers of the range), reruns the study with
-those settings (:func:`mwip.studies.settings.using`) and records every claim's verdict from
-the metrics document: its ``id`` (the claim's text when it has no id), ``book`` and
+those settings (the ``overrides`` of :func:`mwip.studies.run_study`) and records every claim's
+verdict from the metrics document: its ``id`` (the claim's text when it has no id), ``book`` and
 ``holds``. Sample ``s`` of the ``k``-th such study is global index ``s S + k`` (S studies),
 drawn from the campaign seed and that index alone (:mod:`mwip.campaign.sampling`).
 
@@ -113,7 +113,6 @@ def run_block(campaign: Campaign, block: int) -> Any:
     import pandas as pd
 
     from mwip.studies import run_study
-    from mwip.studies.settings import using
 
     studies = claim_studies(campaign)
     rows: list[dict[str, Any]] = []
@@ -126,8 +125,7 @@ def run_block(campaign: Campaign, block: int) -> Any:
         with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                with using(study, drawn):
-                    doc = run_study(study, Path(tmp), quick=campaign.quick)
+                doc = run_study(study, Path(tmp), quick=campaign.quick, overrides=drawn)
             except Exception as exc:  # noqa: BLE001 - recorded as the sample's error
                 error = f"{type(exc).__name__}: {exc}"
         rows.extend(_rows(study, sample, drawn, doc, error))

@@ -39,9 +39,9 @@ Summing the wheel and pitch rows of (2.33) gives at any steady motion ``2 Dw psi
 sin(theta) (Gb + (m12 + Ibl cos theta) alpha'^2)``: with any ``Dw > 0`` a non-zero speed
 needs a lean (about 0.041 rad for 1 m/s on the real plant, ``Dw`` read as ``D r^2``, SPEC.md
 sections 2-3), and with ``theta -> 0`` (4.38) makes ``v`` decay. :func:`lean_for_speed` gives
-that lean (the equilibrium of (4.40)); ``TSMC(..., v_ref=..., speed="lean")`` uses it as the
-pitch target (our extension). See docs/chapter4.md for why the book's ``v -> v*`` with
-``theta -> 0`` cannot hold as worded.
+that lean (the equilibrium of (4.40); :mod:`mwip.models.steady`); ``TSMC(..., v_ref=...,
+speed="lean")`` uses it as the pitch target (our extension). See docs/chapter4.md for why the
+book's ``v -> v*`` with ``theta -> 0`` cannot hold as worded.
 """
 
 from __future__ import annotations
@@ -56,6 +56,7 @@ from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.switching import Switching
 from mwip.core import LAW_TSMC, CompiledLaw, Measurement
 from mwip.models.reduced import coefficients
+from mwip.models.steady import lean_for_speed
 from mwip.params import NOMINAL, Params
 
 __all__ = [
@@ -91,18 +92,6 @@ def _inv2(A: NDArray[np.float64]) -> NDArray[np.float64]:
     out[..., 0, 0], out[..., 0, 1] = d / det, -b / det
     out[..., 1, 0], out[..., 1, 1] = -c / det, a / det
     return out
-
-
-def lean_for_speed(p: Params, v: float, alpha_dot: float = 0.0) -> float:
-    """Pitch at which the internal dynamics (4.35)/(4.40) hold a constant speed ``v``.
-
-    Steady motion (``theta, v, alpha'`` constant) of (2.33): adding the wheel and pitch rows,
-    ``2 Dw v / r = sin(theta) (Gb + (m12 + Ibl cos theta) alpha'^2)``; solved with
-    ``cos theta ~ 1`` in the small centrifugal term. Returns ``nan`` when no lean can hold the
-    speed (``|sin theta| > 1``): the wheel-ground damping exceeds what gravity can supply.
-    """
-    s = 2.0 * p.Dw * v / p.r / (p.Gb + (p.m12 + p.Ibl) * alpha_dot**2)
-    return float(np.arcsin(s)) if abs(s) <= 1.0 else float("nan")
 
 
 class TSMC:

@@ -78,20 +78,24 @@ def relative_diff(ours: Any, published: Any) -> float | None:
 
 
 def load_catalog() -> dict[str, dict[str, str]]:
-    """The per-study texts (title, set-up, the book's figure, gaps) shipped with mwip."""
-    try:
-        text = resources.files("mwip.studies").joinpath("catalog.toml").read_text("utf-8")
-    except FileNotFoundError:  # a source tree without it: the report shows no texts
-        return {}
-    return tomllib.loads(text)
+    """The per-study texts (title, set-up, the book's figure, gaps, docs) shipped with mwip:
+    the ``[report]`` table of each study file ``mwip/studies/scenarios/<study>.toml``."""
+    folder = resources.files("mwip.studies").joinpath("scenarios")
+    out: dict[str, dict[str, str]] = {}
+    for entry in sorted(folder.iterdir(), key=lambda e: e.name):
+        if entry.name.endswith(".toml"):
+            texts = tomllib.loads(entry.read_text("utf-8")).get("report")
+            if texts:
+                out[entry.name.removesuffix(".toml")] = dict(texts)
+    return out
 
 
 def study_texts(name: str) -> dict[str, str]:
     """The texts the report shows for study ``name`` (title, setup, book, gaps, docs) and the
     name of its ``main_run`` (the run its animation shows); ``{}`` if there are none.
 
-    Every reader of these texts goes through this function: they live in
-    ``src/mwip/studies/catalog.toml`` today and may move into each study's own file.
+    Every reader of these texts goes through this function: they live in the ``[report]``
+    table of each study's file (:func:`load_catalog`).
     """
     entry = load_catalog().get(name, {})
     return {str(k): str(v) for k, v in entry.items()} if isinstance(entry, dict) else {}
@@ -126,19 +130,18 @@ def _shape_problem(doc: Any) -> str | None:
 
 
 def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]:
-    """The studies in ``out``, in ``names`` order (default: every registered study that has
-    results there or is in the run record).
+    """The studies in ``out``, in ``names`` order (default: the studies of the run record
+    ``run.json`` in its order, then any other folder with a ``metrics.json``, by name).
 
     A study with no readable ``metrics.json`` is returned with ``doc=None`` and the error
     recorded in ``run.json`` (or "not run").
     """
-    from mwip.studies import STUDIES
-
     out = Path(out)
     record = load_run_record(out)
     per_study = record.get("studies", {})
     if names is None:
-        names = [n for n in STUDIES if n in per_study or (out / n / "metrics.json").is_file()]
+        found = sorted(p.parent.name for p in out.glob("*/metrics.json"))
+        names = [*per_study, *(n for n in found if n not in per_study)]
     results = []
     for name in names:
         folder = out / name

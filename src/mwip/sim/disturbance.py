@@ -14,7 +14,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Disturbance", "Sinusoid", "Pulse", "Sum", "BOOK_SINUSOIDS", "disturbance_from_dict"]
+__all__ = [
+    "Disturbance",
+    "Sinusoid",
+    "Pulse",
+    "Sum",
+    "BOOK_SINUSOIDS",
+    "disturbance_from_dict",
+    "sinusoid_from_settings",
+]
 
 Disturbance = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
@@ -112,3 +120,14 @@ def disturbance_from_dict(data: Mapping[str, Any]) -> Disturbance:
         return kinds[kind](**d)
     except TypeError as exc:
         raise ValueError(f"disturbance {kind!r}: {exc}") from None
+
+
+def sinusoid_from_settings(cfg: Mapping[str, Any], prefix: str = "disturbance") -> Sinusoid:
+    """The external sinusoids of a study's settings: ``<prefix>_amplitude``, ``_omega`` and
+    ``_phase`` (3 values each, per channel of ``[psi, theta, alpha]``; e.g. the book's
+    ``tau*_d1 = 0.05 sin(2t + pi/2)``, ``tau*_d2 = tau*_d3 = 0.05 sin t`` of Sec. 3.6)."""
+    return Sinusoid(
+        amplitude=tuple(cfg[f"{prefix}_amplitude"]),
+        omega=tuple(cfg[f"{prefix}_omega"]),
+        phase=tuple(cfg[f"{prefix}_phase"]),
+    )

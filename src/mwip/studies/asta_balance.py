@@ -23,158 +23,43 @@ reaches first; the book defines its ASMC only as "the same adaptive law" (SPEC.m
 
 Settings (``scenarios/asta-balance.toml``, :mod:`mwip.studies.settings`): ``theta0``,
 ``duration``, ``Ts``, ``dt``, ``lam``, ``K``, ``rate``, ``Gamma0``, ``eps``. The helpers below
-take them as a mapping, so :mod:`mwip.studies.asta_velocity` runs them with its own settings.
+and the runs come from the ASTA studies' kit :mod:`mwip.studies._asta`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.figure import Figure
 
-from mwip.control.asta import ASMC, ASTA, asta_surface
-from mwip.metrics import overshoot, rms, settling_time, total_variation_rate
-from mwip.models.reduced import accelerations
-from mwip.params import Params
-from mwip.sim import SimResult, simulate
-from mwip.studies import robot, settings
-from mwip.studies.common import finish_claims, metrics_document, save_figure, write_metrics
+from mwip.control.asta import asta_surface
+from mwip.metrics import overshoot, rms, settling_time
+from mwip.sim import simulate
+from mwip.studies._asta import (
+    REACHED,
+    common_metrics,
+    make,
+    run_pair,
+    runs_doc,
+    settings_doc,
+    sigma_dot,
+    three_panel_figure,
+)  # fmt: skip
+from mwip.studies.common import finish_claims
+from mwip.studies.study import Study, StudyContext, save_study
 
 SOURCE = "Figs. 4.2-4.4"
 NAME = "asta-balance"
-REACHED = 0.01  # the reaching phase ends when |sigma_1| first falls to 1 % of |sigma_1(0)|
 
 
-def make(kind: str, cfg: Mapping[str, Any], psi_dot_ref: float = 0.0) -> ASTA | ASMC:
-    """The study's ASTA, ASMC or (``"casmc"``) conventional ASMC with the gains of ``cfg``."""
-    cls = {"asta": ASTA, "asmc": ASMC, "casmc": ConventionalASMC}[kind]
-    return cls(robot.nominal(), lam=tuple(cfg["lam"]), K=tuple(cfg["K"]),
-               rate=tuple(cfg["rate"]), Gamma0=tuple(cfg["Gamma0"]), eps=cfg["eps"],
-               psi_dot_ref=psi_dot_ref, Ts=cfg["Ts"])  # fmt: skip
-
-
-class ConventionalASMC(ASMC):
-    """Ours, an extra baseline (SPEC.md section 3): a conventional adaptive SMC,
-    ``u_i = [-a_i - Gamma_i(t) sgn(sigma_i)] / b_i`` with the adaptive law (4.5), i.e. the
-    book-defined ASMC without the super-twisting proportional term ``K_i |sigma_i|^(1/2)``."""
-
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        # the same law and adaptive gain as ASMC, with no proportional STA term: K = 0 (the
-        # one implementation, mwip.control._asta_kernel.asta_sample, in both loops)
-        self.K = np.zeros(2)
-
-
-def sigma_dot(
-    res: SimResult, plant: Params, lam: tuple[float, ...], psi_dot_ref: float = 0.0
-) -> np.ndarray:
-    """True ``sigma'`` (K, 2) from the plant's accelerations at each record (surface ``lam``)."""
-    acc = accelerations(plant, res.q, res.q_dot, res.u)
-    l1, l2, l3 = lam
-    qd = res.q_dot
-    return np.column_stack([acc[:, 1] + l1 * qd[:, 1] + l2 * acc[:, 0], acc[:, 2] + l3 * qd[:, 2]])
-
-
-def run_pair(
-    cfg: Mapping[str, Any], duration: float, psi_dot_ref: float = 0.0
-) -> dict[str, tuple[SimResult, np.ndarray, np.ndarray, Params]]:
-    """ASTA and ASMC on the real plant and on the nominal plant ("matched"), settings ``cfg``
-    (``theta0``, ``Ts``, ``dt``, ``lam``, ``K``, ``rate``, ``Gamma0``, ``eps``)."""
-    lam = tuple(cfg["lam"])
-    out = {}
-    for prefix, plant in (("", robot.plant()), ("matched.", robot.nominal())):
-        for kind in ("asta", "asmc"):
-            res = simulate(make(kind, cfg, psi_dot_ref), plant, q0=(0.0, cfg["theta0"], 0.0),
-                           duration=duration, Ts=cfg["Ts"], dt=cfg["dt"])  # fmt: skip
-            s = asta_surface(res.q, res.q_dot, lam, (psi_dot_ref, 0.0, 0.0, 0.0))
-            out[prefix + kind] = (res, s, sigma_dot(res, plant, lam, psi_dot_ref), plant)
-    return out
-
-
-def settings_doc(cfg: Mapping[str, Any]) -> dict[str, Any]:
-    """The settings block shared by both ASTA studies (the values used)."""
-    Ts, dt = cfg["Ts"], cfg["dt"]
-    step = (
-        f"Ts = dt = {Ts * 1e3:g} ms" if Ts == dt else f"Ts = {Ts * 1e3:g} ms, dt = {dt * 1e3:g} ms"
-    )
-    return {"dt": dt, "Ts": Ts, "mode": f"sampled, quasi-continuous ({step})",
-            "theta0": cfg["theta0"], "lambda": cfg["lam"], "K": cfg["K"],
-            "adaptation_rate": cfg["rate"], "Gamma0": cfg["Gamma0"], "eps": cfg["eps"]}  # fmt: skip
-
-
-def reach_time(t: np.ndarray, sigma: np.ndarray, fraction: float = REACHED) -> float:
-    """First time ``|sigma| <= fraction |sigma(0)|`` (the end of the reaching phase); ``nan``
-    if never."""
-    a = np.abs(sigma)
-    hit = np.flatnonzero(a <= fraction * a[0])
-    return float(t[hit[0]]) if hit.size else float("nan")
-
-
-def common_metrics(name: str, res: SimResult, s: np.ndarray, sd: np.ndarray) -> dict[str, float]:
-    """Chattering and sliding measures shared by both ASTA studies."""
-    t = res.t
-    tail = t >= 0.5 * t[-1]
-    g = res.series()["Gamma"]
-    return {
-        f"{name}.reach_time": reach_time(t, s[:, 0]),
-        f"{name}.u_tv": float(np.sum(total_variation_rate(t, res.u.T))),
-        f"{name}.s_tv": float(total_variation_rate(t, s[:, 0])),
-        f"{name}.sdot_tv": float(total_variation_rate(t, sd[:, 0])),
-        f"{name}.tail_max_abs_sigma1": float(np.nanmax(np.abs(s[tail, 0]))),
-        f"{name}.tail_max_abs_sigma1_dot": float(np.nanmax(np.abs(sd[tail, 0]))),
-        f"{name}.final_Gamma1": float(g[-1, 0]),
-        f"{name}.tail_Gamma1_growth": float(g[-1, 0] - g[np.argmax(tail), 0]),
-        f"{name}.max_abs_u": float(np.nanmax(np.abs(res.u))),
-    }
-
-
-def runs_doc(runs: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    return {k: {"status": str(v[0].status[0]), "t_end": float(v[0].t_end[0])}
-            for k, v in runs.items()}  # fmt: skip
-
-
-def three_panel_figure(
-    runs: dict[str, Any],
-    first: tuple[str, Any, str],
-    zoom: tuple[float, float],
-    title: str,
-    path: Path,
-) -> None:
-    """Book layout: a state (Fig. 4.2/4.5), sigma (4.3/4.6) and sigma' (4.4/4.7), each with a
-    zoomed inset over ``zoom``; real-plant runs."""
-    fig = Figure(figsize=(9, 10), layout="constrained")
-    axes = fig.subplots(3, 1, sharex=True)
-    label, getter, unit = first
-    panels = [(label, getter, unit), ("S", lambda r, s, sd: s[:, 0], "[rad/s]"),
-              ("dS", lambda r, s, sd: sd[:, 0], "[rad/s^2]")]  # fmt: skip
-    for ax, (name, get, u) in zip(axes, panels, strict=True):
-        ins = ax.inset_axes((0.55, 0.5, 0.4, 0.42))
-        for kind, style in (("asmc", "r-"), ("asta", "b-")):
-            res, s, sd, _ = runs[kind]
-            y = get(res, s, sd)
-            ax.plot(res.t, y, style, lw=0.8, label=kind.upper())
-            win = (res.t >= zoom[0]) & (res.t <= zoom[1])
-            ins.plot(res.t[win], y[win], style, lw=0.8)
-        ins.tick_params(labelsize=7)
-        ax.set_ylabel(f"{name} {u}")
-        ax.legend(loc="lower left", fontsize=8)
-    axes[-1].set_xlabel("Time [s]")
-    fig.suptitle(title)
-    save_figure(fig, path)
-
-
-def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
-    """Run the study into ``out/asta-balance``; returns the metrics document."""
-    folder = Path(out) / NAME
-    cfg = settings.current(NAME)
-    duration = min(1.5, cfg["duration"]) if quick else cfg["duration"]
-    runs = run_pair(cfg, duration)
-    lam, plant = tuple(cfg["lam"]), robot.plant()
-    res = simulate(make("casmc", cfg), plant, q0=(0.0, cfg["theta0"], 0.0), duration=duration,
-                   Ts=cfg["Ts"], dt=cfg["dt"])  # fmt: skip
+def run(ctx: StudyContext) -> dict[str, Any]:
+    """Run the study into ``ctx.out``; returns the metrics document."""
+    cfg = ctx.settings
+    duration = min(1.5, cfg["duration"]) if ctx.quick else cfg["duration"]
+    runs = run_pair(ctx, duration)
+    lam, plant = tuple(cfg["lam"]), ctx.plant
+    res = simulate(make("casmc", cfg, ctx.nominal), plant, q0=(0.0, cfg["theta0"], 0.0),
+                   duration=duration, Ts=cfg["Ts"], dt=cfg["dt"])  # fmt: skip
     runs["casmc"] = (res, asta_surface(res.q, res.q_dot, lam), sigma_dot(res, plant, lam), plant)
     metrics: dict[str, float] = {}
     for name, (res, s, sd, _) in runs.items():
@@ -188,23 +73,23 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     for k in ("asta", "asmc", "matched.asta", "matched.asmc", "casmc"):
         # time from the end of reaching to settling
         metrics[f"{k}.slide_to_settle"] = metrics[f"{k}.settling_time"] - metrics[f"{k}.reach_time"]
-    claims = finish_claims(_claims(metrics, runs), metrics, robot.label())
-    doc = metrics_document(
-        NAME, SOURCE, metrics, {}, claims, runs_doc(runs),
-        {**settings_doc(cfg), "duration": duration, "window": [0.0, duration], "seed": 0,
-         "plant": f"{robot.label()} (matched.*: the design model)", "design": "nominal",
-         "settling": "|theta| within max(2 % of peak, 1 mrad)",
-         "reached": f"|sigma_1| <= {REACHED:g} |sigma_1(0)|",
-         "published_note": "the book prints no numbers for this case (figures only)"},
+    claims = finish_claims(_claims(metrics, runs), metrics, ctx.plant_label)
+    fig = three_panel_figure(
+        runs,
+        ("theta", lambda r, s, sd: r.theta, "[rad]"),
+        (4.0, 5.0),
+        f"ASTA vs ASMC, balance, {ctx.plant_label} (Figs. 4.2-4.4)",
+    )
+    return save_study(
+        ctx, metrics=metrics, claims=claims, runs=runs_doc(runs),
+        settings={**settings_doc(cfg), "duration": duration, "window": [0.0, duration],
+                  "seed": ctx.seed, "plant": f"{ctx.plant_label} (matched.*: the design model)",
+                  "design": "nominal", "settling": "|theta| within max(2 % of peak, 1 mrad)",
+                  "reached": f"|sigma_1| <= {REACHED:g} |sigma_1(0)|",
+                  "published_note": "the book prints no numbers for this case (figures only)"},
+        series={name.replace(".", "_"): res for name, (res, *_rest) in runs.items()},
+        figures={"asta-balance.png": fig},
     )  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
-    three_panel_figure(runs, ("theta", lambda r, s, sd: r.theta, "[rad]"), (4.0, 5.0),
-                       f"ASTA vs ASMC, balance, {robot.label()} (Figs. 4.2-4.4)",
-                       folder / "asta-balance.png")  # fmt: skip
-    for name, (res, *_rest) in runs.items():
-        res.to_npz(folder / f"{name.replace('.', '_')}.npz")
-    write_metrics(folder, doc)
-    return doc
 
 
 def _claims(metrics: dict[str, float], runs: dict[str, Any]) -> list[dict[str, Any]]:
@@ -282,3 +167,6 @@ def _claims(metrics: dict[str, float], runs: dict[str, Any]) -> list[dict[str, A
 def _time(x: float) -> str:
     """A settling time for evidence text."""
     return f"{x:.3f} s" if np.isfinite(x) else "not settled"
+
+
+STUDY = Study(name=NAME, source=SOURCE, run=run, place=(4, 2), cost=5)

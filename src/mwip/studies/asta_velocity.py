@@ -21,19 +21,18 @@ Settings (``scenarios/asta-velocity.toml``, :mod:`mwip.studies.settings`): ``the
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 from mwip.metrics import rms
-from mwip.studies import robot, settings
-from mwip.studies.asta_balance import (
+from mwip.studies._asta import (
     common_metrics,
     run_pair,
     runs_doc,
     settings_doc,
     three_panel_figure,
 )  # fmt: skip
-from mwip.studies.common import finish_claims, metrics_document, write_metrics
+from mwip.studies.common import finish_claims
+from mwip.studies.study import Study, StudyContext, save_study
 
 SOURCE = "Figs. 4.5-4.7"
 NAME = "asta-velocity"
@@ -46,40 +45,38 @@ def speed_on_surface(p: Any, psi_dot_d: float, lam: Sequence[float]) -> float:
     return float(l2 * psi_dot_d / (l2 + l1 * 2.0 * p.Dw / p.Gb))
 
 
-def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
-    """Run the study into ``out/asta-velocity``; returns the metrics document."""
-    folder = Path(out) / NAME
-    cfg = settings.current(NAME)
-    duration = min(1.5, cfg["duration"]) if quick else cfg["duration"]
-    window = (0.5 * duration, duration) if quick else tuple(cfg["rms_window"])
+def run(ctx: StudyContext) -> dict[str, Any]:
+    """Run the study into ``ctx.out``; returns the metrics document."""
+    cfg = ctx.settings
+    duration = min(1.5, cfg["duration"]) if ctx.quick else cfg["duration"]
+    window = (0.5 * duration, duration) if ctx.quick else tuple(cfg["rms_window"])
     psi_dot_d = cfg["psi_dot_d"]
-    runs = run_pair(cfg, duration, psi_dot_d)
+    runs = run_pair(ctx, duration, psi_dot_d)
     metrics: dict[str, float] = {}
     for name, (res, s, sd, _) in runs.items():
         metrics[f"{name}.rms_speed_err"] = float(rms(res.t, res.q_dot[:, 0] - psi_dot_d, window))
         metrics[f"{name}.final_psi_dot"] = float(res.q_dot[-1, 0])
         metrics[f"{name}.final_abs_theta"] = float(abs(res.theta[-1]))
         metrics.update(common_metrics(name, res, s, sd))
-    metrics["real.speed_on_surface"] = speed_on_surface(robot.plant(), psi_dot_d, cfg["lam"])
+    metrics["real.speed_on_surface"] = speed_on_surface(ctx.plant, psi_dot_d, cfg["lam"])
     # (the key keeps its name for any plant: the simulated one)
-    metrics["matched.speed_on_surface"] = speed_on_surface(robot.nominal(), psi_dot_d, cfg["lam"])
-    claims = finish_claims(_claims(metrics, psi_dot_d), metrics, robot.label())
-    doc = metrics_document(
-        NAME, SOURCE, metrics, {}, claims, runs_doc(runs),
-        {**settings_doc(cfg), "duration": duration, "window": list(window), "seed": 0,
-         "plant": f"{robot.label()} (matched.*: the design model)", "design": "nominal",
-         "psi_dot_d": psi_dot_d,
-         "published_note": "the book prints no numbers for this case (figures only)"},
+    metrics["matched.speed_on_surface"] = speed_on_surface(ctx.nominal, psi_dot_d, cfg["lam"])
+    claims = finish_claims(_claims(metrics, psi_dot_d), metrics, ctx.plant_label)
+    fig = three_panel_figure(
+        runs,
+        ("velocity", lambda r, s, sd: r.q_dot[:, 0], "[rad/s]"),
+        (0.7 * duration, 0.8 * duration),
+        f"ASTA vs ASMC, velocity control, {ctx.plant_label} (Figs. 4.5-4.7)",
+    )
+    return save_study(
+        ctx, metrics=metrics, claims=claims, runs=runs_doc(runs),
+        settings={**settings_doc(cfg), "duration": duration, "window": list(window),
+                  "seed": ctx.seed, "plant": f"{ctx.plant_label} (matched.*: the design model)",
+                  "design": "nominal", "psi_dot_d": psi_dot_d,
+                  "published_note": "the book prints no numbers for this case (figures only)"},
+        series={name.replace(".", "_"): res for name, (res, *_rest) in runs.items()},
+        figures={"asta-velocity.png": fig},
     )  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
-    three_panel_figure(runs, ("velocity", lambda r, s, sd: r.q_dot[:, 0], "[rad/s]"),
-                       (0.7 * duration, 0.8 * duration),
-                       f"ASTA vs ASMC, velocity control, {robot.label()} (Figs. 4.5-4.7)",
-                       folder / "asta-velocity.png")  # fmt: skip
-    for name, (res, *_rest) in runs.items():
-        res.to_npz(folder / f"{name.replace('.', '_')}.npz")
-    write_metrics(folder, doc)
-    return doc
 
 
 def _claims(metrics: dict[str, float], psi_dot_d: float) -> list[dict[str, Any]]:
@@ -128,3 +125,6 @@ def _claims(metrics: dict[str, float], psi_dot_d: float) -> list[dict[str, Any]]
                       f"{pred}.speed_on_surface"]},
         ]  # fmt: skip
     return claims
+
+
+STUDY = Study(name=NAME, source=SOURCE, run=run, place=(4, 5), cost=5)

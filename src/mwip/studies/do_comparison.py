@@ -38,23 +38,22 @@ Settings (``scenarios/do-comparison.toml``, :mod:`mwip.studies.settings`): ``the
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from mwip.control.lqr import LQR, design_lqr
-from mwip.io import write_atomic
 from mwip.metrics import rms
 from mwip.models.reduced import accelerations, lumped_disturbance, mass_matrix
 from mwip.observers import HighOrderDO
 from mwip.observers.bank import ObservedController
 from mwip.observers.design import as_gain_matrices
+from mwip.params import Params
 from mwip.sim import SimResult, simulate
-from mwip.sim.disturbance import Sinusoid
-from mwip.studies import robot, settings
-from mwip.studies.common import finish_claims, metrics_document, save_figure, write_metrics
+from mwip.sim.disturbance import Sinusoid, sinusoid_from_settings
+from mwip.studies.common import finish_claims
+from mwip.studies.study import Study, StudyContext, save_study
 
 SOURCE = "Fig. 3.2, Table 3.3"
 ORDERS = {"do2": 2, "do3": 3, "do4": 4}
@@ -67,21 +66,15 @@ PUBLISHED = {
 NAME = "do-comparison"
 
 
-def disturbance(cfg: dict[str, Any]) -> Sinusoid:
-    """The external sinusoids of the settings (the book's by default)."""
-    return Sinusoid(
-        amplitude=tuple(cfg["disturbance_amplitude"]),
-        omega=tuple(cfg["disturbance_omega"]),
-        phase=tuple(cfg["disturbance_phase"]),
-    )
-
-
-def actual_lumped_disturbance(res: SimResult, dist: Sinusoid) -> np.ndarray:
-    """``tau_d`` of (2.36) at each record's left limit, from the true plant state (K, 3)."""
+def actual_lumped_disturbance(
+    res: SimResult, dist: Sinusoid, plant: Params, nominal: Params
+) -> np.ndarray:
+    """``tau_d`` of (2.36) at each record's left limit, from the true state of ``plant``
+    against the design model ``nominal`` (K, 3)."""
     q, qd, u = res.q, res.q_dot, res.u
     u_prev = np.vstack([u[:1], u[:-1]])
-    acc = accelerations(robot.plant(), q, qd, u_prev, dist(res.t))
-    return lumped_disturbance(robot.nominal(), q, qd, acc, u_prev)
+    acc = accelerations(plant, q, qd, u_prev, dist(res.t))
+    return lumped_disturbance(nominal, q, qd, acc, u_prev)
 
 
 def error_transfer(v: tuple[float, ...], omega: float | np.ndarray) -> np.ndarray:
@@ -150,14 +143,13 @@ def _claims(metrics: dict[str, float], omegas: list[float]) -> list[dict[str, An
     ]  # fmt: skip
 
 
-def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
-    """Run the study into ``out/do-comparison``; returns the metrics document."""
-    folder = Path(out) / NAME
-    cfg = settings.current(NAME)
-    duration = min(8.0, cfg["duration"]) if quick else cfg["duration"]
-    window = (3.0, duration) if quick else tuple(cfg["rms_window"])
-    Ts, dt, dist = cfg["Ts"], cfg["dt"], disturbance(cfg)
-    plant, nominal = robot.plant(), robot.nominal()
+def run(ctx: StudyContext) -> dict[str, Any]:
+    """Run the study into ``ctx.out``; returns the metrics document."""
+    cfg = ctx.settings
+    duration = min(8.0, cfg["duration"]) if ctx.quick else cfg["duration"]
+    window = (3.0, duration) if ctx.quick else tuple(cfg["rms_window"])
+    Ts, dt, dist = cfg["Ts"], cfg["dt"], sinusoid_from_settings(cfg)
+    plant, nominal = ctx.plant, ctx.nominal
     v = {k: tuple(cfg[f"{k}_v"]) for k in ORDERS}
     observers = {k: HighOrderDO(nominal, as_gain_matrices(list(v[k])), Ts) for k in ORDERS}
     Q, R = np.diag(cfg["Q_diag"]), np.diag(cfg["R_diag"])
@@ -166,7 +158,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         ctrl, plant, q0=(0.0, cfg["theta0"], 0.0), duration=duration, Ts=Ts, dt=dt,
         disturbance=dist,
     )  # fmt: skip
-    td = actual_lumped_disturbance(res, dist)
+    td = actual_lumped_disturbance(res, dist, plant, nominal)
     Mn = mass_matrix(nominal, res.q)
     td_star = np.einsum("kij,kj->ki", Mn, td)
     series = res.series()
@@ -200,13 +192,14 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         for w in sorted(set(cfg["disturbance_omega"])):
             metrics[f"{n}.H_w{w:g}"] = float(error_transfer(v[n], w))
     claims = finish_claims(
-        _claims(metrics, sorted(set(cfg["disturbance_omega"]))), metrics, robot.label()
+        _claims(metrics, sorted(set(cfg["disturbance_omega"]))), metrics, ctx.plant_label
     )
-    doc = metrics_document(
-        NAME, SOURCE, metrics, published, claims,
-        {name: {"status": str(res.status[0]), "t_end": float(res.t_end[0])} for name in ORDERS},
-        {"dt": dt, "Ts": Ts, "window": list(window), "seed": 0, "duration": duration,
-         "plant": robot.label(), "design": "nominal",
+    return save_study(
+        ctx, metrics=metrics, published=published, claims=claims,
+        runs={name: {"status": str(res.status[0]), "t_end": float(res.t_end[0])}
+              for name in ORDERS},
+        settings={"dt": dt, "Ts": Ts, "window": list(window), "seed": ctx.seed,
+         "duration": duration, "plant": ctx.plant_label, "design": "nominal",
          "theta0": cfg["theta0"], "mode": f"sampled (quasi-continuous, Ts = {Ts * 1e3:g} ms)",
          "controller": "LQR (Q_diag, R_diag, designed for Ts)", "Q_diag": cfg["Q_diag"],
          "R_diag": cfg["R_diag"], "observer_discretization": "exact", "coordinates":
@@ -214,17 +207,11 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
          "gains": {k: list(v[k]) for k in ORDERS},
          "disturbance": {"amplitude": cfg["disturbance_amplitude"],
                          "omega": cfg["disturbance_omega"], "phase": cfg["disturbance_phase"]}},
+        series={"timeseries": res},
+        figures={"do-comparison.png": _figure(res, td_star, Mn, series, errors, Ts,
+                                              ctx.plant_label)},
+        arrays={"actual_disturbance.npz": {"t": res.t, "tau_d": td, "tau_d_star": td_star}},
     )  # fmt: skip
-
-    folder.mkdir(parents=True, exist_ok=True)
-    _figure(res, td_star, Mn, series, errors, Ts, folder / "do-comparison.png")
-    res.to_npz(folder / "timeseries.npz")
-    write_atomic(
-        folder / "actual_disturbance.npz",
-        lambda fh: np.savez_compressed(fh, t=res.t, tau_d=td, tau_d_star=td_star),
-    )
-    write_metrics(folder, doc)
-    return doc
 
 
 def _figure(
@@ -234,8 +221,8 @@ def _figure(
     series: dict[str, np.ndarray],
     errors: dict[str, np.ndarray],
     Ts: float,
-    path: Path,
-) -> None:
+    plant_label: str,
+) -> Figure:
     """The book's layout: estimate vs actual per channel (left), estimation errors (right)."""
     fig = Figure(figsize=(12, 8), layout="constrained")
     axes = fig.subplots(3, 2, sharex=True)
@@ -259,7 +246,9 @@ def _figure(
     axes[2, 0].set_xlabel("t (s)")
     axes[2, 1].set_xlabel("t (s)")
     fig.suptitle(
-        f"Disturbance observers of order 2, 3, 4, LQR balance, {robot.label()}, "
-        f"Ts = {Ts * 1e3:g} ms"
+        f"Disturbance observers of order 2, 3, 4, LQR balance, {plant_label}, Ts = {Ts * 1e3:g} ms"
     )
-    save_figure(fig, path)
+    return fig
+
+
+STUDY = Study(name=NAME, source=SOURCE, run=run, place=(3, 2), cost=3)

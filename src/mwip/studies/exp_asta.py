@@ -1,6 +1,6 @@
 """Experiment ``exp-asta`` (Sec. 6.2.2, Figs. 6.9-6.16, Tables 6.7-6.8) on the digital twin.
 
-Set-up (SPEC.md section 5): the twin of the run (:func:`mwip.studies.robot.twin`, the twin
+Set-up (SPEC.md section 5): the twin of the run (``ctx.twin``, the twin
 file's configuration; default the default twin), controllers at its ``Ts`` (5 ms); ASTA and
 ASMC designed on the nominal parameters with (6.1)-(6.2): ``lambda = (10, 0.3, 3)``,
 ``K1 = K2 = 10``, ``Gamma1 = Gamma2 = 5`` read as the adaptation rates of (4.5) with
@@ -30,7 +30,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from functools import partial
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -42,13 +41,15 @@ from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
 from mwip.params import Params
 from mwip.sim import SimResult
-from mwip.studies import robot
-from mwip.studies.common import metrics_document, save_figure, write_metrics
-from mwip.studies.exp_hodosmc import QUICK_ABLATION, input_gain_ratio, payload_evidence
+from mwip.studies.registry import robot as book_robot
+from mwip.studies.study import Study, StudyContext, save_study
 from mwip.studies.twin_settings import (
     ABLATION_FIELD,
+    QUICK_ABLATION,
     fall_evidence,
     first_fall,
+    input_gain_ratio,
+    payload_evidence,
     robot_label,
     study_settings,
     twin_doc,
@@ -68,10 +69,9 @@ PUBLISHED = {
 
 def make_controller(kind: str, cfg: Mapping[str, Any], params: Params | None = None) -> ASTA | ASMC:
     """ASTA or ASMC with (6.1)-(6.2), gains and sample period from the settings ``cfg``,
-    designed on ``params`` (default: the robot's nominal model,
-    :func:`mwip.studies.robot.nominal`)."""
+    designed on ``params`` (default: the book's design model, Table 3.2)."""
     if params is None:
-        params = robot.nominal()
+        params = book_robot()[1]
     cls = ASTA if kind == "asta" else ASMC
     return cls(params, lam=tuple(cfg["lambdas"]), K=tuple(cfg["K"]),
                rate=tuple(cfg["Gamma_rate"]), Gamma0=tuple(cfg["Gamma0"]), eps=cfg["eps"],
@@ -80,16 +80,17 @@ def make_controller(kind: str, cfg: Mapping[str, Any], params: Params | None = N
 
 def run_one(
     kind: str, case: int, cfg: Mapping[str, Any], *, duration: float | None = None,
-    twin: Twin | None = None,
+    twin: Twin | None = None, plant: Params | None = None, nominal: Params | None = None,
 ) -> SimResult:  # fmt: skip
-    """One controller on the twin ``twin`` (default: the run's,
-    :func:`mwip.studies.robot.twin`), Case 1 or 2, with the settings ``cfg`` (``Ts`` the
-    twin's; ``duration`` default: ``cfg["duration"]``)."""
-    plant = case_plant(case, base=robot.plant())
+    """One controller on the twin ``twin`` (default: the default twin), Case 1 or 2 of the
+    robot ``plant`` with designs on ``nominal`` (default: the book's), with the settings
+    ``cfg`` (``Ts`` the twin's; ``duration`` default: ``cfg["duration"]``)."""
+    base, nominal = book_robot(plant, nominal)
+    plant = case_plant(case, base=base)
     if twin is None:
-        twin = robot.twin()
+        twin = Twin()
     return run_on_twin(
-        make_controller(kind, cfg), case, twin=twin,
+        make_controller(kind, cfg, nominal), case, twin=twin,
         plant=plant, q0=(0.0, cfg["theta0"], 0.0),
         duration=cfg["duration"] if duration is None else duration,
         record_every=cfg["record_every"], seed=cfg["seed"],
@@ -97,10 +98,10 @@ def run_one(
 
 
 def _ablation(cfg: Mapping[str, Any], tw: Twin, duration: float,
-              window: tuple[float, float]) -> Ablation:  # fmt: skip
-    """ASTA and ASMC, Cases 1 and 2: the ideal robot, then the twin's elements added in turn
-    (one batched run per controller and case); quantities of
-    :func:`mwip.hardware.ablation.rms_metrics` plus ``rms_s1``."""
+              window: tuple[float, float], plant: Params, nominal: Params) -> Ablation:  # fmt: skip
+    """ASTA and ASMC, Cases 1 and 2 of ``plant`` (designs on ``nominal``): the ideal robot,
+    then the twin's elements added in turn (one batched run per controller and case);
+    quantities of :func:`mwip.hardware.ablation.rms_metrics` plus ``rms_s1``."""
     base = rms_metrics(window)
 
     def fn(res: SimResult, run: str, case: int) -> dict[str, float]:
@@ -119,8 +120,8 @@ def _ablation(cfg: Mapping[str, Any], tw: Twin, duration: float,
                 lambda m: all(m[f"{k}.case{case}.fell"] != 1.0 for k in KINDS))  # fmt: skip
 
     return run_ablation(
-        [(k, partial(make_controller, k, cfg)) for k in KINDS], tw, cases=(1, 2),
-        metrics=fn, plant=lambda case: case_plant(case, base=robot.plant()),
+        [(k, partial(make_controller, k, cfg, nominal)) for k in KINDS], tw, cases=(1, 2),
+        metrics=fn, plant=lambda case: case_plant(case, base=plant),
         run_kwargs={"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
                     "record_every": cfg["record_every"], "seed": cfg["seed"]},
         claims=[order(c, q) for c in (1, 2) for q in ("rms_theta", "rms_s1")]
@@ -128,11 +129,10 @@ def _ablation(cfg: Mapping[str, Any], tw: Twin, duration: float,
     )  # fmt: skip
 
 
-def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
-    """Run the experiment into ``out/exp-asta``; returns the metrics document."""
-    study = NAME
-    folder = Path(out) / study
-    cfg, tw = study_settings(NAME)
+def run(ctx: StudyContext) -> dict[str, Any]:
+    """Run the experiment into ``ctx.out``; returns the metrics document."""
+    study, folder, quick = ctx.name, ctx.out, ctx.quick
+    cfg, tw = study_settings(NAME, ctx.settings, ctx.twin)
     duration = min(4.0, cfg["duration"]) if quick else cfg["duration"]
     window = (2.0, duration) if quick else tuple(cfg["rms_window"])
     runs: dict[str, SimResult] = {}
@@ -140,7 +140,8 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     nan = float("nan")
     for case in (1, 2):
         for kind in KINDS:
-            res = run_one(kind, case, cfg, duration=duration, twin=tw)
+            res = run_one(kind, case, cfg, duration=duration, twin=tw, plant=ctx.plant,
+                          nominal=ctx.nominal)  # fmt: skip
             name = f"{kind}.case{case}"
             runs[name] = res
             ok = res.status[0] == "ok"
@@ -154,7 +155,8 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
             metrics[f"{name}.sat_fraction"] = float(np.nanmean(lim)) if lim is not None else 0.0
             metrics[f"{name}.t_end"] = float(res.t_end[0])
     ab_duration = min(QUICK_ABLATION, duration) if quick else duration
-    ab = _ablation(cfg, tw, ab_duration, (ab_duration / 2, ab_duration) if quick else window)
+    ab = _ablation(cfg, tw, ab_duration, (ab_duration / 2, ab_duration) if quick else window,
+                   ctx.plant, ctx.nominal)  # fmt: skip
     metrics.update(ab.metrics)
     claims = []
     for case in (1, 2):
@@ -170,7 +172,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
                 "keys": [f"asta.case{case}.{q}", f"asmc.case{case}.{q}"],
             }
             if not holds:
-                c["cause"], c["evidence"] = _why(runs, metrics, ab, cfg, case, q)
+                c["cause"], c["evidence"] = _why(runs, metrics, ab, cfg, case, q, ctx)
             claims.append(c)
         up = all(runs[f"{k}.case{case}"].status[0] == "ok" for k in KINDS)
         c = {"id": f"up.case{case}",
@@ -178,32 +180,28 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
              "holds": up, "book": True,
              "keys": [f"{k}.case{case}.t_end" for k in KINDS]}  # fmt: skip
         if not up:
-            c["cause"], c["evidence"] = _why(runs, metrics, ab, cfg, case, "t_end")
+            c["cause"], c["evidence"] = _why(runs, metrics, ab, cfg, case, "t_end", ctx)
         claims.append(c)
     tables = write_ablation(ab, folder, ("rms_theta", "rms_s1", "t_end"))
-    doc = metrics_document(
-        study, SOURCE, metrics, PUBLISHED, claims,
-        {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
-        {"dt": tw.dt, "Ts": tw.Ts, "window": list(window), "seed": cfg["seed"],
+    return save_study(
+        ctx, metrics=metrics, published=PUBLISHED, claims=claims,
+        runs={k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
+              for k, v in runs.items()},
+        settings={"dt": tw.dt, "Ts": tw.Ts, "window": list(window), "seed": cfg["seed"],
          "duration": duration, "record_every": cfg["record_every"],
          "record_period": tw.Ts * cfg["record_every"],
          "mode": f"sampled on the digital twin ({tw.Ts * 1e3:g} ms)",
          "lambda": list(cfg["lambdas"]), "K": list(cfg["K"]), "rate": list(cfg["Gamma_rate"]),
          "Gamma0": list(cfg["Gamma0"]), "eps": cfg["eps"], "theta0": cfg["theta0"],
-         "twin": twin_doc(tw), "plant": robot_label(robot.plant()),
-         "input_gain_ratio": {f"case{c}": input_gain_ratio(case_plant(c, base=robot.plant()),
-                                                           robot.nominal(), cfg["lambdas"][1])
+         "twin": twin_doc(tw), "plant": robot_label(ctx.plant),
+         "input_gain_ratio": {f"case{c}": input_gain_ratio(case_plant(c, base=ctx.plant),
+                                                           ctx.nominal, cfg["lambdas"][1])
                               for c in (1, 2)},
          "ablation": "the ideal robot, then the twin's elements added in turn (keys "
                      "ablation.<step>.<run>.case<k>.*; one batched run per controller and case)",
          ABLATION_FIELD: tables},
+        series=runs, figures={f"{study}.png": _figure(runs, ctx.plant)},
     )  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
-    _figure(runs, folder / f"{study}.png")
-    for name, res in runs.items():
-        res.to_npz(folder / f"{name}.npz")
-    write_metrics(folder, doc)
-    return doc
 
 
 def _fell(runs: Mapping[str, SimResult], pre: str, case: int) -> str:
@@ -215,10 +213,10 @@ def _fell(runs: Mapping[str, SimResult], pre: str, case: int) -> str:
 
 def _why(
     runs: Mapping[str, SimResult], m: Mapping[str, float], ab: Ablation,
-    cfg: Mapping[str, Any], case: int, q: str,
+    cfg: Mapping[str, Any], case: int, q: str, ctx: StudyContext,
 ) -> tuple[str, str]:  # fmt: skip
-    """Cause and evidence of a failing book claim of Case ``case`` on quantity ``q``: a fall
-    on the full twin is located along the ablation ``ab``."""
+    """Cause and evidence of a failing book claim of Case ``case`` on quantity ``q`` (the
+    robot of ``ctx``): a fall on the full twin is located along the ablation ``ab``."""
 
     def num(v: float) -> str:
         return f"{v:.4g}" if np.isfinite(v) else "fell"
@@ -241,9 +239,9 @@ def _why(
         if any(first_fall(ab, k, case) == "ideal" for k in fallen):
             if case == 2:
                 lam = cfg["lambdas"][1]
-                return "book-inconsistency", (
-                    f"{payload_evidence(lam, 'g2 + lambda_2 g1')}; {text}"
-                )
+                why = payload_evidence(lam, "g2 + lambda_2 g1", plant=ctx.plant,
+                                       nominal=ctx.nominal)  # fmt: skip
+                return "book-inconsistency", f"{why}; {text}"
             return "implementation", text + " (not explained)"
         return "twin-model", text
     iv = [m.get(f"ablation.ideal.{k}.case{case}.{q}", float("nan")) for k in ("asta", "asmc")]
@@ -267,7 +265,7 @@ def _why(
     return "twin-model", text
 
 
-def _figure(runs: dict[str, SimResult], path: Path) -> None:
+def _figure(runs: dict[str, SimResult], plant: Params) -> Figure:
     """Figs. 6.9-6.16 layout: angle, S1, adaptive gain, torque per case; time in 0.1 s."""
     fig = Figure(figsize=(12, 11), layout="constrained")
     axes = fig.subplots(4, 2, sharex=True)
@@ -287,5 +285,8 @@ def _figure(runs: dict[str, SimResult], path: Path) -> None:
             ax.set_ylabel(lab)
         axes[3, j].set_xlabel("Time [0.1s]")
     axes[0, 0].legend(fontsize=8)
-    fig.suptitle(f"exp-asta on the digital twin ({robot_label(robot.plant())})")
-    save_figure(fig, path)
+    fig.suptitle(f"exp-asta on the digital twin ({robot_label(plant)})")
+    return fig
+
+
+STUDY = Study(NAME, SOURCE, run, place=(6, 9), cost=5)

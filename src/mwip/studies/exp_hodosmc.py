@@ -1,9 +1,9 @@
 """Experiments ``exp-hodosmc-{balance,speed,obstacle}`` (Sec. 6.2.1) emulated on the twin.
 
-Set-up (SPEC.md section 5): the digital twin of the run (:func:`mwip.studies.robot.twin`: the
-twin file's configuration, default the default twin with every element on; ``mwip run --twin
-FILE``; :mod:`mwip.studies.twin_settings`); controllers sampled at its ``Ts`` (5 ms);
-controllers designed on the robot's nominal model (Table 6.2 by default) with Table 6.3's
+Set-up (SPEC.md section 5): the digital twin of the run (``ctx.twin``: the twin file's
+configuration, default the default twin with every element on; ``mwip run --twin FILE``;
+:mod:`mwip.studies.twin_settings`); controllers sampled at its ``Ts`` (5 ms); controllers
+designed on the robot's nominal model (Table 6.2 by default) with Table 6.3's
 gains: all ``lambda = (3, 0.01, 0.1, 3)``, ``gamma = 1``; SMC ``K = (25, 21)``, DO1SMC
 ``K = (17.3, 14)`` (first-order DO (3.2), gain ``do1_gain``: the book prints none), DO4SMC
 ``K = (6.3, 4)`` (4th-order DO with the Sec. 3.6.1 gains); saturation switching with boundary
@@ -48,7 +48,6 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping
 from functools import partial
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -60,19 +59,24 @@ from mwip.hardware.ablation import Ablation, MetricFn, rms_metrics, run_ablation
 from mwip.hardware.obstacle import StickObstacle
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
-from mwip.models.reduced import f_g
 from mwip.params import Params, steady_speed_cap
 from mwip.sim import SimResult
-from mwip.studies import robot, settings
-from mwip.studies.common import metrics_document, save_figure, write_metrics
+from mwip.studies import settings
+from mwip.studies.registry import robot as book_robot
+from mwip.studies.study import Study, StudyContext, save_study
 from mwip.studies.twin_settings import (
     ABLATION_FIELD,
+    QUICK_ABLATION,
     fall_evidence,
     first_fall,
+    payload_evidence,
     robot_label,
     study_settings,
     twin_doc,
     write_ablation,
+)
+from mwip.studies.twin_settings import (
+    input_gain_ratio as input_gain_ratio,  # re-exported: tests and examples use it from here
 )
 
 SOURCE_BALANCE = "Sec. 6.2.1, Figs. 6.4-6.5, Table 6.4"
@@ -113,55 +117,21 @@ PUBLISHED_OBSTACLE = {
     "do4smc.settling_time": 0.19,
 }
 
-#: quick mode: the ablation's runs last this long (s), RMS over its second half
-QUICK_ABLATION = 2.0
-
 
 def make_controller(
     kind: str, cfg: Mapping[str, Any], q1d_dot: float = 0.0, params: Params | None = None
 ) -> Any:
     """Table 6.3's controller ``kind`` (smc, do1smc, do4smc) with saturation, gains from the
     calling study's settings ``cfg`` (``lambdas``, ``{kind}_K``, ``do1_gain``, ``phi``,
-    ``Ts``), designed on ``params`` (default: the robot's nominal model,
-    :func:`mwip.studies.robot.nominal`)."""
+    ``Ts``), designed on ``params`` (default: the book's design model, Table 3.2)."""
     if params is None:
-        params = robot.nominal()
+        params = book_robot()[1]
     obs = [cfg["do1_gain"]] if kind == "do1smc" else None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SMCDesignWarning)
         return make_smc(kind, tuple(cfg["lambdas"]), K=tuple(cfg[f"{kind}_K"]),
                         observer_gains=obs, params=params, Ts=cfg["Ts"],
                         switching=Switching("sat", cfg["phi"]), q1d_dot=q1d_dot)  # fmt: skip
-
-
-def input_gain_ratio(plant: Params, nominal: Params, lam: float) -> float:
-    """``(g2 + lam g1)`` of (2.36) at upright rest for ``plant`` over the same for ``nominal``.
-
-    (3.50) divides by ``g2 + l3 g1`` (and (4.7) by ``g2 + lambda_2 g1``) computed on the
-    nominal model, so a plant with this ratio ``rho`` turns the law's intended ``S1'`` into
-    ``rho`` times it plus the model mismatch: the fraction of the assumed input gain the
-    plant delivers.
-    """
-    zero = np.zeros(3)
-    _, gp = f_g(plant, zero, zero)
-    _, gn = f_g(nominal, zero, zero)
-    return float((gp[1, 0] + lam * gp[0, 0]) / (gn[1, 0] + lam * gn[0, 0]))
-
-
-def payload_evidence(lam: float, which: str = "g2 + l3 g1") -> str:
-    """Why Case 2/3 is hard, from the robot in use: the payload (absent from the design
-    model) multiplies the pitch inertia and cuts the input gain the controllers assume."""
-    p1, nominal = robot.plant(), robot.nominal()
-    p2 = case_plant(2, base=p1)
-    low = p1.with_payload(body_height=float(p1.l))
-    return (
-        f"the 0.5 kg pan (not in the design model) raises the pitch inertia Iby from "
-        f"{float(p1.Iby):.3g} to {float(p2.Iby):.3g} kg m^2 and leaves the controllers "
-        f"{input_gain_ratio(p2, nominal, lam):.2f} of the input gain {which} of (2.36) "
-        f"they divide by (Case 1: {input_gain_ratio(p1, nominal, lam):.2f}; still "
-        f"{input_gain_ratio(low, nominal, lam):.2f} with the pan only 0.1 m above the centre "
-        f"of mass)"
-    )
 
 
 def _fell_text(runs: Mapping[str, SimResult], names: Mapping[str, str]) -> str:
@@ -173,15 +143,18 @@ def _fell_text(runs: Mapping[str, SimResult], names: Mapping[str, str]) -> str:
 
 def run_one(
     kind: str, case: int, q1d_dot: float, cfg: Mapping[str, Any], *,
-    duration: float | None = None, twin: Twin | None = None,
+    duration: float | None = None, twin: Twin | None = None, plant: Params | None = None,
+    nominal: Params | None = None,
 ) -> SimResult:  # fmt: skip
     """One controller on the twin for a case (3 = payload + stick; ``case=-1``: stick on the
-    Case 1 robot): the given ``twin`` (default: the run's, :func:`mwip.studies.robot.twin`);
-    the calling study's settings ``cfg`` (``Ts`` must be the twin's; ``duration`` default:
-    ``cfg["duration"]``; the stick from ``stick_start``, ``stick_speed``, ``stick_height``)."""
-    ctrl = make_controller(kind, cfg, q1d_dot)
+    Case 1 robot): the given ``twin`` (default: the default twin), the robot ``plant`` and
+    design model ``nominal`` (default: the book's); the calling study's settings ``cfg``
+    (``Ts`` must be the twin's; ``duration`` default: ``cfg["duration"]``; the stick from
+    ``stick_start``, ``stick_speed``, ``stick_height``)."""
+    base, nominal = book_robot(plant, nominal)
+    ctrl = make_controller(kind, cfg, q1d_dot, nominal)
     payload = case in (2, 3)
-    plant = case_plant(2 if payload else 1, base=robot.plant())
+    plant = case_plant(2 if payload else 1, base=base)
     dist = None
     if case in (3, -1):
         dist = StickObstacle(height=cfg.get("stick_height", 0.01),
@@ -189,7 +162,7 @@ def run_one(
                              speed=cfg.get("stick_speed", -7.0),
                              mass=float(plant.mb + 2.0 * plant.mw), r=float(plant.r))  # fmt: skip
     return run_on_twin(
-        ctrl, 2 if payload else 1, twin=robot.twin() if twin is None else twin, plant=plant,
+        ctrl, 2 if payload else 1, twin=Twin() if twin is None else twin, plant=plant,
         q0=(0.0, cfg["theta0"], 0.0), record_every=cfg["record_every"], seed=cfg["seed"],
         duration=cfg["duration"] if duration is None else duration, disturbance=dist,
     )  # fmt: skip
@@ -237,7 +210,7 @@ def _runs_doc(runs: dict[str, SimResult]) -> dict[str, dict[str, Any]]:
 
 def _settings(
     cfg: Mapping[str, Any], tw: Twin, extra: dict[str, Any], duration: float,
-    window: tuple[float, float], tables: dict[str, str],
+    window: tuple[float, float], tables: dict[str, str], plant: Params,
 ) -> dict:  # fmt: skip
     base = {
         "dt": tw.dt, "Ts": tw.Ts, "window": list(window), "seed": cfg["seed"],
@@ -249,7 +222,7 @@ def _settings(
         "switching": f"saturation, phi = {cfg['phi']}", "phi": cfg["phi"],
         "theta0": cfg["theta0"], "do1_gain": cfg["do1_gain"],
         "observers": f"DO1: L = {cfg['do1_gain']:g} I3; DO4: Sec. 3.6.1 gains",
-        "twin": twin_doc(tw), "plant": robot_label(robot.plant()),
+        "twin": twin_doc(tw), "plant": robot_label(plant),
         "ablation": "the ideal robot, then the twin's elements added in turn (keys "
                     "ablation.<step>.<run>.case<k>.*; one batched run per controller and case)",
         ABLATION_FIELD: tables,
@@ -282,11 +255,14 @@ def _ablation_metrics(
 
 def _run_ablation(
     cfg: Mapping[str, Any], tw: Twin, q1d_dot: float, cases: tuple[int, ...], duration: float,
-    window: tuple[float, float], claims: list[tuple[str, Any]],
+    window: tuple[float, float], claims: list[tuple[str, Any]], plant: Params | None = None,
+    nominal: Params | None = None,
 ) -> Ablation:  # fmt: skip
     """The cumulative ablation of the three controllers for ``cases`` on the twin's values:
-    one batched run per controller and case (:func:`mwip.hardware.ablation.run_ablation`)."""
+    one batched run per controller and case (:func:`mwip.hardware.ablation.run_ablation`), on
+    ``plant`` with designs on ``nominal`` (default: the book's)."""
     stick = cfg.get("stick_start") if 3 in cases else None
+    base, nominal = book_robot(plant, nominal)
 
     def kw(run: str, case: int) -> dict[str, Any]:
         out = {"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
@@ -297,9 +273,9 @@ def _run_ablation(
         return out
 
     return run_ablation(
-        [(k, partial(make_controller, k, cfg, q1d_dot)) for k in KINDS], tw, cases=cases,
-        metrics=_ablation_metrics(window, q1d_dot, stick), run_kwargs=kw,
-        plant=lambda case: case_plant(2 if case in (2, 3) else 1, base=robot.plant()),
+        [(k, partial(make_controller, k, cfg, q1d_dot, nominal)) for k in KINDS], tw,
+        cases=cases, metrics=_ablation_metrics(window, q1d_dot, stick), run_kwargs=kw,
+        plant=lambda case: case_plant(2 if case in (2, 3) else 1, base=base),
         claims=claims,
     )  # fmt: skip
 
@@ -320,11 +296,14 @@ def _ab_up(case: int) -> tuple[str, Any]:
 
 class _Evidence:
     """Cause and evidence of a failing book claim of a HODOSMC study, from its runs and its
-    ablation ``ab`` (``runs`` holds the full-twin runs of one case by controller name)."""
+    ablation ``ab`` (``runs`` holds the full-twin runs of one case by controller name) on
+    ``plant`` with designs on ``nominal`` (default: the book's)."""
 
     def __init__(self, study: str, cfg: Mapping[str, Any], runs: Mapping[str, SimResult],
-                 metrics: Mapping[str, float], ab: Ablation) -> None:  # fmt: skip
+                 metrics: Mapping[str, float], ab: Ablation, plant: Params | None = None,
+                 nominal: Params | None = None) -> None:  # fmt: skip
         self.study, self.cfg, self.runs, self.m, self.ab = study, cfg, runs, metrics, ab
+        self.plant, self.nominal = book_robot(plant, nominal)
 
     def fallen(self) -> list[str]:
         return [k for k in KINDS if k in self.runs and self.runs[k].status[0] != "ok"]
@@ -340,7 +319,9 @@ class _Evidence:
         )
         if any(first_fall(self.ab, k, case) == "ideal" for k in kinds):
             if case in (2, 3):
-                return "book-inconsistency", f"{payload_evidence(self.cfg['lambdas'][2])}; {text}"
+                why = payload_evidence(self.cfg["lambdas"][2], plant=self.plant,
+                                       nominal=self.nominal)  # fmt: skip
+                return "book-inconsistency", f"{why}; {text}"
             return "implementation", text + " (not explained)"
         return "twin-model", text
 
@@ -349,7 +330,7 @@ class _Evidence:
         rolling needs ``Gb sin(theta) = 2 Dw psi'``, :func:`mwip.params.steady_speed_cap`),
         no controller can reach it: the damping decides (``None`` when it is reachable)."""
         target = float(self.cfg["speed"])
-        plant = case_plant(2 if case in (2, 3) else 1, base=robot.plant())
+        plant = case_plant(2 if case in (2, 3) else 1, base=self.plant)
         cap = float(steady_speed_cap(plant))
         if target == 0.0 or abs(target) <= cap:
             return None
@@ -411,11 +392,10 @@ def _claim(cid: str, text: str, holds: bool, book: bool, keys: list[str],
 
 
 def _rms_experiment(
-    study: str, source: str, published: dict[str, float], out: Path, quick: bool,
-    keys: tuple[str, ...], table: str,
-) -> dict[str, Any]:  # fmt: skip
-    folder = Path(out) / study
-    cfg, tw = study_settings(study)
+    ctx: StudyContext, published: dict[str, float], keys: tuple[str, ...], table: str
+) -> dict[str, Any]:
+    study, folder, quick, robot = ctx.name, ctx.out, ctx.quick, (ctx.plant, ctx.nominal)
+    cfg, tw = study_settings(study, ctx.settings, ctx.twin)
     q1d_dot = cfg["speed"]
     duration = min(4.0, cfg["duration"]) if quick else cfg["duration"]
     window = (2.0, duration) if quick else tuple(cfg["rms_window"])
@@ -423,14 +403,15 @@ def _rms_experiment(
     metrics: dict[str, float] = {}
     for case in (1, 2):
         for kind in KINDS:
-            res = run_one(kind, case, q1d_dot, cfg, duration=duration, twin=tw)
+            res = run_one(kind, case, q1d_dot, cfg, duration=duration, twin=tw, plant=ctx.plant,
+                          nominal=ctx.nominal)  # fmt: skip
             name = f"{kind}.case{case}"
             runs[name] = res
             for q, v in _rms_metrics(res, q1d_dot, window).items():
                 metrics[f"{name}.{q}"] = v
     for gain in _do1_range(study):  # DO1SMC at the ends of its open observer gain, Case 1
         res = run_one("do1smc", 1, q1d_dot, {**cfg, "do1_gain": gain}, duration=duration,
-                      twin=tw)  # fmt: skip
+                      twin=tw, plant=ctx.plant, nominal=ctx.nominal)  # fmt: skip
         name = f"sweep.do1smc_L{gain:g}.case1"
         runs[name] = res
         for q, v in _rms_metrics(res, q1d_dot, window).items():
@@ -439,12 +420,12 @@ def _rms_experiment(
     ab_window = (ab_duration / 2, ab_duration) if quick else window
     ab = _run_ablation(cfg, tw, q1d_dot, (1, 2), ab_duration, ab_window,
                        [_ab_order(q, c) for c in (1, 2) for q in keys]
-                       + [_ab_up(c) for c in (1, 2)])  # fmt: skip
+                       + [_ab_up(c) for c in (1, 2)], *robot)  # fmt: skip
     metrics.update(ab.metrics)
     claims = []
     for case in (1, 2):
         ck = f"case{case}"
-        ev = _Evidence(study, cfg, {k: runs[f"{k}.{ck}"] for k in KINDS}, metrics, ab)
+        ev = _Evidence(study, cfg, {k: runs[f"{k}.{ck}"] for k in KINDS}, metrics, ab, *robot)
         for q in keys:
             fmt = "{k}." + f"{ck}.{q}"
             holds = _ordered(_order_values(metrics, fmt))
@@ -477,27 +458,21 @@ def _rms_experiment(
             ))  # fmt: skip
     tables = write_ablation(ab, folder, ("rms_theta", *[q for q in keys if q != "rms_theta"],
                                          "t_end"))  # fmt: skip
-    doc = metrics_document(study, source, metrics, published, claims, _runs_doc(runs),
-                           _settings(cfg, tw, {"q1d_dot": q1d_dot}, duration, window,
-                                     tables))  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
-    _figure(runs, q1d_dot, folder / f"{study}.png", study)
-    for name, res in runs.items():
-        res.to_npz(folder / f"{name}.npz")
-    write_metrics(folder, doc)
-    return doc
+    return save_study(
+        ctx, metrics=metrics, published=published, claims=claims, runs=_runs_doc(runs),
+        settings=_settings(cfg, tw, {"q1d_dot": q1d_dot}, duration, window, tables, ctx.plant),
+        series=runs, figures={f"{study}.png": _figure(runs, q1d_dot, study, ctx.plant)},
+    )  # fmt: skip
 
 
-def run_balance(out: Path, *, quick: bool = False) -> dict[str, Any]:
+def run_balance(ctx: StudyContext) -> dict[str, Any]:
     """``exp-hodosmc-balance``: Table 6.4 on the twin (Cases 1-2, ``q1d' = 0``)."""
-    return _rms_experiment(NAME_BALANCE, SOURCE_BALANCE, PUBLISHED_BALANCE, out, quick,
-                           ("rms_theta", "rms_speed_err"), "Table 6.4")  # fmt: skip
+    return _rms_experiment(ctx, PUBLISHED_BALANCE, ("rms_theta", "rms_speed_err"), "Table 6.4")
 
 
-def run_speed(out: Path, *, quick: bool = False) -> dict[str, Any]:
+def run_speed(ctx: StudyContext) -> dict[str, Any]:
     """``exp-hodosmc-speed``: Table 6.5 on the twin (Cases 1-2, ``q1d' = -7 rad/s``)."""
-    return _rms_experiment(NAME_SPEED, SOURCE_SPEED, PUBLISHED_SPEED, out, quick,
-                           ("rms_speed_err",), "Table 6.5")  # fmt: skip
+    return _rms_experiment(ctx, PUBLISHED_SPEED, ("rms_speed_err",), "Table 6.5")
 
 
 def obstacle_settling_time(
@@ -519,11 +494,10 @@ def obstacle_settling_time(
     return float(tt[outside[-1] + 1] - start)
 
 
-def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
+def run_obstacle(ctx: StudyContext) -> dict[str, Any]:
     """``exp-hodosmc-obstacle``: Table 6.6 on the twin (Case 3: payload + stick at 6 s)."""
-    study = NAME_OBSTACLE
-    folder = Path(out) / study
-    cfg, tw = study_settings(study)
+    study, folder, quick, robot = ctx.name, ctx.out, ctx.quick, (ctx.plant, ctx.nominal)
+    cfg, tw = study_settings(study, ctx.settings, ctx.twin)
     speed, stick_start = cfg["speed"], cfg["stick_start"]
     duration = min(7.0, cfg["duration"]) if quick else cfg["duration"]
     cases = ((3, ""),) if quick else ((3, ""), (-1, "case1_stick."))
@@ -531,7 +505,8 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
     metrics: dict[str, float] = {}
     for case, tag in cases:
         for kind in KINDS:
-            res = run_one(kind, case, speed, cfg, duration=duration, twin=tw)
+            res = run_one(kind, case, speed, cfg, duration=duration, twin=tw, plant=ctx.plant,
+                          nominal=ctx.nominal)  # fmt: skip
             name = f"{tag}{kind}"
             runs[name] = res
             ok = res.status[0] == "ok"
@@ -553,7 +528,7 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
 
     ab = _run_ablation(cfg, tw, speed, (3,), duration, (cfg["rms_start"], stick_start),
                        [("settling time DO4SMC < DO1SMC < SMC, Case 3", settle_order),
-                        _ab_up(3)])  # fmt: skip
+                        _ab_up(3)], *robot)  # fmt: skip
     metrics.update(ab.metrics)
     claims = []
     for case, tag in cases:
@@ -561,7 +536,7 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
         what = "Case 3" if case == 3 else "stick without payload (extra)"
         fmt = tag + "{k}.settling_time"
         holds = _ordered(_order_values(metrics, fmt))
-        ev = _Evidence(study, cfg, {k: runs[f"{tag}{k}"] for k in KINDS}, metrics, ab)
+        ev = _Evidence(study, cfg, {k: runs[f"{tag}{k}"] for k in KINDS}, metrics, ab, *robot)
         why = None
         if book and not holds:
             why = ev.speed_cap(3) or (ev.fall(3) if ev.fallen() else (
@@ -584,24 +559,20 @@ def run_obstacle(out: Path, *, quick: bool = False) -> dict[str, Any]:
             f"all three cross the stick and settle in (-9, -5) rad/s, {what}",
             settled, book, [f"{tag}{k}.settling_time" for k in KINDS], why,
         ))  # fmt: skip
-    stick = _stick_doc(cfg)
+    stick = _stick_doc(cfg, ctx.plant)
     tables = write_ablation(ab, folder, ("settling_time", "rms_theta", "t_end"))
-    doc = metrics_document(
-        study, SOURCE_OBSTACLE, metrics, PUBLISHED_OBSTACLE, claims, _runs_doc(runs),
-        _settings(cfg, tw, {"q1d_dot": speed, "band": list(BAND), "stick": stick,
-                            "stick_speed": cfg["stick_speed"]},
-                  duration, (cfg["rms_start"], stick_start), tables),
+    return save_study(
+        ctx, metrics=metrics, published=PUBLISHED_OBSTACLE, claims=claims, runs=_runs_doc(runs),
+        settings=_settings(cfg, tw, {"q1d_dot": speed, "band": list(BAND), "stick": stick,
+                                     "stick_speed": cfg["stick_speed"]},
+                           duration, (cfg["rms_start"], stick_start), tables, ctx.plant),
+        series=runs,
+        figures={f"{study}.png": _figure(runs, speed, study, ctx.plant, cases=("",))},
     )  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
-    _figure(runs, speed, folder / f"{study}.png", study, cases=("",))
-    for name, res in runs.items():
-        res.to_npz(folder / f"{name}.npz")
-    write_metrics(folder, doc)
-    return doc
 
 
-def _stick_doc(cfg: Mapping[str, Any]) -> dict[str, float]:
-    p = case_plant(2, base=robot.plant())
+def _stick_doc(cfg: Mapping[str, Any], plant: Params) -> dict[str, float]:
+    p = case_plant(2, base=plant)
     s = StickObstacle(
         height=cfg["stick_height"],
         start=cfg["stick_start"],
@@ -614,9 +585,9 @@ def _stick_doc(cfg: Mapping[str, Any]) -> dict[str, float]:
 
 
 def _figure(
-    runs: dict[str, SimResult], q1d_dot: float, path: Path, title: str,
+    runs: dict[str, SimResult], q1d_dot: float, title: str, plant: Params,
     cases: tuple[str, ...] = (".case1", ".case2"),
-) -> None:  # fmt: skip
+) -> Figure:  # fmt: skip
     """The book's layout (Figs. 6.4-6.8): angle, speed and torque against time in 0.1 s."""
     fig = Figure(figsize=(6 * len(cases), 9), layout="constrained")
     axes = fig.subplots(3, len(cases), squeeze=False)
@@ -637,5 +608,12 @@ def _figure(
         axes[2, j].set_ylabel("Torque [N.m] (right wheel, applied)")
         axes[2, j].set_xlabel("Time [0.1s]")
     axes[0, 0].legend(fontsize=8)
-    fig.suptitle(f"{title} on the digital twin ({robot_label(robot.plant())})")
-    save_figure(fig, path)
+    fig.suptitle(f"{title} on the digital twin ({robot_label(plant)})")
+    return fig
+
+
+STUDIES = (
+    Study(NAME_BALANCE, SOURCE_BALANCE, run_balance, place=(6, 4), cost=7),
+    Study(NAME_SPEED, SOURCE_SPEED, run_speed, place=(6, 6), cost=6),
+    Study(NAME_OBSTACLE, SOURCE_OBSTACLE, run_obstacle, place=(6, 8), cost=6),
+)

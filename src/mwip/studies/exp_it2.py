@@ -3,7 +3,7 @@
 Set-up (SPEC.md section 5; book Sec. 6.2.3): the Chapter 5 controller of Fig. 5.3 - PDC
 balance law (5.10) ``u = sum_i m_i(theta) G_i x`` plus the Mamdani position and direction
 FLSs of Section 5.3.2 (Tables 5.1-5.2), :class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` -
-runs on the digital twin of the run (:func:`mwip.studies.robot.twin`, the twin file's
+runs on the digital twin of the run (``ctx.twin``, the twin file's
 configuration, default the default twin; Case 1: the real robot of Table 6.1, sampled at the
 twin's ``Ts``) against its type-1
 counterpart (same rules and gains, type-1 sets at the middle of each footprint, weighted
@@ -69,7 +69,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -81,9 +80,10 @@ from mwip.hardware.ablation import Ablation, ablation_steps, run_ablation
 from mwip.hardware.elements import ELEMENTS
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms
+from mwip.params import Params
 from mwip.sim import SimResult
-from mwip.studies import robot
-from mwip.studies.common import metrics_document, save_figure, write_metrics
+from mwip.studies.registry import robot as book_robot
+from mwip.studies.study import Study, StudyContext, save_study
 from mwip.studies.twin_settings import (
     ABLATION_FIELD,
     fall_evidence,
@@ -128,12 +128,12 @@ def targets(cfg: Mapping[str, Any] | None = None) -> dict[int, tuple[float | Non
     return {1: (None, None), 2: (c["exp2_p_d"], None), 3: (c["exp3_p_d"], c["exp3_alpha_d"])}
 
 
-def design(cfg: Mapping[str, Any] | None = None) -> PDCDesign:
+def design(cfg: Mapping[str, Any] | None = None, nominal: Params | None = None) -> PDCDesign:
     """The PDC gains (Lemma 5.1/5.2 on the nominal model and the ``+-uncertainty`` models,
     ``epsilon``, ``rho`` of the settings ``cfg``, default: the study's current settings) of
-    the robot's nominal model (:func:`mwip.studies.robot.nominal`)."""
+    the design model ``nominal`` (default: the book's, Table 3.2)."""
     c = _cfg(cfg)
-    nominal = robot.nominal()
+    nominal = book_robot(None, nominal)[1]
     return design_pdc(uncertainty_models(nominal, c["uncertainty"]), epsilon=c["epsilon"],
                       rho=c["rho"])  # fmt: skip
 
@@ -161,20 +161,23 @@ def rows_for(cfg: Mapping[str, Any] | None = None) -> list[Row]:
 def run_batch(
     rows: Sequence[Row], *, duration: float | None = None, seed: int | None = None,
     twin: Twin | None = None, pdc: PDCDesign | None = None,
-    cfg: Mapping[str, Any] | None = None,
+    cfg: Mapping[str, Any] | None = None, plant: Params | None = None,
+    nominal: Params | None = None,
 ) -> dict[str, SimResult]:  # fmt: skip
-    """Run ``rows`` as one batch on the twin (Case 1 plant, the PDC design ``pdc``, default
-    :func:`design`; the run's twin by default, :func:`mwip.studies.robot.twin`); the initial
-    lean, sampling (``Ts``: the twin's), records, and the defaults of ``duration`` and
-    ``seed`` from the settings ``cfg`` (default: the study's current settings)."""
+    """Run ``rows`` as one batch on the twin (Case 1 of ``plant``, designs on ``nominal``,
+    default: the book's; the PDC design ``pdc``, default :func:`design`; the default twin by
+    default); the initial lean, sampling (``Ts``: the twin's), records, and the defaults of
+    ``duration`` and ``seed`` from the settings ``cfg`` (default: the study's current
+    settings)."""
     c = _cfg(cfg)
-    des = design(c) if pdc is None else pdc
-    plant = case_plant(1, base=robot.plant())
+    base, nominal = book_robot(plant, nominal)
+    des = design(c, nominal) if pdc is None else pdc
+    plant = case_plant(1, base=base)
     ctrl = Fig53Controller([des] * len(rows), [r.kind for r in rows],
                            [r.p_d for r in rows], [r.alpha_d for r in rows],
-                           params=robot.nominal(), Ts=c["Ts"])  # fmt: skip
+                           params=nominal, Ts=c["Ts"])  # fmt: skip
     q0 = np.tile([0.0, c["theta0"], 0.0], (len(rows), 1))
-    res = run_on_twin(ctrl, 1, twin=robot.twin() if twin is None else twin, plant=plant,
+    res = run_on_twin(ctrl, 1, twin=Twin() if twin is None else twin, plant=plant,
                       q0=q0, duration=c["duration"] if duration is None else duration,
                       record_every=c["record_every"],
                       seed=c["seed"] if seed is None else seed)  # fmt: skip
@@ -190,10 +193,10 @@ def run_metrics(
     r_nom: float | None = None,
 ) -> dict[str, float]:  # fmt: skip
     """Metrics of one run (``nan`` where the plant fell). ``p = r_nom psi`` as the controller
-    reads it (``r_nom`` default: the robot's nominal model's), ``p_true = r psi`` with the
+    reads it (``r_nom`` default: the book's design model's), ``p_true = r psi`` with the
     plant's wheel radius."""
     if r_nom is None:
-        r_nom = float(robot.nominal().r)
+        r_nom = float(book_robot()[1].r)
     nan = float("nan")
     ok = _ok(res)
     t, th = res.t, res.theta
@@ -352,21 +355,25 @@ def _why(
 
 def _ablation(
     cfg: Mapping[str, Any], tw: Twin, rows: Sequence[Row], pdc: PDCDesign, duration: float,
-    osc_window: float, rms_window: tuple[float, float], *, merged: bool = True,
+    osc_window: float, rms_window: tuple[float, float], plant: Params | None = None,
+    nominal: Params | None = None, *, merged: bool = True,
 ) -> Ablation:  # fmt: skip
-    """Every run of the batch: the ideal robot, then the twin's elements added in turn;
-    quantities of :func:`run_metrics` plus ``fell`` and ``t_end``, the book's claim per
-    experiment judged at every step.
+    """Every run of the batch on Case 1 of ``plant`` (designs on ``nominal``; default: the
+    book's): the ideal robot, then the twin's elements added in turn; quantities of
+    :func:`run_metrics` plus ``fell`` and ``t_end``, the book's claim per experiment judged at
+    every step.
 
     ``merged`` (default): all runs x steps as one batched twin run (one Fig. 5.3 controller of
     ``len(rows) x 13`` rows: one FLS call per kind and sample for all of them, a third of the
     cost), every row with the IMU noise of a single run like the batches of
     :func:`mwip.hardware.ablation.run_ablation`; ``merged=False``: that function, one batched
     run per run (the same numbers, tested)."""
+    base, nominal = book_robot(plant, nominal)
     by_name = {r.name: r for r in rows}
 
     def fn(res: SimResult, run: str, case: int) -> dict[str, float]:
-        out = run_metrics(res, by_name[run], osc_window=osc_window, rms_window=rms_window)
+        out = run_metrics(res, by_name[run], osc_window=osc_window, rms_window=rms_window,
+                          r_nom=float(nominal.r))  # fmt: skip
         out["fell"] = 0.0 if _ok(res) else 1.0
         out["t_end"] = float(res.t_end[0])
         return out
@@ -379,14 +386,14 @@ def _ablation(
         return f"Exp {e}: T1 oscillates or keeps an error; IT2 stable and accurate", test
 
     claims = [claim(e) for e in EXPERIMENTS]
-    plant = case_plant(1, base=robot.plant())
+    plant = case_plant(1, base=base)
     kw = {"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
           "record_every": cfg["record_every"], "seed": cfg["seed"]}  # fmt: skip
     if not merged:
 
         def factory(r: Row) -> Any:
             return lambda: Fig53Controller([pdc], [r.kind], [r.p_d], [r.alpha_d],
-                                           params=robot.nominal(), Ts=tw.Ts)  # fmt: skip
+                                           params=nominal, Ts=tw.Ts)  # fmt: skip
 
         return run_ablation([(r.name, factory(r)) for r in rows], tw, cases=(1,), metrics=fn,
                             plant=lambda case: plant, run_kwargs=kw,
@@ -395,7 +402,7 @@ def _ablation(
     batch = [(r, step, elements) for r in rows for step, elements in steps]
     ctrl = Fig53Controller([pdc] * len(batch), [r.kind for r, _, _ in batch],
                            [r.p_d for r, _, _ in batch], [r.alpha_d for r, _, _ in batch],
-                           params=robot.nominal(), Ts=tw.Ts)  # fmt: skip
+                           params=nominal, Ts=tw.Ts)  # fmt: skip
     full = replace(tw, elements=frozenset(ELEMENTS), ideal_sensors=False, ideal_actuator=False)
     res = run_on_twin(ctrl, 1, twin=full, plant=plant, rows=[e for _, _, e in batch],
                       **{**kw, "q0": np.tile(kw["q0"], (len(batch), 1))})  # fmt: skip
@@ -418,22 +425,23 @@ def _judge(test: Any, m: Mapping[str, float]) -> bool | None:
         return None
 
 
-def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
-    """Run the experiment into ``out/exp-it2``; returns the metrics document."""
-    study = NAME
-    folder = Path(out) / study
-    cfg, tw = study_settings(NAME)
+def run(ctx: StudyContext) -> dict[str, Any]:
+    """Run the experiment into ``ctx.out``; returns the metrics document."""
+    study, folder, quick = ctx.name, ctx.out, ctx.quick
+    cfg, tw = study_settings(NAME, ctx.settings, ctx.twin)
     duration = min(QUICK_DURATION, cfg["duration"]) if quick else cfg["duration"]
     osc_window = duration / 2 if quick else OSC_WINDOW
     rms_window = (1.0 if quick else cfg["rms_start"], duration)
-    pdc = design(cfg)
+    pdc = design(cfg, ctx.nominal)
     experiments = targets(cfg)
     rows = rows_for(cfg)
-    runs = run_batch(rows, duration=duration, pdc=pdc, cfg=cfg, twin=tw)
+    runs = run_batch(rows, duration=duration, pdc=pdc, cfg=cfg, twin=tw, plant=ctx.plant,
+                     nominal=ctx.nominal)  # fmt: skip
+    r_nom = float(ctx.nominal.r)
     metrics: dict[str, float] = {}
     for row in rows:
         for k, v in run_metrics(runs[row.name], row, osc_window=osc_window,
-                                rms_window=rms_window).items():  # fmt: skip
+                                rms_window=rms_window, r_nom=r_nom).items():  # fmt: skip
             metrics[f"{row.name}.{k}"] = v
     for e in EXPERIMENTS:
         a, b = runs[f"it2.exp{e}"], runs[f"t1.exp{e}"]
@@ -441,7 +449,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         metrics[f"diff.exp{e}.max_abs_dtheta"] = (
             float(np.max(np.abs(a.theta - b.theta))) if same else float("nan")
         )
-    ab = _ablation(cfg, tw, rows, pdc, duration, osc_window, rms_window)
+    ab = _ablation(cfg, tw, rows, pdc, duration, osc_window, rms_window, ctx.plant, ctx.nominal)
     metrics.update(ab.metrics)
     claims = claims_from(metrics, ab)
     tables = write_ablation(ab, folder, ("rms_theta", "osc_amp", "t_end"))
@@ -450,7 +458,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         "x0_reading": "[theta, theta', psi, psi'] (Sec. 5.2)", "duration": duration,
         "Ts": tw.Ts, "dt": tw.dt, "record_every": cfg["record_every"],
         "record_period": tw.Ts * cfg["record_every"], "seed": cfg["seed"],
-        "plant": f"the robot's plant, Case 1 ({robot_label(robot.plant())})",
+        "plant": f"the robot's plant, Case 1 ({robot_label(ctx.plant)})",
         "design": "the robot's nominal model",
         "mode": f"sampled on the digital twin ({tw.Ts * 1e3:g} ms)",
         "batch": [r.name for r in rows],
@@ -459,7 +467,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
                         experiments.items()},
         "epsilon": cfg["epsilon"], "rho": cfg["rho"], "uncertainty": cfg["uncertainty"],
         "G": pdc.G, "lmi": check_design(pdc),
-        "position": f"p = r_nom psi (r_nom = {float(robot.nominal().r):g} m); "
+        "position": f"p = r_nom psi (r_nom = {r_nom:g} m); "
                     "final_pos_err_true uses the plant's r",
         "osc_window": osc_window, "rms_window": list(rms_window),
         "tolerances": {"osc": OSC_TOL, "pos": POS_TOL, "alpha": ALPHA_TOL, "theta": THETA_TOL},
@@ -470,29 +478,25 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
                     "(keys ablation.<step>.<run>.case1.*; one batched run per run)",
         ABLATION_FIELD: tables,
     }  # fmt: skip
-    doc = metrics_document(
-        study, SOURCE, metrics, {}, claims,
-        {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
-        used,
+    title = (f"{study}: IT2 vs T1 on the digital twin, x0 = [{cfg['theta0']:g}, 0, 0, 0] "
+             f"({robot_label(ctx.plant)})")  # fmt: skip
+    fig = _figure(runs, title, experiments, r_nom=r_nom)
+    return save_study(
+        ctx, metrics=metrics, claims=claims,
+        runs={k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
+              for k, v in runs.items()},
+        settings=used, series=runs, figures={f"{study}.png": fig},
     )  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
-    _figure(runs, folder / f"{study}.png",
-            f"{study}: IT2 vs T1 on the digital twin, x0 = [{cfg['theta0']:g}, 0, 0, 0] "
-            f"({robot_label(robot.plant())})", experiments)  # fmt: skip
-    for name, res in runs.items():
-        res.to_npz(folder / f"{name}.npz")
-    write_metrics(folder, doc)
-    return doc
 
 
 def _figure(
-    runs: Mapping[str, SimResult], path: Path, title: str,
-    experiments: Mapping[int, tuple[float | None, float | None]], n_rows: int = 5,
-) -> None:  # fmt: skip
-    """Figs. 6.17-6.19's layout, one column per experiment: theta, distance, heading, wheel
-    torque (the book plots PWM) and wheel rate against time in s (as the book's axes);
-    ``n_rows`` keeps the first rows only."""
-    r_nom = float(robot.nominal().r)
+    runs: Mapping[str, SimResult], title: str,
+    experiments: Mapping[int, tuple[float | None, float | None]], n_rows: int = 5, *,
+    r_nom: float,
+) -> Figure:  # fmt: skip
+    """Figs. 6.17-6.19's layout, one column per experiment: theta, distance ``r_nom psi``,
+    heading, wheel torque (the book plots PWM) and wheel rate against time in s (as the book's
+    axes); ``n_rows`` keeps the first rows only."""
     panels = (
         ("θ [rad]", lambda r: r.theta),
         ("Distance r_nom ψ [m]", lambda r: r_nom * r.q[:, 0]),
@@ -532,4 +536,7 @@ def _figure(
         axes[i, 0].set_ylabel(lab)
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(title)
-    save_figure(fig, path)
+    return fig
+
+
+STUDY = Study(NAME, SOURCE, run, place=(6, 17), cost=8)

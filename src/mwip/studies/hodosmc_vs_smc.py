@@ -23,7 +23,6 @@ Settings (``scenarios/hodosmc-vs-smc.toml``, :mod:`mwip.studies.settings`): ``th
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,9 +32,9 @@ from mwip.control.smc import make_smc
 from mwip.metrics import rms, total_variation_rate
 from mwip.observers.design import as_gain_matrices
 from mwip.sim import SimResult, simulate
-from mwip.studies import robot, settings
-from mwip.studies.common import finish_claims, metrics_document, save_figure, write_metrics
-from mwip.studies.do_comparison import disturbance
+from mwip.sim.disturbance import sinusoid_from_settings
+from mwip.studies.common import finish_claims
+from mwip.studies.study import Study, StudyContext, save_study
 
 SOURCE = "Fig. 3.3"
 NAME = "hodosmc-vs-smc"
@@ -43,34 +42,34 @@ BALANCED = 0.05  # rad: RMS pitch below this after the transient counts as balan
 TIE = 0.02  # relative: a difference below 2 % of the larger value is a tie, not "better"
 
 
-def _runs(cfg: dict[str, Any], duration: float) -> dict[str, SimResult]:
+def _runs(ctx: StudyContext, duration: float) -> dict[str, SimResult]:
     """The book's two runs: HODOSMC (4th-order DO, ``dbar_hodosmc``) and SMC (``dbar_smc``)."""
+    cfg = ctx.settings
     do4 = as_gain_matrices(list(cfg["do4_v"]))
     specs = {
         "hodosmc": ("hodosmc", tuple(cfg["dbar_hodosmc"]), do4),
         "smc": ("smc", tuple(cfg["dbar_smc"]), None),
     }
-    Ts, dist = cfg["Ts"], disturbance(cfg)
+    Ts, dist = cfg["Ts"], sinusoid_from_settings(cfg)
     out = {}
     for name, (kind, dbar, obs_gains) in specs.items():
         ctrl = make_smc(
             kind, tuple(cfg["lambdas"]), dbar=dbar, gamma=tuple(cfg["gamma"]), Ts=Ts,
-            observer_gains=obs_gains, params=robot.nominal(), q1d_dot=cfg["psi_dot_d"],
+            observer_gains=obs_gains, params=ctx.nominal, q1d_dot=cfg["psi_dot_d"],
         )  # fmt: skip
         out[name] = simulate(
-            ctrl, robot.plant(), q0=(0.0, cfg["theta0"], 0.0), duration=duration, Ts=Ts,
+            ctrl, ctx.plant, q0=(0.0, cfg["theta0"], 0.0), duration=duration, Ts=Ts,
             dt=cfg["dt"], disturbance=dist,
         )  # fmt: skip
     return out
 
 
-def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
-    """Run the study into ``out/hodosmc-vs-smc``; returns the metrics document."""
-    folder = Path(out) / NAME
-    cfg = settings.current(NAME)
-    duration = min(6.0, cfg["duration"]) if quick else cfg["duration"]
-    window = (2.0, duration) if quick else tuple(cfg["rms_window"])
-    runs = _runs(cfg, duration)
+def run(ctx: StudyContext) -> dict[str, Any]:
+    """Run the study into ``ctx.out``; returns the metrics document."""
+    cfg = ctx.settings
+    duration = min(6.0, cfg["duration"]) if ctx.quick else cfg["duration"]
+    window = (2.0, duration) if ctx.quick else tuple(cfg["rms_window"])
+    runs = _runs(ctx, duration)
     metrics: dict[str, float] = {}
     for name, res in runs.items():
         speed_err = res.q_dot[:, 0] - cfg["psi_dot_d"]
@@ -90,12 +89,14 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     for key in ("rms_theta", "rms_speed_err"):
         a, b = metrics[f"hodosmc.{key}"], metrics[f"smc.{key}"]
         metrics[f"rel_diff.{key}"] = (a - b) / max(a, b)
-    doc = metrics_document(
-        NAME, SOURCE, metrics, {}, finish_claims(_claims(metrics, runs), metrics, robot.label()),
-        {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
-        {"dt": cfg["dt"], "Ts": cfg["Ts"], "window": list(window), "seed": 0,
+    return save_study(
+        ctx, metrics=metrics, claims=finish_claims(_claims(metrics, runs), metrics,
+                                                   ctx.plant_label),
+        runs={k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
+              for k, v in runs.items()},
+        settings={"dt": cfg["dt"], "Ts": cfg["Ts"], "window": list(window), "seed": ctx.seed,
          "duration": duration, "theta0": cfg["theta0"], "psi_dot_d": cfg["psi_dot_d"],
-         "plant": robot.label(), "design": "nominal",
+         "plant": ctx.plant_label, "design": "nominal",
          "mode": f"sampled (quasi-continuous, Ts = {cfg['Ts'] * 1e3:g} ms)",
          "lambdas": cfg["lambdas"], "gamma": cfg["gamma"],
          "dbar": {"hodosmc": cfg["dbar_hodosmc"], "smc": cfg["dbar_smc"]},
@@ -103,13 +104,8 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
          "observer_gains": {"do4": cfg["do4_v"]}, "tie": TIE, "balanced_below": BALANCED,
          "disturbance": {"amplitude": cfg["disturbance_amplitude"],
                          "omega": cfg["disturbance_omega"], "phase": cfg["disturbance_phase"]}},
+        series=runs, figures={"hodosmc-vs-smc.png": _figure(runs, ctx.plant_label)},
     )  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
-    _figure(runs, folder / "hodosmc-vs-smc.png")
-    for name, res in runs.items():
-        res.to_npz(folder / f"{name}.npz")
-    write_metrics(folder, doc)
-    return doc
 
 
 def _claims(metrics: dict[str, float], runs: dict[str, SimResult]) -> list[dict[str, Any]]:
@@ -174,7 +170,7 @@ def _claims(metrics: dict[str, float], runs: dict[str, SimResult]) -> list[dict[
     ]  # fmt: skip
 
 
-def _figure(runs: dict[str, SimResult], path: Path) -> None:
+def _figure(runs: dict[str, SimResult], plant_label: str) -> Figure:
     """The book's layout: theta, theta', psi', alpha, u_r, u_l against time."""
     fig = Figure(figsize=(12, 9), layout="constrained")
     axes = fig.subplots(3, 2, sharex=True).ravel()
@@ -196,5 +192,8 @@ def _figure(runs: dict[str, SimResult], path: Path) -> None:
     axes[5].set_xlabel("t (s)")
     Ts = runs["hodosmc"].settings.get("Ts")
     step = f", Ts = {Ts * 1e3:g} ms" if isinstance(Ts, float) else ""
-    fig.suptitle(f"SMC vs HODOSMC (4th-order DO), {robot.label()}, book disturbances{step}")
-    save_figure(fig, path)
+    fig.suptitle(f"SMC vs HODOSMC (4th-order DO), {plant_label}, book disturbances{step}")
+    return fig
+
+
+STUDY = Study(name=NAME, source=SOURCE, run=run, place=(3, 3), cost=10)

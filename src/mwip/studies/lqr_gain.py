@@ -20,7 +20,6 @@ Settings (``scenarios/lqr-gain.toml``, :mod:`mwip.studies.settings`): ``theta0``
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,8 +28,8 @@ from matplotlib.figure import Figure
 from mwip.control.lqr import LQR, design_lqr
 from mwip.params import book_params
 from mwip.sim import SimResult, simulate
-from mwip.studies import robot, settings
-from mwip.studies.common import finish_claims, metrics_document, save_figure, write_metrics
+from mwip.studies.common import finish_claims
+from mwip.studies.study import Study, StudyContext, plant_label, save_study
 
 SOURCE = "Sec. 4.4.2"
 #: The printed K row (both rows printed equal; yaw entries flip sign between wheels).
@@ -38,14 +37,13 @@ PRINTED_K_ROW = (-207.87, 70.71, -75.62, 15.33, 219.80)
 NAME = "lqr-gain"
 
 
-def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
-    """Run the study into ``out/lqr-gain``; returns the metrics document."""
-    folder = Path(out) / NAME
-    cfg = settings.current(NAME)
-    duration = min(3.0, cfg["duration"]) if quick else cfg["duration"]
+def run(ctx: StudyContext) -> dict[str, Any]:
+    """Run the study into ``ctx.out``; returns the metrics document."""
+    cfg = ctx.settings
+    duration = min(3.0, cfg["duration"]) if ctx.quick else cfg["duration"]
     Ts, q0 = cfg["Ts"], (0.0, cfg["theta0"], 0.0)
     Q, R = np.diag(cfg["Q_diag"]), np.diag(cfg["R_diag"])
-    plant, nominal = robot.plant(), robot.nominal()
+    plant, nominal = ctx.plant, ctx.nominal
     cont = design_lqr(nominal, Q, R, Ts=None)
     samp = design_lqr(nominal, Q, R, Ts=Ts)
     runs = {
@@ -79,15 +77,15 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     lit = design_lqr(book_params("nominal", "literal"), Q, R, Ts=None)
     for j, name in enumerate(names):
         metrics[f"literal.K_r.{name}"] = float(lit.K[0, j])
-    design = robot.label(nominal).replace(" plant", " set")
-    claims = finish_claims(_claims(cont.K, lit.K, runs, names, design), metrics, robot.label())
-    doc = metrics_document(
-        "lqr-gain", SOURCE, metrics, published, claims,
-        {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
+    design = plant_label(nominal).replace(" plant", " set")
+    claims = finish_claims(_claims(cont.K, lit.K, runs, names, design), metrics, ctx.plant_label)
+    doc_runs = {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
+                for k, v in runs.items()}  # fmt: skip
+    doc_settings = (
         {"dt": {"continuous": cfg["dt_continuous"], "sampled": runs["sampled"].settings["dt"]},
          "Ts": Ts, "duration": duration, "theta0": cfg["theta0"], "Q_diag": cfg["Q_diag"],
-         "R_diag": cfg["R_diag"], "plant": robot.label(), "design": "nominal",
-         "published_gain_rows": list(PRINTED_K_ROW)},
+         "R_diag": cfg["R_diag"], "plant": ctx.plant_label, "design": "nominal",
+         "published_gain_rows": list(PRINTED_K_ROW)}
     )  # fmt: skip
     fig = Figure(figsize=(9, 6))
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
@@ -100,15 +98,12 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
     ax2.set_ylabel("u_r (N m)")
     ax2.set_xlabel("t (s)")
     ax1.set_title(
-        f"LQR balance of the {robot.label()} from {np.degrees(cfg['theta0']):.3g} deg "
+        f"LQR balance of the {ctx.plant_label} from {np.degrees(cfg['theta0']):.3g} deg "
         "(nominal design)"
     )
-    folder.mkdir(parents=True, exist_ok=True)
-    save_figure(fig, folder / "lqr-gain.png")
-    for key, res in runs.items():
-        res.to_npz(folder / f"{key}.npz")
-    write_metrics(folder, doc)
-    return doc
+    return save_study(ctx, metrics=metrics, published=published, claims=claims, runs=doc_runs,
+                      settings=doc_settings, series=runs,
+                      figures={"lqr-gain.png": fig})  # fmt: skip
 
 
 def _claims(
@@ -175,3 +170,6 @@ def _claims(
          "holds": runs["continuous_gain_held"].status[0] != "ok",
          "keys": ["continuous_gain_held.t_end"]},
     ]  # fmt: skip
+
+
+STUDY = Study(name=NAME, source=SOURCE, run=run, place=(4, 10), cost=3)

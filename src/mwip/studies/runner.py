@@ -30,6 +30,8 @@ from typing import Any
 import numpy as np
 import scipy
 
+from mwip.hardware.twin import Twin
+from mwip.hardware.twin_config import twin_to_toml
 from mwip.io import write_json_atomic, write_text_atomic
 from mwip.outdir import MARKER, MARKER_TEXT
 from mwip.params import Params
@@ -38,7 +40,7 @@ from mwip.report.posters import draw_poster
 from mwip.report.results import RUN_RECORD, load_run_record
 from mwip.report.staging import Staging, signals_held
 from mwip.sim.engine import RUN_END_HOOKS
-from mwip.studies import robot, settings
+from mwip.studies import registry, settings
 
 __all__ = ["StudyOutcome", "run_studies"]
 
@@ -53,21 +55,16 @@ def _run_one(
     plant: Params,
     nominal: Params,
     overrides: dict[str, Any] | None = None,
-    twin: Any = None,
+    twin: Twin | None = None,
 ) -> StudyOutcome:
     """Run one study (in a worker process or here), catching its failure."""
-    from mwip.studies import run_study
-
     _current_study[0] = name
     t0 = time.perf_counter()
     try:
-        with (
-            warnings.catch_warnings(),
-            robot.using(plant, nominal, twin),
-            settings.using(name, overrides),
-        ):
+        with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            doc = run_study(name, out, quick=quick)
+            doc = registry.run_study(name, out, quick=quick, plant=plant, nominal=nominal,
+                                     overrides=overrides, twin=twin)  # fmt: skip
             draw_poster(out / name)  # the report's picture of its main run, drawn in parallel
     except Exception as exc:  # noqa: BLE001 - recorded and reported; exit code says so
         return name, None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
@@ -153,28 +150,24 @@ def run_studies(
     on_done: Callable[[StudyOutcome], None] | None = None,
     on_run: Callable[[str], None] | None = None,
     damping: str = "units",
-    twin: Any = None,
+    twin: Twin | None = None,
 ) -> dict[str, Any]:
     """Run ``names`` into ``out``; returns the run record (also written to ``out/run.json``).
 
     ``jobs`` processes (1: in this process). ``plant``/``nominal`` replace the book's robot
-    and design model (:mod:`mwip.studies.robot`); ``overrides[name]`` replaces some of study
+    and design model (default Tables 3.1, 3.2); ``overrides[name]`` replaces some of study
     ``name``'s settings (:mod:`mwip.studies.settings`). ``damping`` names the reading of
     the book's tables the robot was built with (recorded in ``run.json``). ``twin``: the
-    Chapter 6 studies' twin configuration (:func:`mwip.studies.robot.twin`; default the
-    current one; recorded in ``run.json`` as its twin file). ``on_done`` is called as each
-    study ends, ``on_run(study)`` as each of its simulation runs ends (for a progress
-    display).
+    Chapter 6 studies' twin configuration (default: the default twin; recorded in ``run.json``
+    as its twin file). ``on_done`` is called as each study ends, ``on_run(study)`` as each of
+    its simulation runs ends (for a progress display).
     """
-    from mwip.studies import STUDIES
-
+    order = registry.names()
     for name in names:
-        if name not in STUDIES:
-            raise ValueError(f"unknown study {name!r}; choose from: {', '.join(STUDIES)}")
+        registry.get(name)  # ValueError naming the studies if unknown
     overrides = {n: settings.validate(n, o) for n, o in (overrides or {}).items()}
-    plant = plant if plant is not None else robot.plant()
-    nominal = nominal if nominal is not None else robot.nominal()
-    twin = twin if twin is not None else robot.twin()
+    plant, nominal = registry.robot(plant, nominal)
+    twin = twin if twin is not None else Twin()
     started = datetime.now(UTC).isoformat(timespec="seconds")
     t0 = time.perf_counter()
     outcomes: dict[str, StudyOutcome] = {}
@@ -190,9 +183,8 @@ def run_studies(
             for name in names:
                 hook = _counting_hook(name, on_run)
                 try:
-                    done(
-                        _run_one(name, stage.path, quick, plant, nominal, overrides.get(name), twin)
-                    )
+                    done(_run_one(name, stage.path, quick, plant, nominal, overrides.get(name),
+                                  twin))  # fmt: skip
                 finally:
                     if hook is not None:
                         RUN_END_HOOKS.remove(hook)
@@ -205,7 +197,7 @@ def run_studies(
                 pending = {
                     pool.submit(
                         _run_one, n, stage.path, quick, plant, nominal, overrides.get(n), twin
-                    )
+                    )  # fmt: skip
                     for n in _longest_first(names)
                 }
                 while pending:
@@ -219,7 +211,7 @@ def run_studies(
                 raise
             pool.shutdown()
         with stage.lock():  # OUT's record and report are read and replaced as one
-            record = load_run_record(out) if len(names) < len(STUDIES) else {}
+            record = load_run_record(out) if set(order) - set(names) else {}
             studies = dict(record.get("studies", {}))
             for name in names:
                 _, doc, error, wall = outcomes[name]
@@ -228,9 +220,9 @@ def run_studies(
             record.update(_environment())
             record.update({
                 "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
-                "quick": quick, "studies": {n: studies[n] for n in STUDIES if n in studies},
+                "quick": quick, "studies": {n: studies[n] for n in order if n in studies},
                 "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
-                "damping": damping, "twin": _twin_toml(twin),
+                "damping": damping, "twin": twin_to_toml(twin),
             })  # fmt: skip
             write_json_atomic(stage.path / RUN_RECORD, record)
             write_text_atomic(stage.path / MARKER, MARKER_TEXT)
@@ -253,9 +245,7 @@ def _stage_report(stage: Path, out: Path, ok: list[str]) -> None:
     (other studies, ``compare-*``, a claims campaign) linked in while it is rendered."""
     import shutil
 
-    from mwip.studies import STUDIES
-
-    for name in STUDIES:
+    for name in registry.names():
         if name not in ok:
             shutil.rmtree(stage / name, ignore_errors=True)  # a failed study's partial output
     links = []
@@ -274,23 +264,9 @@ def _stage_report(stage: Path, out: Path, ok: list[str]) -> None:
             link.unlink(missing_ok=True)
 
 
-def _twin_toml(twin: Any) -> str:
-    from mwip.hardware.twin_config import twin_to_toml
-
-    return twin_to_toml(twin)
-
-
-# Rough cost of each study (s on one core, full runs): the longest start first so that the
-# processes finish together.
-_COST = {
-    "it2-balance": 15, "hodosmc-vs-smc": 10, "tsmc-velocity": 8, "exp-hodosmc-balance": 7,
-    "exp-it2": 8, "exp-hodosmc-obstacle": 6, "exp-hodosmc-speed": 6, "asta-balance": 5,
-    "asta-velocity": 5, "exp-asta": 5, "tsmc-equilibrium": 4, "tsmc-circle": 4,
-}  # fmt: skip
-
-
 def _longest_first(names: list[str]) -> list[str]:
-    return sorted(names, key=lambda n: -_COST.get(n, 5))
+    """The studies by decreasing cost (``Study.cost``), so that the processes finish together."""
+    return sorted(names, key=lambda n: -registry.get(n).cost)
 
 
 def settings_of(name: str, overrides: dict[str, Any] | None) -> dict[str, Any]:

@@ -1,8 +1,10 @@
 """Study settings as data: each study's numbers (initial state, gains, durations, ...) live in
 its study file ``mwip/studies/scenarios/<study>.toml``, table ``[settings]``.
 
-A study reads them at run time with :func:`current` (the packaged defaults, overridden by the
-``[settings]`` of a user's study file inside :func:`using`). A user copies a study file
+A study reads them from its context, ``ctx.settings`` (:mod:`mwip.studies.study`): the
+packaged defaults (:func:`defaults`) with the overrides of a run (a user's study file, a
+campaign's draw), validated here (:func:`validate`). The file's ``[report]`` table holds the
+texts of the HTML report (:func:`report_texts`). A user copies a study file
 (``mwip scenario STUDY --out FILE.toml``), edits it and runs it with
 ``mwip run --scenario FILE.toml``. Overrides are validated against the defaults: unknown keys
 and values of another type or length are one-line ``ValueError`` naming the field.
@@ -38,14 +40,13 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Mapping
 from functools import cache
 from importlib import resources
 from typing import Any
 
 __all__ = [
-    "current", "defaults", "open_settings", "packaged_text", "using", "validate", "ranges",
+    "defaults", "open_settings", "packaged_text", "report_texts", "validate", "ranges",
     "RULES",
 ]  # fmt: skip
 
@@ -95,8 +96,6 @@ RULES: dict[str, Interval] = {
 #: Any number without a rule: finite and at most this in size.
 MAGNITUDE = 1e6
 
-_overrides: dict[str, dict[str, Any]] = {}
-
 
 def packaged_text(name: str) -> str:
     """The text of the study file shipped for study ``name``."""
@@ -135,6 +134,17 @@ def _open(name: str) -> dict[str, dict[str, Any]]:
             raise ValueError(f"{where}: the default {base[key]!r} is outside {entry['range']}")
         out[key] = {"range": [float(lo), float(hi)], "why": entry["why"].strip()}
     return out
+
+
+@cache
+def _report(name: str) -> dict[str, str]:
+    return dict(tomllib.loads(packaged_text(name)).get("report", {}))
+
+
+def report_texts(name: str) -> dict[str, str]:
+    """The ``[report]`` table of study ``name``'s file: the texts the HTML report shows
+    (``title``, ``setup``, ``book``, ``gaps``, ``docs``, ``main_run``); {} when it has none."""
+    return dict(_report(name))
 
 
 def open_settings(name: str) -> dict[str, dict[str, Any]]:
@@ -280,22 +290,3 @@ def validate(name: str, overrides: Mapping[str, Any]) -> dict[str, Any]:
         _check_range(name, key, out[key])
     _check_together(name, {**base, **out}, set(out))
     return out
-
-
-def current(name: str) -> dict[str, Any]:
-    """The settings study ``name`` runs with now: defaults, then the active overrides."""
-    return {**defaults(name), **_overrides.get(name, {})}
-
-
-@contextmanager
-def using(name: str, overrides: Mapping[str, Any] | None) -> Iterator[None]:
-    """Run study ``name`` inside the block with ``overrides`` (validated) of its settings."""
-    saved = _overrides.get(name)
-    _overrides[name] = validate(name, overrides or {})
-    try:
-        yield
-    finally:
-        if saved is None:
-            _overrides.pop(name, None)
-        else:
-            _overrides[name] = saved

@@ -43,6 +43,7 @@ _TABLES = {
     "twin": (),  # the twin's [twin] tables (mwip.hardware.twin_config)
     "open": (),  # documentation of the settings the book leaves open (settings.open_settings)
     "ranges": (),  # the study's allowed values (settings.ranges), accepted unchanged
+    "report": (),  # the texts of the HTML report (settings.report_texts); ignored in a run
 }
 
 
@@ -85,8 +86,11 @@ def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
 
 
 def _parse(path: Path, data: dict[str, Any], damping: str | None) -> StudyFile:
-    from mwip.studies import STUDIES
+    from mwip.studies import study_names
     from mwip.studies.settings import packaged_ranges_text
+
+    known = study_names()
+    tables_free = ("settings", "open", "ranges", "report", "twin")  # keys not checked here
 
     for table, body in data.items():
         if table not in _TABLES:
@@ -94,13 +98,13 @@ def _parse(path: Path, data: dict[str, Any], damping: str | None) -> StudyFile:
         if not isinstance(body, dict):
             raise ValueError(f"{path.name}: [{table}] must be a table")
         for key in body:
-            if table not in ("settings", "open", "ranges", "twin") and key not in _TABLES[table]:
+            if table not in tables_free and key not in _TABLES[table]:
                 allowed = ", ".join(_TABLES[table])
                 raise ValueError(f"[{table}] {key}: unknown key; allowed: {allowed}")
     study = data.get("study", {})
     name = study.get("name")
-    if not isinstance(name, str) or name not in STUDIES:
-        raise ValueError(f"[study] name must be one of {', '.join(STUDIES)}; got {name!r}")
+    if not isinstance(name, str) or name not in known:
+        raise ValueError(f"[study] name must be one of {', '.join(known)}; got {name!r}")
     quick = study.get("quick", False)
     if not isinstance(quick, bool):
         raise ValueError(f"[study] quick must be true or false, got {quick!r}")

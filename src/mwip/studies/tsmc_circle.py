@@ -12,7 +12,7 @@ ramp ``alpha*(t) = alpha'_d t`` with ``alpha'* = alpha'_d`` (``s_2 = (alpha' - a
 c_2 (alpha - alpha'_d t) - a_2' - c_2 a_2``), and the speed is left to the internal dynamics
 (4.37)/(4.40) as in the book, which itself notes that by (4.37) "the velocity is zero at the
 equilibrium". A steady circle at ``v_d`` needs a steady lean, ``2 Dw psi' = sin(theta) (Gb +
-(m12 + Ibl) alpha'^2)`` (:func:`mwip.control.tsmc.lean_for_speed`), so with ``theta* = 0`` the
+(m12 + Ibl) alpha'^2)`` (:func:`mwip.models.steady.lean_for_speed`), so with ``theta* = 0`` the
 speed decays and the path spirals in (cause ``claim-definition``). The extra run
 ``tsmc_lean`` asks for that lean (nominal model) as the pitch target: the reachable form.
 
@@ -36,26 +36,23 @@ Settings (``scenarios/tsmc-circle.toml``, :mod:`mwip.studies.settings`): ``theta
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mwip.control.tsmc import lean_for_speed
 from mwip.metrics import settling_time
+from mwip.models.steady import lean_for_speed
 from mwip.params import Params, book_params
 from mwip.sim import SimResult
-from mwip.studies import robot, settings
-from mwip.studies.common import metrics_document, write_metrics
-from mwip.studies.tsmc_equilibrium import (
+from mwip.studies._tsmc import (
+    lean_text,
     replay,
     run_continuous,
-    save_npz,
     state_figure,
     tsmc_doc,
     tsmc_from,
 )  # fmt: skip
-from mwip.studies.tsmc_velocity import lean_text
+from mwip.studies.study import Study, StudyContext, save_study
 
 SOURCE = "Figs. 4.16-4.18"
 NAME = "tsmc-circle"
@@ -98,21 +95,21 @@ def run_metrics(name: str, res: SimResult, theta_ref: float, v_d: float, alpha_d
     return {f"{name}.{k}": v for k, v in out.items()}
 
 
-def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
-    """Run the study into ``out/tsmc-circle``; returns the metrics document."""
-    folder = Path(out) / NAME
-    cfg = settings.current(NAME)
-    duration = min(1.5, cfg["duration"]) if quick else cfg["duration"]
+def run(ctx: StudyContext) -> dict[str, Any]:
+    """Run the study into ``ctx.out``; returns the metrics document."""
+    cfg = ctx.settings
+    duration = min(1.5, cfg["duration"]) if ctx.quick else cfg["duration"]
     v_d, alpha_dot_d, alpha0 = cfg["v_d"], cfg["alpha_dot_d"], cfg["alpha0"]
-    real = robot.plant()
+    real = ctx.plant
     ctrls = {
-        "tsmc": tsmc_from(cfg, alpha_dot_ref=alpha_dot_d, v_ref=v_d),
-        "tsmc_lean": tsmc_from(cfg, alpha_dot_ref=alpha_dot_d, v_ref=v_d, speed="lean",
-                               theta_max=cfg["theta_max"]),
+        "tsmc": tsmc_from(cfg, ctx.nominal, alpha_dot_ref=alpha_dot_d, v_ref=v_d),
+        "tsmc_lean": tsmc_from(cfg, ctx.nominal, alpha_dot_ref=alpha_dot_d, v_ref=v_d,
+                               speed="lean", theta_max=cfg["theta_max"]),
     }  # fmt: skip
     runs = {
         name: run_continuous(
             c,
+            real,
             duration,
             Ts=cfg["Ts_record"],
             dt=cfg["dt"],
@@ -186,12 +183,12 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
             c.pop("cause", None)
         if c["holds"]:
             c.pop("evidence", None)
-    doc = metrics_document(
-        NAME, SOURCE, metrics, dict(PUBLISHED), claims,
-        {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
+    doc_runs = {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
+                for k, v in runs.items()}  # fmt: skip
+    doc_settings = (
         {"dt": cfg["dt"], "Ts": cfg["Ts_record"],
          "mode": "continuous (law inside the right-hand side)",
-         "duration": duration, "plant": "real", "design": "nominal", "seed": 0,
+         "duration": duration, "plant": "real", "design": "nominal", "seed": ctx.seed,
          "damping": "units (SPEC.md section 2: Db, Dw of the tables times r^2)",
          "initial": {"theta0": cfg["theta0"], "alpha0": alpha0, "v0": cfg["v0"], "note": "not "
                      "given by the book for this case; the velocity case's"},
@@ -201,9 +198,9 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
                        "theta_max": cfg["theta_max"]},
          "radius": "mean|v| / mean|alpha'| over the last quarter of the run",
          "published_note": "torques printed as '-1.2 and 1.2, respectively' (wheel order not "
-                           "stated); radius 1 m and ~7 s read from Figs. 4.16-4.17"},
+                           "stated); radius 1 m and ~7 s read from Figs. 4.16-4.17"}
     )  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
+    figures, arrays = {}, {}
     # the target circle through the start point, heading alpha0, turning left
     centre = (-np.sin(alpha0) * v_d / alpha_dot_d, np.cos(alpha0) * v_d / alpha_dot_d)
     for name, res in runs.items():
@@ -218,8 +215,20 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         title = ("TSMC, velocity control with yaw motion (Figs. 4.16-4.18)" if name == "tsmc"
                  else "TSMC with the lean the circle needs (extra)")  # fmt: skip
         suffix = "" if name == "tsmc" else "_lean"
-        state_figure(res, targets, title, folder / f"tsmc-circle{suffix}.png", xy=True)
-        res.to_npz(folder / f"{name}.npz")
-        save_npz(folder / f"{name}_sliding.npz", t=res.t, **replay(ctrls[name], res))
-    write_metrics(folder, doc)
-    return doc
+        figures[f"tsmc-circle{suffix}.png"] = state_figure(res, targets, title, xy=True)
+        logs = {"t": res.t, **replay(ctrls[name], res)}
+        arrays[f"{name}_sliding.npz"] = logs
+    return save_study(
+        ctx,
+        metrics=metrics,
+        published=dict(PUBLISHED),
+        claims=claims,
+        runs=doc_runs,
+        settings=doc_settings,
+        series=runs,
+        figures=figures,
+        arrays=arrays,
+    )
+
+
+STUDY = Study(name=NAME, source=SOURCE, run=run, place=(4, 16), cost=4)

@@ -32,180 +32,49 @@ Settings (``scenarios/tsmc-equilibrium.toml``, :mod:`mwip.studies.settings`): ``
 ``alpha0``, ``v0``, ``duration``, ``Ts_record``, ``dt``, ``C``, ``Gamma``, ``D``,
 ``Ftilde_ratio``, ``Tf``, ``phi``, ``Q_diag``, ``R_diag``; the ones the book leaves open
 (``phi``, ``dt``, ``Ts_record``) are declared with their ranges in the file's ``[open]``
-table. The helpers below take what they need as arguments, so the other TSMC studies run
-them with their own settings.
+table. The loop, the TSMC and the figure come from the TSMC studies' kit
+:mod:`mwip.studies._tsmc`; the speed's time constant from :mod:`mwip.models.steady`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from mwip.control.lqr import LQR, design_lqr
-from mwip.control.switching import Switching
-from mwip.control.tsmc import TSMC
-from mwip.io import write_atomic
-from mwip.linearize import linearize
 from mwip.metrics import settling_time, total_variation_rate
-from mwip.params import Params, book_params
-from mwip.sim import SimResult, simulate
-from mwip.sim.sensors import Measurement
-from mwip.studies import robot, settings
-from mwip.studies.common import metrics_document, save_figure, write_metrics
+from mwip.models.steady import speed_time_constant
+from mwip.params import book_params
+from mwip.studies._tsmc import (
+    fitted_decay_time,
+    replay,
+    run_continuous,
+    slowest_lqr_pole,
+    state_figure,
+    state_norm_series,
+    tsmc_doc,
+    tsmc_from,
+)  # fmt: skip
+from mwip.studies.study import Study, StudyContext, save_study
 
 SOURCE = "Figs. 4.8-4.11"
 NAME = "tsmc-equilibrium"
 
 
-def state_norm_series(res: SimResult, v_ref: float = 0.0, alpha_dot_ref: float = 0.0) -> Any:
-    """``||[theta, alpha - alpha*(t), theta', v - v*, alpha' - alpha'*]||`` per record."""
-    al = res.alpha - alpha_dot_ref * res.t
-    x = np.column_stack(
-        [res.theta, al, res.q_dot[:, 1], res.v - v_ref, res.q_dot[:, 2] - alpha_dot_ref]
-    )
-    return np.linalg.norm(x, axis=1)
-
-
-def speed_time_constant(p: Params) -> float:
-    """Time constant (s) of ``v`` under (4.38) with ``theta`` held at 0: ``(m11 + m12) /
-    (2 Dw)`` (sum of the wheel and pitch rows of (2.33) with ``theta = theta' = 0``)."""
-    return float((p.m11 + p.m12) / (2.0 * p.Dw))
-
-
-def fitted_decay_time(t: Any, v: Any, t_from: float) -> float:
-    """Time constant of ``|v|`` fitted as ``log|v|`` slope between the later of ``t_from`` and
-    the middle of the record and its end; NaN when ``v`` does not decay there (or hits 0)."""
-    t, v = np.asarray(t, dtype=float), np.abs(np.asarray(v, dtype=float))
-    i0 = int(np.searchsorted(t, max(t_from, 0.5 * float(t[-1]))))
-    if i0 >= t.size - 1 or not (v[i0] > v[-1] > 0.0):
-        return float("nan")
-    return float((t[-1] - t[i0]) / np.log(v[i0] / v[-1]))
-
-
-def slowest_lqr_pole(K: Any, plant: Params, r_nominal: float) -> float:
-    """Real part (rad/s) of the slowest closed-loop pole of ``u = -K x`` on the plant's
-    linearisation, with ``v`` measured as ``r_nominal psi'`` (as :class:`LQR` does)."""
-    A, B = linearize(plant)
-    Km = np.array(K, dtype=float)
-    Km[:, 3] *= r_nominal / plant.r  # the law's v = r_nom psi' = (r_nom / r) v_plant
-    return float(np.max(np.linalg.eigvals(A - B @ Km).real))
-
-
-def save_npz(path: Path, **arrays: Any) -> None:
-    """Write arrays to a compressed ``.npz`` atomically."""
-    write_atomic(path, lambda fh: np.savez_compressed(fh, **arrays))
-
-
-def replay(ctrl: TSMC, res: SimResult) -> dict[str, np.ndarray]:
-    """Recompute the TSMC's logs (``s``, ``k``, ``aug``) on the records (the law is static)."""
-    y = res.state
-    ctrl.reset(Measurement(t=float(res.t[0]), y=y[:1]))
-    out: dict[str, list[np.ndarray]] = {"s": [], "k": [], "aug": []}
-    for i, t in enumerate(res.t):
-        if not np.all(np.isfinite(y[i])):
-            for v in out.values():
-                v.append(np.full(2, np.nan))
-            continue
-        ctrl(float(t), Measurement(t=float(t), y=y[i : i + 1]))
-        for name, v in out.items():
-            v.append(np.asarray(ctrl.log()[name])[0])
-    return {name: np.array(v) for name, v in out.items()}
-
-
-def run_continuous(ctrl: Any, duration: float, *, Ts: float, dt: float, **kw: Any) -> SimResult:
-    """The study's loop: ``ctrl`` inside the right-hand side of the real plant, integration
-    step ``dt``, records (and Jacobian refreshes) every ``Ts``."""
-    return simulate(ctrl, robot.plant(), duration=duration, Ts=Ts, dt=dt, mode="continuous", **kw)
-
-
-def tsmc_from(cfg: Mapping[str, Any], **kw: Any) -> TSMC:
-    """The TSMC with the gains of the settings ``cfg`` (``C``, ``Gamma``, ``D``,
-    ``Ftilde_ratio``, ``Tf``, ``phi``) on the nominal model; ``kw``: its references."""
-    return TSMC(
-        robot.nominal(), C=tuple(cfg["C"]), Gamma=tuple(cfg["Gamma"]), D=cfg["D"],
-        Ftilde_ratio=cfg["Ftilde_ratio"], Tf=cfg["Tf"], switching=Switching("sat", cfg["phi"]),
-        **kw,
-    )  # fmt: skip
-
-
-def tsmc_doc(cfg: Mapping[str, Any]) -> dict[str, Any]:
-    """The TSMC gains of the settings ``cfg`` as recorded in metrics.json."""
-    return {"C": cfg["C"], "Gamma": cfg["Gamma"], "D": cfg["D"],
-            "Ftilde_ratio": cfg["Ftilde_ratio"], "Tf": cfg["Tf"],
-            "switching": f"sat(s/{cfg['phi']})"}  # fmt: skip
-
-
-def state_figure(
-    res: SimResult,
-    targets: dict[str, Any],
-    title: str,
-    path: Path,
-    *,
-    xy: bool = False,
-) -> None:
-    """The book's layout: theta, theta' / alpha, alpha' / v (Figs. 4.8, 4.10, ...), the wheel
-    torques below (Figs. 4.9, 4.11, ...), and optionally the x-y path (Fig. 4.17)."""
-    rows = 5 if xy else 4
-    fig = Figure(figsize=(11, 2.4 * rows), layout="constrained")
-    gs = fig.add_gridspec(rows, 2)
-    panels = [
-        ("theta", res.theta, "theta [rad]"),
-        ("theta_dot", res.q_dot[:, 1], "d theta/dt [rad/s]"),
-        ("alpha", res.alpha, "alpha [rad]"),
-        ("alpha_dot", res.q_dot[:, 2], "d alpha/dt [rad/s]"),
-    ]
-    for j, (key, series, label) in enumerate(panels):
-        ax = fig.add_subplot(gs[j // 2, j % 2])
-        ax.plot(res.t, series, "k", lw=1.2)
-        if key in targets:
-            ax.plot(res.t, np.broadcast_to(targets[key], res.t.shape), "r", lw=1.0)
-        ax.set_ylabel(label)
-        ax.set_xlabel("time [s]")
-    ax = fig.add_subplot(gs[2, :])
-    ax.plot(res.t, res.v, "k", lw=1.2)
-    if "v" in targets:
-        ax.plot(res.t, np.broadcast_to(targets["v"], res.t.shape), "r", lw=1.0)
-    ax.set_ylabel("v [m/s]")
-    ax.set_xlabel("time [s]")
-    ax = fig.add_subplot(gs[3, :])
-    ax.plot(res.t, res.u[:, 0], "b", lw=1.0, label="tau_r")
-    ax.plot(res.t, res.u[:, 1], "r--", lw=1.0, label="tau_l")
-    ax.set_ylabel("tau [N m]")
-    ax.set_xlabel("time [s]")
-    ax.legend(loc="upper right")
-    if xy:
-        ax = fig.add_subplot(gs[4, :])
-        ax.plot(res.x, res.y, "k", lw=1.2, label="path")
-        if "circle" in targets:
-            cx, cy, rad = targets["circle"]
-            ang = np.linspace(0, 2 * np.pi, 200)
-            ax.plot(cx + rad * np.cos(ang), cy + rad * np.sin(ang), "r", lw=0.8, label="target")
-        ax.set_xlabel("X [m]")
-        ax.set_ylabel("Y [m]")
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.legend(loc="upper right")
-    fig.suptitle(title)
-    save_figure(fig, path)
-
-
-def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
-    """Run the study into ``out/tsmc-equilibrium``; returns the metrics document."""
-    folder = Path(out) / NAME
-    cfg = settings.current(NAME)
-    duration = min(1.5, cfg["duration"]) if quick else cfg["duration"]
+def run(ctx: StudyContext) -> dict[str, Any]:
+    """Run the study into ``ctx.out``; returns the metrics document."""
+    cfg = ctx.settings
+    duration = min(1.5, cfg["duration"]) if ctx.quick else cfg["duration"]
     Tf = cfg["Tf"]
     init = {"q0": (0.0, cfg["theta0"], cfg["alpha0"]),
-            "qdot0": (cfg["v0"] / robot.plant().r, 0.0, 0.0),
+            "qdot0": (cfg["v0"] / ctx.plant.r, 0.0, 0.0),
             "Ts": cfg["Ts_record"], "dt": cfg["dt"]}  # fmt: skip
-    tsmc = tsmc_from(cfg)
-    lqr = LQR(design_lqr(robot.nominal(), np.diag(cfg["Q_diag"]), np.diag(cfg["R_diag"]), Ts=None))
+    tsmc = tsmc_from(cfg, ctx.nominal)
+    lqr = LQR(design_lqr(ctx.nominal, np.diag(cfg["Q_diag"]), np.diag(cfg["R_diag"]), Ts=None))
     runs = {
-        "tsmc": run_continuous(tsmc, duration, **init),
-        "lqr": run_continuous(lqr, duration, **init),
+        "tsmc": run_continuous(tsmc, ctx.plant, duration, **init),
+        "lqr": run_continuous(lqr, ctx.plant, duration, **init),
     }
     logs = replay(tsmc, runs["tsmc"])
 
@@ -239,7 +108,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         [ts.theta[-1], ts.alpha[-1], ts.q_dot[-1, 1], ts.q_dot[-1, 2]])))  # fmt: skip
     v_after = ts.v[tail] if tail.any() else ts.v[-1:]
     metrics["tsmc.v_max_rise_after_Tf"] = float(np.max(np.diff(np.abs(v_after)), initial=0.0))
-    metrics["lqr.slowest_pole"] = slowest_lqr_pole(lqr.K, robot.plant(), robot.nominal().r)
+    metrics["lqr.slowest_pole"] = slowest_lqr_pole(lqr.K, ctx.plant, float(ctx.nominal.r))
     tol = 0.01  # of a norm that starts at 1.12
     u_rel = 0.01  # "converge to zero": 1 % of the run's peak torque (scale-free)
     t_end, book_T = float(ts.t[-1]), 20.0
@@ -303,28 +172,38 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         if c["holds"] or not c["book"]:
             c.pop("cause", None)
             c.pop("evidence", None)
-    doc = metrics_document(
-        NAME, SOURCE, metrics, {}, claims,
-        {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
+    doc_runs = {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
+                for k, v in runs.items()}  # fmt: skip
+    doc_settings = (
         {"dt": cfg["dt"], "Ts": cfg["Ts_record"], "mode": "continuous (law inside the "
          "right-hand side, ROS2 with closed-loop Jacobian); Ts is the record/Jacobian-refresh "
          "period",
-         "duration": duration, "plant": "real", "design": "nominal", "seed": 0,
+         "duration": duration, "plant": "real", "design": "nominal", "seed": ctx.seed,
          "initial": {"theta0": cfg["theta0"], "alpha0": cfg["alpha0"], "v0": cfg["v0"]},
          "tsmc": tsmc_doc(cfg), "lqr": "Q_diag, R_diag, continuous design",
          "Q_diag": cfg["Q_diag"], "R_diag": cfg["R_diag"],
          "settling": "||x|| stays below 2 % of ||x(0)||",
          "damping": "units (SPEC.md section 2: Db, Dw of the tables times r^2)",
-         "published_note": "the book prints no numbers for this case (figures only)"},
+         "published_note": "the book prints no numbers for this case (figures only)"}
     )  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
     targets = {"theta": 0.0, "theta_dot": 0.0, "alpha": 0.0, "alpha_dot": 0.0, "v": 0.0}
-    state_figure(runs["tsmc"], targets, "TSMC, equilibrium control (Figs. 4.8-4.9)",
-                 folder / "tsmc-equilibrium_tsmc.png")  # fmt: skip
-    state_figure(runs["lqr"], targets, "LQR, equilibrium control (Figs. 4.10-4.11)",
-                 folder / "tsmc-equilibrium_lqr.png")  # fmt: skip
-    for name, res in runs.items():
-        res.to_npz(folder / f"{name}.npz")
-    save_npz(folder / "tsmc_sliding.npz", t=runs["tsmc"].t, **logs)
-    write_metrics(folder, doc)
-    return doc
+    figures = {
+        "tsmc-equilibrium_tsmc.png": state_figure(
+            runs["tsmc"], targets, "TSMC, equilibrium control (Figs. 4.8-4.9)"),
+        "tsmc-equilibrium_lqr.png": state_figure(
+            runs["lqr"], targets, "LQR, equilibrium control (Figs. 4.10-4.11)"),
+    }  # fmt: skip
+    t_rec = runs["tsmc"].t
+    return save_study(
+        ctx,
+        metrics=metrics,
+        claims=claims,
+        runs=doc_runs,
+        settings=doc_settings,
+        series=runs,
+        figures=figures,
+        arrays={"tsmc_sliding.npz": {"t": t_rec, **logs}},
+    )
+
+
+STUDY = Study(name=NAME, source=SOURCE, run=run, place=(4, 8), cost=4)

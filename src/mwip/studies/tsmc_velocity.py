@@ -15,7 +15,7 @@ for 1 m/s on the real plant under the units reading of ``Dw``; and (4.38) itself
 decay to 0 once ``theta -> 0``. So the claim as worded cannot hold (cause
 ``claim-definition``). Its reachable form, judged beside it: ``v`` reaches ``v_d`` with the
 lean that speed needs. The TSMC reaches it only if its pitch target is that lean (the
-equilibrium of (4.40), :func:`mwip.control.tsmc.lean_for_speed`, computed on the *nominal*
+equilibrium of (4.40), :func:`mwip.models.steady.lean_for_speed`, computed on the *nominal*
 model: the controller sees nothing else) - the extra run ``tsmc_lean``; there is still no
 speed feedback, so the speed it reaches is the one the real plant's damping and gravity
 balance at that lean. The LQR, which feeds back ``v``, reaches ``v_d`` by leaning.
@@ -28,59 +28,42 @@ Settings (``scenarios/tsmc-velocity.toml``, :mod:`mwip.studies.settings`): ``the
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from mwip.control.lqr import LQR, design_lqr
-from mwip.control.tsmc import lean_for_speed
-from mwip.studies import robot, settings
-from mwip.studies.common import metrics_document, write_metrics
-from mwip.studies.tsmc_equilibrium import (
+from mwip.models.steady import balance_residual, lean_for_speed
+from mwip.studies._tsmc import (
+    lean_text,
     replay,
     run_continuous,
-    save_npz,
     state_figure,
     tsmc_doc,
     tsmc_from,
 )  # fmt: skip
+from mwip.studies.study import Study, StudyContext, save_study
 
 SOURCE = "Figs. 4.12-4.15"
 NAME = "tsmc-velocity"
 
 
-def steady_balance_residual(p: Any, psi_dot: float, theta: float) -> float:
-    """``(2 Dw psi' - Gb sin(theta)) / (Gb sin(theta))``: relative residual of the steady
-    balance of (2.33) without yaw (0 when the speed is the one the lean carries)."""
-    g = p.Gb * np.sin(theta)
-    return float((2.0 * p.Dw * psi_dot - g) / g) if g != 0 else float("nan")
-
-
-def lean_text(lean: float) -> str:
-    """``lean_for_speed``'s answer in words (NaN: no lean can hold the speed)."""
-    if np.isfinite(lean):
-        return f"a lean of {lean:.4f} rad"
-    return "more than any lean gives (sin(theta) would exceed 1)"
-
-
-def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
-    """Run the study into ``out/tsmc-velocity``; returns the metrics document."""
-    folder = Path(out) / NAME
-    cfg = settings.current(NAME)
-    duration = min(1.5, cfg["duration"]) if quick else cfg["duration"]
+def run(ctx: StudyContext) -> dict[str, Any]:
+    """Run the study into ``ctx.out``; returns the metrics document."""
+    cfg = ctx.settings
+    duration = min(1.5, cfg["duration"]) if ctx.quick else cfg["duration"]
     v_d = cfg["v_d"]
-    real, nominal = robot.plant(), robot.nominal()
+    real, nominal = ctx.plant, ctx.nominal
     init = {"q0": (0.0, cfg["theta0"], cfg["alpha0"]), "qdot0": (cfg["v0"] / real.r, 0.0, 0.0),
             "Ts": cfg["Ts_record"], "dt": cfg["dt"]}  # fmt: skip
-    tsmc = tsmc_from(cfg, v_ref=v_d)
-    lean = tsmc_from(cfg, v_ref=v_d, speed="lean", theta_max=cfg["theta_max"])
+    tsmc = tsmc_from(cfg, nominal, v_ref=v_d)
+    lean = tsmc_from(cfg, nominal, v_ref=v_d, speed="lean", theta_max=cfg["theta_max"])
     Q, R = np.diag(cfg["Q_diag"]), np.diag(cfg["R_diag"])
     lqr = LQR(design_lqr(nominal, Q, R, Ts=None), reference=(0.0, 0.0, 0.0, v_d, 0.0))
     runs = {
-        "tsmc": run_continuous(tsmc, duration, **init),
-        "lqr": run_continuous(lqr, duration, **init),
-        "tsmc_lean": run_continuous(lean, duration, **init),
+        "tsmc": run_continuous(tsmc, real, duration, **init),
+        "lqr": run_continuous(lqr, real, duration, **init),
+        "tsmc_lean": run_continuous(lean, real, duration, **init),
     }
     metrics: dict[str, float] = {}
     for name, res in runs.items():
@@ -90,7 +73,7 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
         metrics[f"{name}.final_alpha"] = float(res.alpha[-1])
         metrics[f"{name}.max_abs_u"] = float(np.nanmax(np.abs(res.u)))
         metrics[f"{name}.t_end"] = float(res.t_end[0])
-        metrics[f"{name}.steady_balance_residual"] = steady_balance_residual(
+        metrics[f"{name}.steady_balance_residual"] = balance_residual(
             real, res.q_dot[-1, 0], res.theta[-1]
         )
     metrics["real.lean_for_v_d"] = lean_for_speed(real, v_d)
@@ -151,13 +134,13 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
             c.pop("cause", None)
         if c["holds"]:
             c.pop("evidence", None)
-    doc = metrics_document(
-        NAME, SOURCE, metrics, published, claims,
-        {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()},
+    doc_runs = {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
+                for k, v in runs.items()}  # fmt: skip
+    doc_settings = (
         {"dt": cfg["dt"], "Ts": cfg["Ts_record"], "mode": "continuous (law inside the "
          "right-hand side)", "duration": duration, "plant": "real", "design": "nominal",
          "damping": "units (SPEC.md section 2: Db, Dw of the tables times r^2)",
-         "seed": 0, "v_d": v_d,
+         "seed": ctx.seed, "v_d": v_d,
          "initial": {"theta0": cfg["theta0"], "alpha0": cfg["alpha0"], "v0": cfg["v0"]},
          "tsmc": {**tsmc_doc(cfg), "speed": "none (book)"},
          "tsmc_lean": {"v_ref": v_d, "theta_target": lean.theta_ref,
@@ -165,19 +148,30 @@ def run(out: Path, *, quick: bool = False) -> dict[str, Any]:
          "lqr": "Q_diag, R_diag, continuous design, reference [0, 0, 0, v_d, 0]",
          "Q_diag": cfg["Q_diag"], "R_diag": cfg["R_diag"],
          "published_note": "published values read from Fig. 4.12 (v -> v_d, theta -> 0); "
-                           "the book prints no numbers"},
+                           "the book prints no numbers"}
     )  # fmt: skip
-    folder.mkdir(parents=True, exist_ok=True)
     base = {"theta": 0.0, "theta_dot": 0.0, "alpha": 0.0, "alpha_dot": 0.0, "v": v_d}
-    state_figure(runs["tsmc"], base, "TSMC, velocity control without yaw (Figs. 4.12-4.13)",
-                 folder / "tsmc-velocity_tsmc.png")  # fmt: skip
-    state_figure(runs["lqr"], base, "LQR, velocity control without yaw (Figs. 4.14-4.15)",
-                 folder / "tsmc-velocity_lqr.png")  # fmt: skip
-    state_figure(runs["tsmc_lean"], {**base, "theta": lean.theta_ref},
-                 f"TSMC with the lean of (4.40) for v = {v_d:g} m/s (extra)",
-                 folder / "tsmc-velocity_tsmc_lean.png")  # fmt: skip
-    for name, res in runs.items():
-        res.to_npz(folder / f"{name}.npz")
-    save_npz(folder / "tsmc_sliding.npz", t=runs["tsmc"].t, **replay(tsmc, runs["tsmc"]))
-    write_metrics(folder, doc)
-    return doc
+    figures = {
+        "tsmc-velocity_tsmc.png": state_figure(
+            runs["tsmc"], base, "TSMC, velocity control without yaw (Figs. 4.12-4.13)"),
+        "tsmc-velocity_lqr.png": state_figure(
+            runs["lqr"], base, "LQR, velocity control without yaw (Figs. 4.14-4.15)"),
+        "tsmc-velocity_tsmc_lean.png": state_figure(
+            runs["tsmc_lean"], {**base, "theta": lean.theta_ref},
+            f"TSMC with the lean of (4.40) for v = {v_d:g} m/s (extra)"),
+    }  # fmt: skip
+    t_rec, logs = runs["tsmc"].t, replay(tsmc, runs["tsmc"])
+    return save_study(
+        ctx,
+        metrics=metrics,
+        published=published,
+        claims=claims,
+        runs=doc_runs,
+        settings=doc_settings,
+        series=runs,
+        figures=figures,
+        arrays={"tsmc_sliding.npz": {"t": t_rec, **logs}},
+    )
+
+
+STUDY = Study(name=NAME, source=SOURCE, run=run, place=(4, 12), cost=8)

@@ -4,9 +4,9 @@ One source of the twin's numbers: the twin configuration (:mod:`mwip.hardware.tw
 ``[twin]`` TOML tables; the default twin is the hardware data with their sources,
 ``mwip twin show``). A run takes it from ``mwip run/reproduce --twin FILE`` or from a study
 file's ``[robot] twin = FILE`` / ``[twin]`` tables (:mod:`mwip.studies.study_file`), through
-:func:`mwip.studies.robot.twin`. The studies' own settings hold only what the book prints
-for the experiment (gains, initial state, durations); the controllers sample at the twin's
-``Ts``.
+the context's ``twin`` (:class:`~mwip.studies.study.StudyContext`). The studies' own
+settings hold only what the book prints for the experiment (gains, initial state,
+durations); the controllers sample at the twin's ``Ts``.
 
 Every Chapter 6 study also runs the ablation of :mod:`mwip.hardware.ablation`: the ideal
 robot, then each physical element added in turn (cumulative, in the order of
@@ -19,7 +19,7 @@ twin (:func:`fall_evidence`: where a run stops balancing, :func:`balances`).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,14 +27,19 @@ import numpy as np
 
 from mwip.hardware.ablation import Ablation
 from mwip.hardware.elements import ELEMENTS
-from mwip.hardware.twin import Twin
+from mwip.hardware.twin import Twin, case_plant
 from mwip.io import write_text_atomic
+from mwip.models.reduced import f_g
 from mwip.params import Params
-from mwip.studies import robot, settings
+from mwip.studies import settings
+from mwip.studies.registry import robot as book_robot
 
 __all__ = [
     "ABLATION_FIELD",
+    "QUICK_ABLATION",
     "fall_evidence",
+    "input_gain_ratio",
+    "payload_evidence",
     "first_fall",
     "balances",
     "BALANCE_RMS",
@@ -49,11 +54,53 @@ __all__ = [
 ABLATION_FIELD = "ablation_table"
 
 
-def study_settings(name: str) -> tuple[dict[str, Any], Twin]:
-    """The current settings of study ``name`` with the twin's ``Ts`` and ``dt`` (the
-    controllers sample at the twin's period), and the twin (:func:`mwip.studies.robot.twin`)."""
-    tw = robot.twin()
-    return {**settings.current(name), "Ts": tw.Ts, "dt": tw.dt}, tw
+def study_settings(
+    name: str, cfg: Mapping[str, Any] | None = None, twin: Twin | None = None
+) -> tuple[dict[str, Any], Twin]:
+    """The settings ``cfg`` of study ``name`` (default: its study file's) with the twin's
+    ``Ts`` and ``dt`` (the controllers sample at the twin's period), and the twin ``twin``
+    (default: the default twin; a run passes the context's, ``ctx.twin``)."""
+    tw = Twin() if twin is None else twin
+    base = settings.defaults(name) if cfg is None else dict(cfg)
+    return {**base, "Ts": tw.Ts, "dt": tw.dt}, tw
+
+
+#: quick mode: the ablation's runs last this long (s), RMS over its second half
+QUICK_ABLATION = 2.0
+
+
+def input_gain_ratio(plant: Params, nominal: Params, lam: float) -> float:
+    """``(g2 + lam g1)`` of (2.36) at upright rest for ``plant`` over the same for ``nominal``.
+
+    (3.50) divides by ``g2 + l3 g1`` (and (4.7) by ``g2 + lambda_2 g1``) computed on the
+    nominal model, so a plant with this ratio ``rho`` turns the law's intended ``S1'`` into
+    ``rho`` times it plus the model mismatch: the fraction of the assumed input gain the
+    plant delivers.
+    """
+    zero = np.zeros(3)
+    _, gp = f_g(plant, zero, zero)
+    _, gn = f_g(nominal, zero, zero)
+    return float((gp[1, 0] + lam * gp[0, 0]) / (gn[1, 0] + lam * gn[0, 0]))
+
+
+def payload_evidence(
+    lam: float, which: str = "g2 + l3 g1", *, plant: Params | None = None,
+    nominal: Params | None = None,
+) -> str:  # fmt: skip
+    """Why Case 2/3 is hard, from the robot in use (``plant``, designs on ``nominal``;
+    default: the book's): the payload (absent from the design model) multiplies the pitch
+    inertia and cuts the input gain the controllers assume."""
+    p1, nominal = book_robot(plant, nominal)
+    p2 = case_plant(2, base=p1)
+    low = p1.with_payload(body_height=float(p1.l))
+    return (
+        f"the 0.5 kg pan (not in the design model) raises the pitch inertia Iby from "
+        f"{float(p1.Iby):.3g} to {float(p2.Iby):.3g} kg m^2 and leaves the controllers "
+        f"{input_gain_ratio(p2, nominal, lam):.2f} of the input gain {which} of (2.36) "
+        f"they divide by (Case 1: {input_gain_ratio(p1, nominal, lam):.2f}; still "
+        f"{input_gain_ratio(low, nominal, lam):.2f} with the pan only 0.1 m above the centre "
+        f"of mass)"
+    )
 
 
 def twin_doc(twin: Twin) -> str:
