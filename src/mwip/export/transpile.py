@@ -63,9 +63,9 @@ class _Expr(ast.NodeVisitor):
     def visit_BinOp(self, node: ast.BinOp) -> str:
         if isinstance(node.op, ast.Pow):
             exp = node.right
-            if isinstance(exp, ast.Constant) and exp.value in (2, 3):
+            if isinstance(exp, ast.Constant) and isinstance(exp.value, int) and exp.value in (2, 3):
                 base = self.visit(node.left)
-                return "(" + " * ".join([base] * int(exp.value)) + ")"
+                return "(" + " * ".join([base] * exp.value) + ")"
             return self.generic_visit(node)
         op = _OPS.get(type(node.op))
         if op is None:

@@ -189,7 +189,7 @@ class MwipEnv(gymnasium.Env[NDArray[np.float32], NDArray[np.float32]]):
         self, *, sensor: Sensor | None = None, render_mode: str | None = None, **config: Any
     ) -> None:
         self.cfg = EnvConfig(**config)
-        self.observation_space, self.action_space = self.cfg.spaces()
+        self.observation_space, self.action_space = self.cfg.spaces()  # type: ignore[assignment]
         self.metadata = {**self.metadata, "render_fps": int(round(1.0 / self.cfg.Ts / 10))}
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
@@ -251,7 +251,7 @@ class MwipEnv(gymnasium.Env[NDArray[np.float32], NDArray[np.float32]]):
         info = {"state": self._y[0].copy(), "status": ("ok", "fell", "diverged")[int(status[0])]}
         return obs, rew, terminated, truncated, info
 
-    def render(self) -> NDArray[np.uint8] | None:  # type: ignore[override]
+    def render(self) -> NDArray[np.uint8] | None:
         """Side view of the robot as an RGB array (``render_mode="rgb_array"``)."""
         if self.render_mode != "rgb_array":
             return None
@@ -259,14 +259,14 @@ class MwipEnv(gymnasium.Env[NDArray[np.float32], NDArray[np.float32]]):
         from matplotlib.figure import Figure
         from matplotlib.patches import Circle
 
-        p = self.cfg.plant
-        th, x = float(self._y[0, 1]), float(p.r * self._y[0, 0])
+        r, ell = float(self.cfg.plant.r), float(self.cfg.plant.l)
+        th, x = float(self._y[0, 1]), float(r * self._y[0, 0])
         fig = Figure(figsize=(3, 3), dpi=80)
         canvas = FigureCanvasAgg(fig)
         ax = fig.add_subplot()
-        ax.add_patch(Circle((x, p.r), p.r, fill=False))
-        top = 2.0 * p.l
-        ax.plot([x, x + top * math.sin(th)], [p.r, p.r + top * math.cos(th)], lw=4)
+        ax.add_patch(Circle((x, r), r, fill=False))
+        top = 2.0 * ell
+        ax.plot([x, x + top * math.sin(th)], [r, r + top * math.cos(th)], lw=4)
         ax.set_xlim(x - 0.25, x + 0.25)
         ax.set_ylim(-0.02, 0.3)
         ax.set_aspect("equal")

@@ -30,7 +30,7 @@ from mwip.sim.kernel import OK
 __all__ = ["MwipVectorEnv"]
 
 
-class MwipVectorEnv(VectorEnv):  # type: ignore[type-arg]
+class MwipVectorEnv(VectorEnv):
     """N robots stepped together (module docstring)."""
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
@@ -116,7 +116,7 @@ class MwipVectorEnv(VectorEnv):  # type: ignore[type-arg]
         status = np.zeros(self.num_envs, dtype=np.int64)
         if live.any():
             y = np.ascontiguousarray(self._y[live])
-            t = self._k[live] * c.Ts
+            t = (self._k[live] * c.Ts).astype(np.float64)
             status[live] = advance(c, y, np.ascontiguousarray(u[live]), t,
                                    np.ascontiguousarray(self.coef[live]))  # fmt: skip
             self._y[live] = y

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from matplotlib.collections import LineCollection
@@ -107,7 +108,7 @@ class RobotView:
     def frames(self, hold: int = 0) -> Iterator[np.ndarray]:
         """The frames as RGBA arrays (H, W, 4): the still parts are drawn once, each frame
         redraws only the moving artists (blitting); ``hold`` repeats the last frame."""
-        canvas = self.fig.canvas
+        canvas: Any = self.fig.canvas  # the Agg canvas: blitting and RGBA buffer
         for a in self.moving:
             a.set_animated(True)
         canvas.draw()

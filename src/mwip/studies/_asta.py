@@ -32,7 +32,9 @@ def make(
 ) -> ASTA | ASMC:
     """The study's ASTA, ASMC or (``"casmc"``) conventional ASMC with the gains of ``cfg``,
     designed on ``nominal``."""
-    cls = {"asta": ASTA, "asmc": ASMC, "casmc": ConventionalASMC}[kind]
+    classes: dict[str, type[ASTA] | type[ASMC]] = {"asta": ASTA, "asmc": ASMC,
+                                                   "casmc": ConventionalASMC}  # fmt: skip
+    cls = classes[kind]
     return cls(nominal, lam=tuple(cfg["lam"]), K=tuple(cfg["K"]),
                rate=tuple(cfg["rate"]), Gamma0=tuple(cfg["Gamma0"]), eps=cfg["eps"],
                psi_dot_ref=psi_dot_ref, Ts=cfg["Ts"])  # fmt: skip

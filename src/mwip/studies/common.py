@@ -148,10 +148,10 @@ def _readable_text(fig: Figure, dpi: float) -> None:
     for ax in fig.axes:
         for axis, which in ((ax.xaxis, "x"), (ax.yaxis, "y")):
             labels = axis.get_ticklabels()
-            if labels and labels[0].get_fontsize() < min_pt:
-                ax.tick_params(axis=which, labelsize=min_pt)
+            if labels and float(labels[0].get_fontsize()) < min_pt:
+                ax.tick_params(axis=which, labelsize=min_pt)  # type: ignore[arg-type]
     for text in fig.findobj(Text):
-        if text.get_text() and text.get_fontsize() < min_pt:
+        if isinstance(text, Text) and text.get_text() and float(text.get_fontsize()) < min_pt:
             text.set_fontsize(min_pt)
 
 

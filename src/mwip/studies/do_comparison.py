@@ -108,7 +108,8 @@ def _claims(metrics: dict[str, float], omegas: list[float]) -> list[dict[str, An
     theory_rank = sorted(ORDERS, key=lambda n: metrics[f"{n}.rms_d1_theory"])
     measured_rank = sorted(ORDERS, key=lambda n: metrics[f"{n}.rms_d1"])
     h_text = "; ".join(f"at {w:g} rad/s {fmt(f'H_w{w:g}')}" for w in omegas)
-    h_ranks = {w: sorted(ORDERS, key=lambda n, w=w: metrics[f"{n}.H_w{w:g}"]) for w in omegas}
+    h_ranks = {w: sorted(ORDERS, key=lambda n, w=w: float(metrics[f"{n}.H_w{w:g}"]))  # type: ignore[misc]
+               for w in omegas}  # fmt: skip
     book_rank = ["do4", "do3", "do2"]
     # The book's ordering contradicts its own gains when |H_n| ranks them otherwise.
     contradicted = any(r != book_rank for r in h_ranks.values())
