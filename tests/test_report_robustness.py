@@ -64,3 +64,22 @@ def test_report_rejects_a_folder_without_results(tmp_path, capsys):
     assert "--claims" in err and len(err.strip().splitlines()) == 1
     with pytest.raises(AssertionError):
         assert "holds in" in render_html(out, ["asta-balance"])
+
+
+def test_report_embeds_the_twin_ablation_and_the_twin_assumptions(tmp_path):
+    """A Chapter 6 study's ablation table (settings.ablation_table) is shown in its section,
+    and the page states the twin's payload and stick assumptions with their sensitivity."""
+    out = tmp_path / "out"
+    _study(out, "exp-asta")
+    folder = out / "exp-asta"
+    doc = json.loads((folder / "metrics.json").read_text())
+    doc["settings"]["ablation_table"] = {"md": "ablation.md", "html": "ablation.html"}
+    (folder / "metrics.json").write_text(json.dumps(doc))
+    (folder / "ablation.html").write_text("<table><tr><td>+ inertia</td><td>fell</td></tr></table>")
+    page = render_html(out, ["exp-asta"])
+    assert "the twin's ablation" in page and "<td>+ inertia</td><td>fell</td>" in page
+    assert "Payload (Case 2)" in page and "Stick (Case 3)" in page
+    doc["settings"].pop("ablation_table")
+    (folder / "metrics.json").write_text(json.dumps(doc))
+    page = render_html(out, ["exp-asta"])
+    assert "the twin's ablation" not in page and "Payload (Case 2)" not in page

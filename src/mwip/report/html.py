@@ -284,6 +284,61 @@ def _poster(res: StudyResult) -> str:
     return "<h3>The robot</h3>" + _img(p, f"{res.name}/{POSTER_DIR}/{p.name}", cap)
 
 
+def _ablation(res: StudyResult) -> str:
+    """The study's twin ablation (issue 16): the ideal robot, then each physical element of
+    the digital twin added in turn, with the book's claims judged at every step (the table
+    the study wrote, named in ``settings.ablation_table``)."""
+    field = (res.doc or {}).get("settings", {}).get("ablation_table") or {}
+    name = field.get("html") if isinstance(field, dict) else None
+    path = res.folder / str(name) if name else None
+    if path is None or not path.is_file() or path.parent != res.folder:
+        return ""
+    return (
+        "<h3>Which physical effect decides: the twin's ablation</h3>"
+        '<p class="muted">From the ideal robot (Table 6.1 with ideal sensors and drive), each '
+        "element of the digital twin added in turn (docs/twin_model.md): "
+        "the quantity per run, and the book's claims judged at every step.</p>"
+        f'<div class="scroll ablation">{path.read_text(encoding="utf-8")}</div>'
+    )
+
+
+def _twin_section(results: list[StudyResult], record: dict[str, Any]) -> str:
+    """The digital twin's assumptions where the book prints none: the Case 2 payload and the
+    Case 3 stick, as sensitivities of the robot that ran (issue 16 item 3)."""
+    if not any(_ablation(r) for r in results):
+        return ""
+    from mwip.hardware.sensitivity import payload_sensitivity, stick_sensitivity
+    from mwip.params import REAL, Params
+
+    try:
+        base = Params.from_dict(record["params"]["plant"])
+    except (KeyError, TypeError, ValueError):
+        base = REAL
+
+    def table(rows: list[dict[str, Any]]) -> str:
+        head = "".join(f"<th>{_e(k)}</th>" for k in rows[0])
+        body = "".join(
+            "<tr>" + "".join(f"<td class='num'>{format_number(v)}</td>" for v in r.values())
+            + "</tr>" for r in rows
+        )  # fmt: skip
+        return f'<div class="scroll"><table><tr>{head}</tr>{body}</table></div>'
+
+    return (
+        '<section id="twin"><h2>The digital twin: assumptions the book does not print</h2>'
+        '<p class="muted">Case 2: a pan of mass m on rods above the body (mass, rod height '
+        "and the body's own height are assumptions: <code>Params.with_payload</code>); Case 3: "
+        "a stick of the given height crossed at -7 rad/s (<code>mwip.hardware.obstacle</code>). "
+        "The tables give how the robot's pitch dynamics (gravity term against the design "
+        "model's, pitch pole) and the bump depend on them; the closed-loop sensitivities and "
+        "the gear-ratio table are in docs/twin_model.md and <code>mwip twin sensitivity</code>."
+        "</p><h3>Payload (Case 2)</h3>"
+        + table(payload_sensitivity(base=base))
+        + "<h3>Stick (Case 3)</h3>"
+        + table(stick_sensitivity(plant=base.with_payload()))
+        + "</section>"
+    )
+
+
 def _study_section(res: StudyResult, compare: Comparison | None, note: Note = _no_note) -> str:
     info = res.info
     title = info.get("title", res.name)
@@ -323,6 +378,7 @@ def _study_section(res: StudyResult, compare: Comparison | None, note: Note = _n
     parts.append(_poster(res))
     if res.doc:
         parts.append("<h3>Published vs ours</h3>" + _comparison_table(res))
+        parts.append(_ablation(res))
     if info.get("gaps"):
         doc_ref = f" (details: {_e(info['docs'])})" if info.get("docs") else ""
         parts.append(f"<h3>Gaps explained</h3><p>{_e(info['gaps'])}{doc_ref}</p>")
@@ -445,6 +501,7 @@ gives our numbers. Every verdict and number is read from the studies' metrics.js
 {_book_claims_section(results, damping, cmp, note)}
 <h2>Overview</h2>{_overview(results)}
 <h2>Run</h2>{_metadata(record, cmp)}
+{_twin_section(results, record)}
 {sections}
 </main></body></html>
 """
