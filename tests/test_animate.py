@@ -245,8 +245,10 @@ def test_animate_bad_input_is_one_line_and_exit_2(tmp_path, capsys, setup, args,
     assert len(err) == 1 and err[0].startswith("mwip: error: ") and expect in err[0], err
 
 
-@pytest.mark.skipif(shutil.which("ffmpeg") is not None, reason="ffmpeg is installed here")
-def test_animate_mp4_without_ffmpeg_says_so(study_folder, capsys):
+def test_animate_mp4_without_ffmpeg_says_so(study_folder, capsys, monkeypatch):
+    import mwip.animate
+
+    monkeypatch.setattr(mwip.animate.shutil, "which", lambda _name: None)  # no ffmpeg
     assert main(["animate", str(study_folder), "--out", "x.mp4"]) == 2
     assert "needs ffmpeg" in capsys.readouterr().err
 

@@ -79,18 +79,3 @@ def test_balance_only_is_the_pdc():
     ctrl = Fig53Controller([_Design(G_B)], ["t1"], [None], [None])
     np.testing.assert_allclose(ctrl(0.0, meas), PDCBalance(G_B, kind="t1")(0.0, meas),
                                rtol=1e-12, atol=1e-12)  # fmt: skip
-
-
-def test_same_numbers_as_the_study_copy():
-    """The study's BatchFuzzyController (to be replaced by this class) gives the same bits."""
-    exp_it2 = pytest.importorskip("mwip.studies.exp_it2")
-    if not hasattr(exp_it2, "BatchFuzzyController"):
-        pytest.skip("the study already uses the library class")
-    rng = np.random.default_rng(6)
-    meas = _meas(rng, len(ROWS))
-    args = ([_Design(r[0]) for r in ROWS], [r[1] for r in ROWS], [r[2] for r in ROWS],
-            [r[3] for r in ROWS])  # fmt: skip
-    a = Fig53Controller(*args, params=NOMINAL)
-    b = exp_it2.BatchFuzzyController(*args, params=NOMINAL)
-    assert np.array_equal(a(0.3, meas), b(0.3, meas))
-    assert all(np.array_equal(a.log()[k], b.log()[k]) for k in ("theta_off", "u_alpha"))
