@@ -42,7 +42,7 @@ from mwip.metrics import rms, total_variation_rate
 from mwip.params import Params
 from mwip.sim import SimResult
 from mwip.studies.registry import robot as book_robot
-from mwip.studies.study import Study, StudyContext, save_study
+from mwip.studies.study import Study, StudyContext, runs_record, save_study
 from mwip.studies.twin_settings import (
     ABLATION_FIELD,
     QUICK_ABLATION,
@@ -185,8 +185,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
     tables = write_ablation(ab, folder, ("rms_theta", "rms_s1", "t_end"))
     return save_study(
         ctx, metrics=metrics, published=PUBLISHED, claims=claims,
-        runs={k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
-              for k, v in runs.items()},
+        runs=runs_record(runs),
         settings={"dt": tw.dt, "Ts": tw.Ts, "window": list(window), "seed": cfg["seed"],
          "duration": duration, "record_every": cfg["record_every"],
          "record_period": tw.Ts * cfg["record_every"],

@@ -63,7 +63,7 @@ from mwip.params import Params, steady_speed_cap
 from mwip.sim import SimResult
 from mwip.studies import settings
 from mwip.studies.registry import robot as book_robot
-from mwip.studies.study import Study, StudyContext, save_study
+from mwip.studies.study import Study, StudyContext, runs_record, save_study
 from mwip.studies.twin_settings import (
     ABLATION_FIELD,
     QUICK_ABLATION,
@@ -202,10 +202,6 @@ def _values_text(metrics: Mapping[str, float], fmt: str) -> str:
 
     return ", ".join(f"{LABEL[k]} {num(metrics.get(fmt.format(k=k), float('nan')))}"
                      for k in ("do4smc", "do1smc", "smc"))  # fmt: skip
-
-
-def _runs_doc(runs: dict[str, SimResult]) -> dict[str, dict[str, Any]]:
-    return {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()}
 
 
 def _settings(
@@ -459,7 +455,7 @@ def _rms_experiment(
     tables = write_ablation(ab, folder, ("rms_theta", *[q for q in keys if q != "rms_theta"],
                                          "t_end"))  # fmt: skip
     return save_study(
-        ctx, metrics=metrics, published=published, claims=claims, runs=_runs_doc(runs),
+        ctx, metrics=metrics, published=published, claims=claims, runs=runs_record(runs),
         settings=_settings(cfg, tw, {"q1d_dot": q1d_dot}, duration, window, tables, ctx.plant),
         series=runs, figures={f"{study}.png": _figure(runs, q1d_dot, study, ctx.plant)},
     )  # fmt: skip
@@ -562,7 +558,7 @@ def run_obstacle(ctx: StudyContext) -> dict[str, Any]:
     stick = _stick_doc(cfg, ctx.plant)
     tables = write_ablation(ab, folder, ("settling_time", "rms_theta", "t_end"))
     return save_study(
-        ctx, metrics=metrics, published=PUBLISHED_OBSTACLE, claims=claims, runs=_runs_doc(runs),
+        ctx, metrics=metrics, published=PUBLISHED_OBSTACLE, claims=claims, runs=runs_record(runs),
         settings=_settings(cfg, tw, {"q1d_dot": speed, "band": list(BAND), "stick": stick,
                                      "stick_speed": cfg["stick_speed"]},
                            duration, (cfg["rms_start"], stick_start), tables, ctx.plant),

@@ -83,7 +83,7 @@ from mwip.metrics import rms
 from mwip.params import Params
 from mwip.sim import SimResult
 from mwip.studies.registry import robot as book_robot
-from mwip.studies.study import Study, StudyContext, save_study
+from mwip.studies.study import Study, StudyContext, runs_record, save_study
 from mwip.studies.twin_settings import (
     ABLATION_FIELD,
     fall_evidence,
@@ -483,8 +483,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
     fig = _figure(runs, title, experiments, r_nom=r_nom)
     return save_study(
         ctx, metrics=metrics, claims=claims,
-        runs={k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
-              for k, v in runs.items()},
+        runs=runs_record(runs),
         settings=used, series=runs, figures={f"{study}.png": fig},
     )  # fmt: skip
 

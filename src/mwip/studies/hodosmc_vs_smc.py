@@ -34,7 +34,7 @@ from mwip.observers.design import as_gain_matrices
 from mwip.sim import SimResult, simulate
 from mwip.sim.disturbance import sinusoid_from_settings
 from mwip.studies.common import finish_claims
-from mwip.studies.study import Study, StudyContext, save_study
+from mwip.studies.study import Study, StudyContext, runs_record, save_study
 
 SOURCE = "Fig. 3.3"
 NAME = "hodosmc-vs-smc"
@@ -92,8 +92,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
     return save_study(
         ctx, metrics=metrics, claims=finish_claims(_claims(metrics, runs), metrics,
                                                    ctx.plant_label),
-        runs={k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
-              for k, v in runs.items()},
+        runs=runs_record(runs),
         settings={"dt": cfg["dt"], "Ts": cfg["Ts"], "window": list(window), "seed": ctx.seed,
          "duration": duration, "theta0": cfg["theta0"], "psi_dot_d": cfg["psi_dot_d"],
          "plant": ctx.plant_label, "design": "nominal",

@@ -44,7 +44,7 @@ from mwip.fuzzy.ts_model import vertex_matrices
 from mwip.metrics import settling_time
 from mwip.params import book_params
 from mwip.sim import simulate
-from mwip.studies.study import Study, StudyContext, save_study
+from mwip.studies.study import Study, StudyContext, runs_record, save_study
 
 SOURCE = "Fig. 5.4"
 NAME = "it2-balance"
@@ -149,8 +149,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
         if c["holds"] or not c["book"]:
             c.pop("cause", None)
             c.pop("evidence", None)
-    doc_runs = {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
-                for k, v in runs.items()}  # fmt: skip
+    doc_runs = runs_record(runs)
     doc_settings = (
         {"Ts": Ts, "dt": {k: v.settings.get("dt") for k, v in runs.items()},
          "mode": {k: ("sampled" if k == "it2_sampled" else "continuous") for k in runs},

@@ -29,7 +29,7 @@ from mwip.control.lqr import LQR, design_lqr
 from mwip.params import book_params
 from mwip.sim import SimResult, simulate
 from mwip.studies.common import finish_claims
-from mwip.studies.study import Study, StudyContext, plant_label, save_study
+from mwip.studies.study import Study, StudyContext, plant_label, runs_record, save_study
 
 SOURCE = "Sec. 4.4.2"
 #: The printed K row (both rows printed equal; yaw entries flip sign between wheels).
@@ -79,8 +79,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
         metrics[f"literal.K_r.{name}"] = float(lit.K[0, j])
     design = plant_label(nominal).replace(" plant", " set")
     claims = finish_claims(_claims(cont.K, lit.K, runs, names, design), metrics, ctx.plant_label)
-    doc_runs = {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
-                for k, v in runs.items()}  # fmt: skip
+    doc_runs = runs_record(runs)
     doc_settings = (
         {"dt": {"continuous": cfg["dt_continuous"], "sampled": runs["sampled"].settings["dt"]},
          "Ts": Ts, "duration": duration, "theta0": cfg["theta0"], "Q_diag": cfg["Q_diag"],

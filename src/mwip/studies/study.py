@@ -33,7 +33,13 @@ from mwip.hardware.twin import Twin
 from mwip.params import NOMINAL, NOMINAL_LITERAL, REAL, REAL_LITERAL, Params
 from mwip.studies.common import metrics_document, save_figure, write_metrics
 
-__all__ = ["Study", "StudyContext", "plant_label", "save_study"]
+__all__ = ["Study", "StudyContext", "plant_label", "runs_record", "save_study"]
+
+
+def runs_record(runs: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """The ``runs`` block of metrics.json (SPEC.md section 6): each single run's status and
+    end time, from its :class:`mwip.sim.SimResult`."""
+    return {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])} for k, v in runs.items()}
 
 
 def plant_label(p: Params) -> str:

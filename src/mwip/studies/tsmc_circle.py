@@ -52,7 +52,7 @@ from mwip.studies._tsmc import (
     tsmc_doc,
     tsmc_from,
 )  # fmt: skip
-from mwip.studies.study import Study, StudyContext, save_study
+from mwip.studies.study import Study, StudyContext, runs_record, save_study
 
 SOURCE = "Figs. 4.16-4.18"
 NAME = "tsmc-circle"
@@ -183,8 +183,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
             c.pop("cause", None)
         if c["holds"]:
             c.pop("evidence", None)
-    doc_runs = {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
-                for k, v in runs.items()}  # fmt: skip
+    doc_runs = runs_record(runs)
     doc_settings = (
         {"dt": cfg["dt"], "Ts": cfg["Ts_record"],
          "mode": "continuous (law inside the right-hand side)",

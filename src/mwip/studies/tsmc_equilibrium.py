@@ -56,7 +56,7 @@ from mwip.studies._tsmc import (
     tsmc_doc,
     tsmc_from,
 )  # fmt: skip
-from mwip.studies.study import Study, StudyContext, save_study
+from mwip.studies.study import Study, StudyContext, runs_record, save_study
 
 SOURCE = "Figs. 4.8-4.11"
 NAME = "tsmc-equilibrium"
@@ -172,8 +172,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
         if c["holds"] or not c["book"]:
             c.pop("cause", None)
             c.pop("evidence", None)
-    doc_runs = {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
-                for k, v in runs.items()}  # fmt: skip
+    doc_runs = runs_record(runs)
     doc_settings = (
         {"dt": cfg["dt"], "Ts": cfg["Ts_record"], "mode": "continuous (law inside the "
          "right-hand side, ROS2 with closed-loop Jacobian); Ts is the record/Jacobian-refresh "

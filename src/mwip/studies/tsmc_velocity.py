@@ -42,7 +42,7 @@ from mwip.studies._tsmc import (
     tsmc_doc,
     tsmc_from,
 )  # fmt: skip
-from mwip.studies.study import Study, StudyContext, save_study
+from mwip.studies.study import Study, StudyContext, runs_record, save_study
 
 SOURCE = "Figs. 4.12-4.15"
 NAME = "tsmc-velocity"
@@ -134,8 +134,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
             c.pop("cause", None)
         if c["holds"]:
             c.pop("evidence", None)
-    doc_runs = {k: {"status": str(v.status[0]), "t_end": float(v.t_end[0])}
-                for k, v in runs.items()}  # fmt: skip
+    doc_runs = runs_record(runs)
     doc_settings = (
         {"dt": cfg["dt"], "Ts": cfg["Ts_record"], "mode": "continuous (law inside the "
          "right-hand side)", "duration": duration, "plant": "real", "design": "nominal",
