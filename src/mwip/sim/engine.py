@@ -429,7 +429,9 @@ def _compiled_law(
 
 
 def _overrides_below_compiled_law(cls: type) -> bool:
-    owner = next(c for c in cls.__mro__ if "compiled_law" in vars(c))
+    owner = next((c for c in cls.__mro__ if "compiled_law" in vars(c)), None)
+    if owner is None:  # set on the instance: the instance says what it runs
+        return False
     below = cls.__mro__[: cls.__mro__.index(owner)]
     return any(name in vars(c) for c in below for name in ("__call__", "reset", "log"))
 
