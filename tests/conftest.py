@@ -1,9 +1,31 @@
-"""Shared fixtures: seeded random states."""
+"""Shared fixtures: seeded random states; a private cache for the ahead-of-time loop."""
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
+
 import numpy as np
 import pytest
+
+_AOT_CACHE: list[str] = []
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """The suite builds and loads the ahead-of-time loop (mwip.sim.aot) in a cache of its own
+    (built once per session, ~10 s), unless MWIP_CACHE_DIR is already set; subprocesses of the
+    tests inherit it."""
+    if not os.environ.get("MWIP_CACHE_DIR"):
+        path = tempfile.mkdtemp(prefix="mwip-test-cache-")
+        _AOT_CACHE.append(path)
+        os.environ["MWIP_CACHE_DIR"] = path
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    for path in _AOT_CACHE:
+        shutil.rmtree(path, ignore_errors=True)
+        os.environ.pop("MWIP_CACHE_DIR", None)
 
 
 @pytest.fixture

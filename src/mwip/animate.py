@@ -1,4 +1,5 @@
-"""``mwip animate RUN_DIR``: the robot of a run drawn to scale and moving.
+"""The robot of a run drawn to scale and moving (``mwip animate RUN_DIR``,
+:mod:`mwip.plot.command`).
 
 A side view (wheel turning, body leaning, payload when present) beside a top view of the path,
 with a time cursor on the theta and torque traces (:class:`mwip.plot.robot_view.RobotView`).
@@ -18,15 +19,18 @@ import shutil
 import subprocess
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
 
 from mwip.io import write_atomic, write_text_atomic
-from mwip.plot.robot_view import Frames, RobotView, frame_times
-from mwip.plot.runs import Run, RunFolderError, load_run, records
+from mwip.plot.runs import Run, RunFolderError, records
 
-__all__ = ["FORMATS", "MAX_FRAMES", "animate_run", "poster_frame", "animate_cmd"]
+if TYPE_CHECKING:  # matplotlib: imported where a frame is drawn
+    from mwip.plot.robot_view import RobotView
+
+__all__ = ["FORMATS", "MAX_FRAMES", "animate_run", "poster_frame"]
 
 FORMATS = (".gif", ".mp4", ".html")
 MAX_FRAMES = 5000
@@ -44,6 +48,8 @@ def _check(run: Run) -> None:
 
 
 def _view(run: Run, fps: float, speed: float) -> tuple[RobotView, int]:
+    from mwip.plot.robot_view import Frames, RobotView, frame_times
+
     _check(run)
     times = frame_times(run.t_end, fps, speed)
     if times.size > MAX_FRAMES:
@@ -129,51 +135,10 @@ def poster_frame(run: Run, path: Path, *, size: tuple[float, float] = (8.0, 5.3)
                  dpi: int = 80) -> Path:  # fmt: skip
     """One frame of the animation, at the run's last moment (the fall, for a run that fell),
     as a PNG of ``size`` inches at ``dpi`` (default 640 x 424 px)."""
+    from mwip.plot.robot_view import Frames, RobotView, frame_times
+
     _check(run)
     times = frame_times(run.t_end, 20.0, max(run.t_end / 200.0, 0.05))
     view = RobotView(run, Frames.of(run, times), size=size, dpi=dpi)
     view.show(times.size - 1, final=True)
     return write_atomic(path, lambda fh: view.fig.savefig(fh, format="png", dpi=dpi))
-
-
-@click.command("animate")
-@click.argument("run_dir", type=click.Path(path_type=Path))
-@click.option("--run", "run_name", default=None,
-              help="Which run of a study's folder (default: the study's main run).")  # fmt: skip
-@click.option(
-    "--out",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="FILE.gif (default RUN_DIR/<run>.gif), FILE.mp4 (needs ffmpeg) or FILE.html.",
-)
-@click.option("--fps", type=float, default=20.0, show_default=True,
-              help="Frames per second of the video, in [1, 60].")  # fmt: skip
-@click.option("--speed", type=float, default=1.0, show_default=True,
-              help="Speed-up over real time, in [0.05, 100].")  # fmt: skip
-def animate_cmd(run_dir: Path, run_name: str | None, out: Path | None, fps: float,
-                speed: float) -> None:  # fmt: skip
-    """Animate a run: the robot to scale (side view) beside its path (top view), with a time
-    cursor on theta and the wheel torques.
-
-    RUN_DIR is a folder written by `mwip simulate --out`, a study's folder (OUT/<study>), or a
-    run's .npz file. A run that fell is shown up to the fall, which is held for a second.
-    """
-    if not (np.isfinite(fps) and 1.0 <= fps <= 60.0):
-        raise click.BadParameter(f"must be in [1, 60], got {fps!r}", param_hint="--fps")
-    if not (np.isfinite(speed) and 0.05 <= speed <= 100.0):
-        raise click.BadParameter(f"must be in [0.05, 100], got {speed!r}", param_hint="--speed")
-    if out is not None and out.suffix.lower() not in FORMATS:
-        raise click.BadParameter(f"must end in {', '.join(FORMATS)}, got {out.name!r}",
-                                 param_hint="--out")  # fmt: skip
-    if out is not None and out.suffix.lower() == ".mp4" and shutil.which("ffmpeg") is None:
-        raise click.BadParameter("FILE.mp4 needs ffmpeg on the PATH (not found); use .gif or "
-                                 ".html", param_hint="--out")  # fmt: skip
-    try:
-        run = load_run(run_dir, run_name)
-        if out is None:
-            folder = run_dir if run_dir.is_dir() else run_dir.parent
-            out = folder / f"{run.name}.gif"
-        animate_run(run, out, fps=fps, speed=speed)
-    except RunFolderError as exc:
-        raise click.UsageError(str(exc)) from None
-    click.echo(f"wrote {out} ({run.name}: {run.status}, {run.t_end:.3g} s)")

@@ -14,16 +14,23 @@ import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
-import numpy as np
 
 from mwip.cli_campaign import campaign as _campaign_cmd
 from mwip.cli_controllers import controllers as _controllers_cmd
-from mwip.control.registry import ControllerSpec
+from mwip.cli_kernels import kernels as _kernels_group
+from mwip.damping import DAMPING_READINGS
 from mwip.export.cli import export as _export_group
-from mwip.params import DAMPING_READINGS, Params, book_params, load_params
+from mwip.plot.command import animate_cmd as _animate_cmd
+from mwip.plot.command import plot_cmd as _plot_cmd
+
+if TYPE_CHECKING:  # NumPy and the rest load with the command that needs them (issue 18)
+    import numpy as np
+
+    from mwip.control.registry import ControllerSpec
+    from mwip.params import Params
 
 __all__ = ["main", "cli", "entry"]
 
@@ -32,6 +39,8 @@ def _params(value: str, what: str, base: str | None = None, damping: str = "unit
     """``real``, ``nominal`` (the book's sets under the ``damping`` reading) or a parameter
     TOML (its Db, Dw are rotational, N m s/rad; missing fields from the book's set ``base``:
     by default real for ``--plant``/``--params``, nominal otherwise); errors name ``what``."""
+    from mwip.params import book_params, load_params
+
     key = value.lower()
     if key in ("real", "nominal"):
         return book_params(key, damping)
@@ -490,6 +499,8 @@ def design_hodo_cmd(
             d = solve_ie_lmi(order, radius=radius, solver=solver)
     except ObserverDesignError as exc:
         raise click.ClickException(f"observer design failed: {exc}") from None
+    import numpy as np
+
     eig = np.sort_complex(d.eigenvalues)
     doc = {
         "order": order,
@@ -553,6 +564,7 @@ def design_it2_cmd(
     stability); one that fails exits 1 with a one-line error, whatever the solver's status."""
     from mwip.fuzzy.design_cli import design_it2
     from mwip.fuzzy.pdc import PDCInfeasibleError
+    from mwip.params import book_params
 
     _in_range("--epsilon", epsilon, 0.0, 10.0)
     _in_range("--rho", rho, 0.0, 1e6)
@@ -1037,19 +1049,13 @@ def report(out: Path, compare: Path | None, claims_campaign: Path | None, verbos
 
 
 cli.add_command(_controllers_cmd)
+cli.add_command(_kernels_group)
 cli.add_command(_export_group)
 cli.add_command(_campaign_cmd)
 
 
-def _register() -> None:
-    from mwip.animate import animate_cmd
-    from mwip.plot.command import plot_cmd
-
-    cli.add_command(animate_cmd)
-    cli.add_command(plot_cmd)
-
-
-_register()
+cli.add_command(_animate_cmd)
+cli.add_command(_plot_cmd)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -50,6 +50,7 @@ import numpy as np
 import tomli_w
 from numpy.typing import NDArray
 
+from mwip.damping import DAMPING_READINGS
 from mwip.io import read_toml, write_text_atomic
 
 __all__ = [
@@ -294,8 +295,6 @@ class Params:
 
 PARAM_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Params))
 
-#: The damping readings of the book's tables (SPEC.md section 2): see the module docstring.
-DAMPING_READINGS: tuple[str, ...] = ("units", "literal")
 
 #: The book's parameter tables as printed (Db, Dw in the tables' N s/m): Table 3.1 (= 6.1,
 #: the real robot, the plant) and Table 3.2 (= 6.2, the nominal model designs use).

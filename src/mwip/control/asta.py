@@ -51,7 +51,6 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.control._asta_kernel import asta_sample, asta_terms
 from mwip.core import LAW_ASTA, CompiledLaw, Measurement
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
@@ -100,6 +99,8 @@ def asta_surface(
     asta_terms`, the one implementation; its ``a, b`` are not needed here and use the nominal
     coefficients).
     """
+    from mwip.control._asta_kernel import asta_terms
+
     q, qd = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
     shape = np.broadcast_shapes(q.shape, qd.shape)
     q2 = np.ascontiguousarray(np.broadcast_to(q, shape).reshape(-1, 3))
@@ -208,6 +209,9 @@ class _AdaptiveSliding:
     _asmc = False
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
+        # the kernel (Numba) is loaded when the Python loop calls the law (mwip.sim.aot)
+        from mwip.control._asta_kernel import asta_sample, asta_terms
+
         if self.Gamma.shape[0] != meas.y.shape[0]:
             self.reset(meas)
         n = meas.y.shape[0]

@@ -26,7 +26,6 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.control._lqr_kernel import lqr_law
 from mwip.core import LAW_LINEAR, CompiledLaw, Measurement
 from mwip.linearize import linearize
 from mwip.params import NOMINAL, Params
@@ -162,6 +161,9 @@ class LQR:
         return meas.y[:, :6] @ self._sel
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
+        # the kernel (Numba) is loaded when the Python loop calls the law (mwip.sim.aot)
+        from mwip.control._lqr_kernel import lqr_law
+
         y = np.ascontiguousarray(meas.y, dtype=float)
         return lqr_law(y, self._gain, self._offset, np.empty((y.shape[0], 2)))
 

@@ -52,7 +52,6 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.switching import Switching
 from mwip.core import LAW_TSMC, CompiledLaw, Measurement
 from mwip.models.reduced import coefficients
@@ -193,6 +192,9 @@ class TSMC:
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         """(4.30)-(4.32) at ``(t, meas)`` in one compiled loop (:mod:`mwip.control._tsmc_kernel`;
         the law's one implementation; NumPy oracle in tests/oracle_laws.py)."""
+        # the kernel (Numba) is loaded when the Python loop calls the law (mwip.sim.aot)
+        from mwip.control._tsmc_kernel import tsmc_step
+
         if self._coeffs is None:
             self.reset(meas)
         assert self._coeffs is not None

@@ -11,18 +11,48 @@
 - :mod:`mwip.hardware.twin_config`: the twin as ``[twin]`` TOML tables (``mwip twin show``);
 - :mod:`mwip.hardware.ablation`: the ideal robot, then each element added in turn;
 - :mod:`mwip.hardware.sensitivity`: payload, stick and gear-ratio sensitivities.
+
+The names below are imported on first use (:mod:`mwip.lazy`).
 """
 
-from mwip.hardware.drivetrain import GearboxSpec, TwinPlant
-from mwip.hardware.elements import ELEMENTS
-from mwip.hardware.encoder import EncoderSpec
-from mwip.hardware.imu import FusionSpec, ImuNoise
-from mwip.hardware.motor import RE25, DriveActuator, DriveSpec, MotorData
-from mwip.hardware.obstacle import StickObstacle
-from mwip.hardware.twin import CASES, Twin, TwinActuator, TwinSensor, case_plant, run_on_twin
+from typing import TYPE_CHECKING
+
+from mwip.lazy import exports
 
 __all__ = [
     "EncoderSpec", "FusionSpec", "ImuNoise", "RE25", "MotorData", "DriveSpec", "DriveActuator",
     "GearboxSpec", "TwinPlant", "ELEMENTS", "StickObstacle", "Twin", "TwinSensor",
     "TwinActuator", "CASES", "case_plant", "run_on_twin",
 ]  # fmt: skip
+
+__getattr__, __dir__ = exports(
+    __name__,
+    {
+        "GearboxSpec": "mwip.hardware.drivetrain",
+        "TwinPlant": "mwip.hardware.drivetrain",
+        "ELEMENTS": "mwip.hardware.elements",
+        "EncoderSpec": "mwip.hardware.encoder",
+        "FusionSpec": "mwip.hardware.imu",
+        "ImuNoise": "mwip.hardware.imu",
+        "RE25": "mwip.hardware.motor",
+        "DriveActuator": "mwip.hardware.motor",
+        "DriveSpec": "mwip.hardware.motor",
+        "MotorData": "mwip.hardware.motor",
+        "StickObstacle": "mwip.hardware.obstacle",
+        "CASES": "mwip.hardware.twin",
+        "Twin": "mwip.hardware.twin",
+        "TwinActuator": "mwip.hardware.twin",
+        "TwinSensor": "mwip.hardware.twin",
+        "case_plant": "mwip.hardware.twin",
+        "run_on_twin": "mwip.hardware.twin",
+    },
+)  # fmt: skip
+
+if TYPE_CHECKING:
+    from mwip.hardware.drivetrain import GearboxSpec, TwinPlant
+    from mwip.hardware.elements import ELEMENTS
+    from mwip.hardware.encoder import EncoderSpec
+    from mwip.hardware.imu import FusionSpec, ImuNoise
+    from mwip.hardware.motor import RE25, DriveActuator, DriveSpec, MotorData
+    from mwip.hardware.obstacle import StickObstacle
+    from mwip.hardware.twin import CASES, Twin, TwinActuator, TwinSensor, case_plant, run_on_twin

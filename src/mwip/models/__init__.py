@@ -4,8 +4,17 @@
   the plant of every simulation;
 - :mod:`mwip.models.spatial` - the 3D model with nonholonomic constraints (2.24)-(2.31);
 - :mod:`mwip.models.planar` - the 2D model on a slope (2.12).
+
+The submodules are imported on first use (:mod:`mwip.lazy`).
 """
 
-from mwip.models import planar, reduced, spatial
+from typing import TYPE_CHECKING
+
+from mwip.lazy import exports
 
 __all__ = ["planar", "reduced", "spatial"]
+
+__getattr__, __dir__ = exports(__name__, {n: f"mwip.models.{n}" for n in __all__})
+
+if TYPE_CHECKING:
+    from mwip.models import planar, reduced, spatial

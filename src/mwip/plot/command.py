@@ -1,23 +1,31 @@
-"""``mwip plot RUN_DIR``: the run figure (:mod:`mwip.plot.run_figure`) of any saved run -- a
+"""``mwip plot RUN_DIR`` and ``mwip animate RUN_DIR``: pictures of any saved run -- a
 ``simulate --out`` folder, a study's folder (e.g. a digital-twin run of Chapter 6, with the
-commanded and applied torques and the observer's estimate) or a run's ``.npz``."""
+commanded and applied torques and the observer's estimate) or a run's ``.npz``.
+
+The drawing modules (NumPy, matplotlib) are imported when a command runs, not when the CLI
+starts (issue 18: ``mwip --help`` under 0.3 s).
+"""
 
 from __future__ import annotations
 
+import math
+import shutil
 from pathlib import Path
 
 import click
 
-from mwip.plot.run_figure import write_run_figure
-from mwip.plot.runs import RunFolderError, load_run
+__all__ = ["plot_cmd", "animate_cmd"]
 
-__all__ = ["plot_cmd"]
+_RUN_DIR = click.argument("run_dir", type=click.Path(path_type=Path))
+_RUN = click.option(
+    "--run", "run_name", default=None,
+    help="Which run of a study's folder (default: the study's main run).",
+)  # fmt: skip
 
 
 @click.command("plot")
-@click.argument("run_dir", type=click.Path(path_type=Path))
-@click.option("--run", "run_name", default=None,
-              help="Which run of a study's folder (default: the study's main run).")  # fmt: skip
+@_RUN_DIR
+@_RUN
 @click.option(
     "--out",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -31,6 +39,8 @@ def plot_cmd(run_dir: Path, run_name: str | None, out: Path | None) -> None:
     RUN_DIR is a folder written by `mwip simulate --out`, a study's folder (OUT/<study>), or a
     run's .npz file (`mwip simulate --plot` draws the same figure as OUT/run.png).
     """
+    from mwip.plot.runs import RunFolderError, load_run
+
     if out is not None and out.suffix.lower() != ".png":
         raise click.BadParameter(f"must end in .png, got {out.name!r}", param_hint="--out")
     try:
@@ -39,6 +49,53 @@ def plot_cmd(run_dir: Path, run_name: str | None, out: Path | None) -> None:
         raise click.UsageError(str(exc)) from None
     if out is None:
         out = (run_dir if run_dir.is_dir() else run_dir.parent) / "plot" / f"{run.name}.png"
+    from mwip.plot.run_figure import write_run_figure
+
     title = f"{run.study}: {run.name}" if run.study else run.name
     write_run_figure(run, out, title=title)
+    click.echo(f"wrote {out} ({run.name}: {run.status}, {run.t_end:.3g} s)")
+
+
+@click.command("animate")
+@_RUN_DIR
+@_RUN
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="FILE.gif (default RUN_DIR/<run>.gif), FILE.mp4 (needs ffmpeg) or FILE.html.",
+)
+@click.option("--fps", type=float, default=20.0, show_default=True,
+              help="Frames per second of the video, in [1, 60].")  # fmt: skip
+@click.option("--speed", type=float, default=1.0, show_default=True,
+              help="Speed-up over real time, in [0.05, 100].")  # fmt: skip
+def animate_cmd(run_dir: Path, run_name: str | None, out: Path | None, fps: float,
+                speed: float) -> None:  # fmt: skip
+    """Animate a run: the robot to scale (side view) beside its path (top view), with a time
+    cursor on theta and the wheel torques.
+
+    RUN_DIR is a folder written by `mwip simulate --out`, a study's folder (OUT/<study>), or a
+    run's .npz file. A run that fell is shown up to the fall, which is held for a second.
+    """
+    from mwip.animate import FORMATS, animate_run
+    from mwip.plot.runs import RunFolderError, load_run
+
+    if not (math.isfinite(fps) and 1.0 <= fps <= 60.0):
+        raise click.BadParameter(f"must be in [1, 60], got {fps!r}", param_hint="--fps")
+    if not (math.isfinite(speed) and 0.05 <= speed <= 100.0):
+        raise click.BadParameter(f"must be in [0.05, 100], got {speed!r}", param_hint="--speed")
+    if out is not None and out.suffix.lower() not in FORMATS:
+        raise click.BadParameter(f"must end in {', '.join(FORMATS)}, got {out.name!r}",
+                                 param_hint="--out")  # fmt: skip
+    if out is not None and out.suffix.lower() == ".mp4" and shutil.which("ffmpeg") is None:
+        raise click.BadParameter("FILE.mp4 needs ffmpeg on the PATH (not found); use .gif or "
+                                 ".html", param_hint="--out")  # fmt: skip
+    try:
+        run = load_run(run_dir, run_name)
+        if out is None:
+            folder = run_dir if run_dir.is_dir() else run_dir.parent
+            out = folder / f"{run.name}.gif"
+        animate_run(run, out, fps=fps, speed=speed)
+    except RunFolderError as exc:
+        raise click.UsageError(str(exc)) from None
     click.echo(f"wrote {out} ({run.name}: {run.status}, {run.t_end:.3g} s)")

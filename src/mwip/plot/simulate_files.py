@@ -7,7 +7,6 @@ from __future__ import annotations
 from pathlib import Path
 
 from mwip.params import Params, save_params
-from mwip.plot.run_figure import write_run_figure
 from mwip.plot.runs import Run
 from mwip.sim.result import SimResult
 
@@ -25,6 +24,8 @@ def write_simulate_extras(
     save_params(plant, out / "plant.toml")
     written = [out / "plant.toml"]
     if plot:
+        from mwip.plot.run_figure import write_run_figure  # matplotlib only for --plot
+
         run = Run(name="simulate", result=res.plant(0) if not res.batched else res,
                   params=plant, payload=False, reference=reference,
                   source=out / "timeseries.npz")  # fmt: skip

@@ -33,19 +33,9 @@ from mwip.budget import Budget, estimate
 from mwip.core import Actuator, CompiledLaw, Controller, Sensor
 from mwip.models.reduced import coefficients
 from mwip.params import REAL, Params
+from mwip.sim import aot
+from mwip.sim.codes import GAMMA, METHOD_NAMES, OK, PARALLEL_MIN, RK4, ROS2W, STATUS_NAMES
 from mwip.sim.disturbance import Disturbance
-from mwip.sim.kernel import (
-    GAMMA,
-    METHOD_NAMES,
-    OK,
-    RK4,
-    ROS2W,
-    STATUS_NAMES,
-    advance_batch,
-    rhs_batch,
-    ros2_stage,
-    ros2_update,
-)
 from mwip.sim.result import SimResult
 from mwip.sim.sensors import IdealSensor
 from mwip.validate import finite_array, integer, real
@@ -368,6 +358,8 @@ def simulate(
         if compiled:
             raise ValueError("compiled=True: the disturbance is too large to tabulate")
     settings["compiled"] = False
+    from mwip.sim.kernel import advance_batch  # Numba: loaded by the runs that use it
+
     get_log = getattr(controller, "log", None)
     no_tau = np.zeros((sub_times.size, 1, 3))
     row = 0
@@ -480,20 +472,23 @@ def _run_compiled(
     n_rec: int,
 ) -> None:
     """Run :mod:`mwip.sim.loop` and unpack its log columns into ``logs``."""
-    from mwip.sim import loop
-
     n = y.shape[0]
     width = sum(w for _, w in law.log_names)
     log_arr = np.full((n, n_rec, width), np.nan)
-    if n >= loop.PARALLEL_MIN:
-        import numba
+    fn: Any = aot.run_function() if n < PARALLEL_MIN else None  # no Numba import (mwip.sim.aot)
+    old = None
+    if fn is None:
+        from mwip.sim import loop
 
-        # dynamic scheduling in chunks of whole robots: a thread whose core is busy with
-        # another process takes fewer chunks instead of holding the others at the end
-        fn = loop.run_parallel
-        old = numba.set_parallel_chunksize(max(1, n // (16 * numba.get_num_threads())))
-    else:
-        fn, old = loop.run, None
+        if n >= PARALLEL_MIN:
+            import numba
+
+            # dynamic scheduling in chunks of whole robots: a thread whose core is busy with
+            # another process takes fewer chunks instead of holding the others at the end
+            fn = loop.run_parallel
+            old = numba.set_parallel_chunksize(max(1, n // (16 * numba.get_num_threads())))
+        else:
+            fn = loop.run
     try:
         _call(fn, law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, states, us,
               log_arr, status, t_end)  # fmt: skip
@@ -556,6 +551,8 @@ def _finish(
 def _plant_rhs(coef: NDArray[np.float64], y: NDArray[np.float64], u: NDArray[np.float64],
                e: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
     """``y'`` of the plant for states (M, 8), inputs (M, 2), disturbances (M, 3) (compiled)."""
+    from mwip.sim.kernel import rhs_batch
+
     f64 = np.float64
     return rhs_batch(
         np.ascontiguousarray(coef, dtype=f64), np.ascontiguousarray(y, dtype=f64),
@@ -580,6 +577,8 @@ def _simulate_continuous(
     settings: dict[str, Any],
     progress: Callable[[int], None] | None,
 ) -> SimResult:
+    from mwip.sim.kernel import ros2_stage, ros2_update
+
     n = y.shape[0]
     coef_n = np.broadcast_to(coef, (n, 10))
     coef_j = np.tile(coef_n, (9, 1))  # base + 8 perturbations

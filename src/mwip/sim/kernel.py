@@ -34,6 +34,7 @@ import numba
 import numpy as np
 
 from mwip.models.reduced import generalized_forces, solve_shifted
+from mwip.sim.codes import DIVERGED, FELL, GAMMA, METHOD_NAMES, OK, RK4, ROS2W, STATUS_NAMES
 
 __all__ = [
     "GAMMA",
@@ -50,12 +51,6 @@ __all__ = [
     "rhs_batch",
 ]
 
-GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
-OK, FELL, DIVERGED = 0, 1, 2
-#: Integrators: the linearly implicit ROS2-W (stiff plants) and classical RK4 (non-stiff).
-ROS2W, RK4 = 0, 1
-METHOD_NAMES = ("ROS2-W", "RK4")
-STATUS_NAMES = ("ok", "fell", "diverged")
 _FELL_ANGLE = 0.5 * math.pi
 
 _gf = numba.njit(cache=True, inline="always")(generalized_forces)

@@ -35,12 +35,11 @@ from mwip.control._smc_kernel import smc_step
 from mwip.control._tsmc_kernel import tsmc_step
 from mwip.core import LAW_ASTA, LAW_LINEAR, LAW_TSMC
 from mwip.observers._hodo_kernel import hodo_update
+from mwip.sim.codes import PARALLEL_MIN
 from mwip.sim.kernel import DIVERGED, FELL, OK, step_one
 
 __all__ = ["run", "run_parallel", "PARALLEL_MIN"]
 
-#: Batches of at least this many robots run on all threads.
-PARALLEL_MIN = 64
 _FELL_ANGLE = 0.5 * math.pi
 
 

@@ -1,0 +1,51 @@
+"""``mwip kernels status | build``: the ahead-of-time compiled simulation loop
+(:mod:`mwip.sim.aot`).
+
+A single sampled run loads the loop from a CPython extension module built once per version of
+the kernels' sources (~10 s); ``build`` does it now (e.g. after installing, so that the first
+``mwip simulate`` is fast), ``status`` says where it is and whether it is current.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+
+import click
+
+__all__ = ["kernels"]
+
+
+@click.group()
+def kernels() -> None:
+    """The ahead-of-time compiled simulation loop (built once per version; ~10 s)."""
+
+
+@kernels.command("status")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def status_cmd(as_json: bool) -> None:
+    """Where the compiled loop lives and whether it is built for the current sources."""
+    from mwip.sim import aot
+
+    info = aot.status()
+    if as_json:
+        click.echo(json.dumps(info, indent=2))
+        return
+    state = "built" if info["built"] else "not built (the next single run builds it)"
+    click.echo(f"compiled loop: {state}\nmodule: {info['module']}\nkey: {info['key']}\n"
+               f"MWIP_AOT: {info['mode']}")  # fmt: skip
+
+
+@kernels.command("build")
+@click.option("--force", is_flag=True, help="Rebuild even if the module exists.")
+def build_cmd(force: bool) -> None:
+    """Compile the simulation loop ahead of time into the cache (MWIP_CACHE_DIR, else
+    ~/.cache/mwip); exits 1 if the toolchain fails (simulations then use Numba's JIT)."""
+    from mwip.sim import aot
+
+    t0 = time.perf_counter()
+    try:
+        path = aot.build(force=force)
+    except (RuntimeError, OSError) as exc:
+        raise click.ClickException(str(exc)) from None
+    click.echo(f"compiled loop: {path} ({time.perf_counter() - t0:.1f} s)")

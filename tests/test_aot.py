@@ -1,0 +1,158 @@
+"""The ahead-of-time compiled loop (mwip.sim.aot): same numbers as the JIT loop, keyed by the
+sources it is compiled from, off and load-only modes, a failed build falling back to the JIT
+loop, and a plain ``mwip simulate`` that imports neither Numba nor SciPy, cvxpy, matplotlib.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import warnings
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mwip.control import registry
+from mwip.params import NOMINAL, REAL, REAL_LITERAL
+from mwip.sim import BOOK_SINUSOIDS, aot, simulate
+
+SRC = Path(aot.__file__).resolve().parents[1]
+
+
+def _compiled_names() -> list[str]:
+    return [n for n in registry.names()
+            if hasattr(registry.build(n, NOMINAL, Ts=0.005), "compiled_law")]  # fmt: skip
+
+
+def _run(name, mode, monkeypatch, plant=REAL, Ts=0.005, **kw):
+    monkeypatch.setenv("MWIP_AOT", mode)
+    ctrl = registry.build(name, NOMINAL, Ts=Ts)
+    return simulate(ctrl, plant, Ts=Ts, **kw)
+
+
+def _identical(a, b):
+    assert a.settings == b.settings and a.settings["compiled"]
+    assert list(a.status) == list(b.status)
+    for x, y in [(a.t_end, b.t_end), (a.states, b.states), (a.inputs, b.inputs),
+                 (a.final_state, b.final_state)]:  # fmt: skip
+        np.testing.assert_array_equal(x, y)
+    assert list(a.logs) == list(b.logs)
+    for k in a.logs:
+        np.testing.assert_array_equal(a.logs[k], b.logs[k])
+
+
+@pytest.mark.parametrize("name", _compiled_names())
+def test_aot_run_is_bit_identical_to_the_jit_loop(name, monkeypatch):
+    kw = dict(q0=(0.0, 0.15, 0.1), qdot0=(0.5, 0.0, 0.2), duration=2.0)
+    a = _run(name, "on", monkeypatch, **kw)
+    assert aot.load() is not None, "the single run should have built and used the module"
+    b = _run(name, "off", monkeypatch, **kw)
+    _identical(a, b)
+
+
+def test_aot_batch_disturbance_stiff_plant_and_a_fall(monkeypatch):
+    """Three plants (one falls), the book's sinusoids, ROS2-W on the literal-reading plant,
+    the 4th-order observer at 1 ms, records every 7th sample."""
+    plants = [replace(REAL_LITERAL, mb=REAL_LITERAL.mb * f) for f in (0.9, 1.0, 1.2)]
+    from mwip.params import stack_params
+
+    q0 = np.array([[0.0, 0.05, 0.0], [0.0, -0.1, 0.2], [0.0, 1.4, 0.0]])
+    kw = dict(q0=q0, duration=1.5, disturbance=BOOK_SINUSOIDS, record_every=7)
+    a = _run("hodosmc", "on", monkeypatch, plant=stack_params(plants), Ts=0.001, **kw)
+    b = _run("hodosmc", "off", monkeypatch, plant=stack_params(plants), Ts=0.001, **kw)
+    assert a.settings["integrator"] == "ROS2-W" and "fell" in list(a.status)
+    _identical(a, b)
+
+
+def test_sources_are_exactly_what_the_loop_imports():
+    """The key hashes every mwip file compiled into the loop: importing mwip.sim.loop loads
+    exactly SOURCES (plus this module's own build code, sim/aot.py)."""
+    code = ("import sys, mwip.sim.loop, pathlib; root = pathlib.Path(mwip.__file__).parent; "
+            "print('\\n'.join(sorted(str(pathlib.Path(m.__file__).relative_to(root)) "
+            "for n, m in list(sys.modules.items()) if n.startswith('mwip') "
+            "and getattr(m, '__file__', None))))")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()  # fmt: skip
+    loaded = {p for p in out if not p.endswith("__init__.py") and p != "lazy.py"}
+    assert loaded | {"sim/aot.py"} == set(aot.SOURCES)
+
+
+def test_key_follows_the_sources(tmp_path, monkeypatch):
+    for rel in aot.SOURCES:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(SRC / rel, tmp_path / rel)
+    monkeypatch.setattr(aot, "_ROOT", tmp_path)
+    monkeypatch.setattr(aot, "_KEY", [])
+    k0 = aot.key()
+    assert k0 == aot.key()
+    kernel = tmp_path / "control/_smc_kernel.py"
+    kernel.write_text(kernel.read_text().replace("1.0", "1.0000000000000002", 1))
+    monkeypatch.setattr(aot, "_KEY", [])
+    k1 = aot.key()
+    assert k1 != k0 and aot.module_path(k1) != aot.module_path(k0)
+
+
+def test_off_and_load_only(tmp_path, monkeypatch):
+    monkeypatch.setenv("MWIP_CACHE_DIR", str(tmp_path / "empty"))
+    monkeypatch.setenv("MWIP_AOT", "off")
+    assert aot.run_function() is None
+    monkeypatch.setenv("MWIP_AOT", "load")
+    monkeypatch.setattr(aot, "_LOADED", {})
+    assert aot.run_function() is None
+    assert not (tmp_path / "empty").exists()  # load-only never builds
+
+
+def test_failed_build_warns_once_and_runs_the_jit_loop(tmp_path, monkeypatch):
+    blocker = tmp_path / "not-a-folder"
+    blocker.write_text("x")
+    monkeypatch.setenv("MWIP_CACHE_DIR", str(blocker / "cache"))
+    monkeypatch.setattr(aot, "_LOADED", {})
+    monkeypatch.setattr(aot, "LAST_ERROR", None)
+    monkeypatch.setattr(aot, "_WARNED", [False])
+    monkeypatch.setenv("MWIP_AOT", "on")
+    ctrl = registry.build("lqr", NOMINAL, Ts=0.005)
+    with pytest.warns(UserWarning, match="using the JIT loop"):
+        a = simulate(ctrl, REAL, q0=(0, 0.1, 0), duration=1.0)
+    assert aot.LAST_ERROR and a.settings["compiled"] and a.status[0] == "ok"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # said once
+        simulate(ctrl, REAL, q0=(0, 0.1, 0), duration=1.0)
+
+
+def test_kernels_command(monkeypatch, capsys):
+    from mwip.cli import main
+
+    assert main(["kernels", "build"]) == 0
+    assert main(["kernels", "status", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out.split("\n", 1)[1])
+    assert info["built"] and info["key"] == aot.key()
+    assert Path(info["module"]).is_file()
+
+
+HEAVY = ("numba", "scipy", "cvxpy", "matplotlib")
+
+
+@pytest.mark.parametrize("name", registry.names())
+def test_plain_simulate_imports_only_what_it_uses(name, tmp_path):
+    """Issue 18: a plain ``mwip simulate`` loads the built loop, not the compiler, SciPy,
+    cvxpy or matplotlib. The fuzzy controllers solve their LMIs with cvxpy (which imports
+    SciPy) at build time: for them only Numba and matplotlib are checked."""
+    from mwip.cli import main
+
+    assert main(["kernels", "build"]) == 0
+    code = ("import sys; from mwip.cli import main; "
+            f"code = main(['simulate', '--controller', '{name}', '--duration', '1', "
+            f"'--out', r'{tmp_path / 'o'}']); "
+            f"print(code, ' '.join(m for m in {HEAVY!r} if m in sys.modules))")  # fmt: skip
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, env=os.environ.copy())  # fmt: skip
+    out = res.stdout.strip().splitlines()[-1]
+    code_s, *loaded = out.split()
+    assert code_s == "0"
+    allowed = {"cvxpy", "scipy"} if name in ("it2", "t1") else set()
+    assert set(loaded) - allowed == set(), f"{name} imported {loaded}"
