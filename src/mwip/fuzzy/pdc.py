@@ -44,15 +44,18 @@ import dataclasses
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.core import Measurement
 from mwip.fuzzy.ts_model import Reading, TSModel, first_weight, vertex_matrices
 from mwip.params import NOMINAL, Params
+
+if TYPE_CHECKING:  # cvxpy (~2 s to import) is loaded only when an LMI is solved
+    import cvxpy as cp
 
 __all__ = [
     "PDCInfeasibleError",
@@ -158,6 +161,10 @@ def design_pdc(
     LMIs, which certifies ``V' <= -2 decay V``; the default 0 is Lemma 5.1 as printed.
     Raises :class:`PDCInfeasibleError` when the solver does not report an optimal (feasible)
     point or the point fails :func:`verify_design`, and ``ValueError`` for bad arguments.
+
+    A design solved before with the same models, settings, solver versions and this module's
+    source is read from :mod:`mwip.cache` and verified again instead of solved (cvxpy is then
+    not even imported; ``MWIP_CACHE=off`` always solves).
     """
     for name, val in (("epsilon", epsilon), ("rho", rho)):
         if val is not None and not (np.isfinite(val) and val > 0):
@@ -177,6 +184,12 @@ def design_pdc(
         if not models or not all(isinstance(m, TSModel) for m in models):
             raise ValueError("model must be a TSModel or a non-empty sequence of TSModels")
     ts = models[0]
+    key = _design_key(models, epsilon, rho, margin, solver, decay, solver_options)
+    cached = _cached_design(key, models, epsilon, rho, margin, solver, decay)
+    if cached is not None:
+        return cached
+    import cvxpy as cp
+
     n = ts.A.shape[-1]
     Qv = cp.Variable((n, n), symmetric=True)
     Nv = [cp.Variable((1, n)) for _ in range(2)]
@@ -228,6 +241,53 @@ def design_pdc(
         n_models=len(models),
     )  # fmt: skip
     verify_design(design, models)
+    from mwip.cache import save_arrays
+
+    arrays = {k: getattr(design, k) for k in _ARRAYS}
+    save_arrays("pdc", key, {**arrays, "status": np.array(status), "n_models": len(models)})
+    return design
+
+
+_ARRAYS = ("G", "P", "Q", "N", "Y", "W")
+
+
+def _design_key(models: Sequence[TSModel], *settings: Any) -> str:
+    """The cache name of a design: this module's source, cvxpy's and the solver's versions,
+    every model's matrices and the settings (:mod:`mwip.cache`)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from mwip.cache import digest
+
+    versions = []
+    for pkg in ("cvxpy", "clarabel", "scs"):
+        try:
+            versions.append(version(pkg))
+        except PackageNotFoundError:
+            versions.append(None)
+    arrays = [a for m in models for a in (m.A, m.B)]
+    return digest([Path(__file__), *versions, *arrays, *settings])
+
+
+def _cached_design(key: str, models: Sequence[TSModel], epsilon: float | None,
+                   rho: float | None, margin: float, solver: str,
+                   decay: float) -> PDCDesign | None:  # fmt: skip
+    """The design solved before with the same inputs, checked again by :func:`verify_design`
+    (an entry that fails it is ignored); ``None`` if there is none. Saves loading cvxpy and
+    solving the LMIs (~2.5 s) on every run of a fuzzy controller."""
+    from mwip.cache import load_arrays
+
+    z = load_arrays("pdc", key)
+    if z is None or not set(_ARRAYS) <= set(z):
+        return None
+    design = PDCDesign(
+        **{k: np.asarray(z[k], dtype=float) for k in _ARRAYS}, status=str(z["status"]),
+        solver=solver, epsilon=epsilon, rho=rho, margin=margin, model=models[0], decay=decay,
+        n_models=int(z["n_models"]),
+    )  # fmt: skip
+    try:
+        verify_design(design, models)
+    except PDCInfeasibleError:
+        return None
     return design
 
 

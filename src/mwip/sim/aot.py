@@ -11,7 +11,8 @@ extension module that needs only NumPy at run time; importing it takes well unde
 - **Key.** The module is named after a hash of every source file compiled into the loop
   (:data:`SOURCES`) and of the Python, NumPy and Numba versions and the machine: an edit of a
   kernel gives a new name, so a stale module is never loaded.
-- **Where.** ``$MWIP_CACHE_DIR``, else ``$XDG_CACHE_HOME/mwip``, else ``~/.cache/mwip``.
+- **Where.** :func:`mwip.cache.cache_dir`: ``$MWIP_CACHE_DIR``, else
+  ``$XDG_CACHE_HOME/mwip``, else ``~/.cache/mwip``.
 - **When.** Built once (~10 s, one process at a time under a file lock, written atomically) by
   the first single compiled run that finds no module for its key (:func:`run_function`), or
   by ``mwip kernels build``. ``MWIP_AOT=off`` turns the module off (the JIT loop runs, as for
@@ -44,8 +45,10 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+from mwip.cache import cache_dir
+
 __all__ = [
-    "SOURCES", "RUN_SIGNATURE", "cache_dir", "key", "module_path", "load", "build",
+    "SOURCES", "RUN_SIGNATURE", "key", "module_path", "load", "build",
     "run_function", "status", "LAST_ERROR",
 ]  # fmt: skip
 
@@ -89,15 +92,6 @@ _WARNED: list[bool] = [False]
 def _mode() -> str:
     mode = os.environ.get("MWIP_AOT", "on").strip().lower()
     return mode if mode in ("on", "off", "load") else "on"
-
-
-def cache_dir() -> Path:
-    """Where built modules live: ``$MWIP_CACHE_DIR``, ``$XDG_CACHE_HOME/mwip`` or
-    ``~/.cache/mwip``."""
-    if os.environ.get("MWIP_CACHE_DIR"):
-        return Path(os.environ["MWIP_CACHE_DIR"])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "mwip"
 
 
 def _versions() -> str:
