@@ -23,6 +23,7 @@ the terms skipped are exact zeros, so the result equals the dense product's.
 from __future__ import annotations
 
 import numba
+import numpy as np
 
 from mwip.models._compiled import f_g_scalar
 
@@ -68,14 +69,21 @@ def observer_step(Phi, Gam, decoupled, z, d0, d1, d2, work):  # noqa: ANN001, AN
     Every row is ``Gam d`` (terms j = 0, 1, 2) plus ``Phi[a, b] z[b]`` for b = 0 .. 3n-1, in
     that order."""
     m = z.shape[0]
-    if decoupled:
-        for ch in range(3):
-            dch = d0 if ch == 0 else (d1 if ch == 1 else d2)
-            for a in range(ch, m, 3):
-                acc = Gam[a, ch] * dch
-                for b in range(ch, m, 3):
-                    acc += Phi[a, b] * z[b]
-                work[a] = acc
+    if decoupled:  # row 3i + ch of channel ch: its terms b = 3j + ch, j = 0 .. n-1
+        n = m // 3
+        for i in range(n):  # three independent sums (the channels) per block row
+            a = np.uint64(3 * i)  # unsigned: no wrap-around of negative indices to emit
+            acc0 = Gam[a, 0] * d0
+            acc1 = Gam[a + 1, 1] * d1
+            acc2 = Gam[a + 2, 2] * d2
+            for j in range(n):
+                b = np.uint64(3 * j)
+                acc0 += Phi[a, b] * z[b]
+                acc1 += Phi[a + 1, b + 1] * z[b + 1]
+                acc2 += Phi[a + 2, b + 2] * z[b + 2]
+            work[a] = acc0
+            work[a + 1] = acc1
+            work[a + 2] = acc2
     else:
         # the loop over rows innermost keeps the m sums independent (no chain of m
         # dependent additions)
