@@ -14,9 +14,14 @@ model), :func:`run` does the same sequence per robot in compiled code::
 
 with the controller's state (observer, previous torque) in small arrays. The laws keep one
 implementation: the loop calls :func:`mwip.control._lqr_kernel.lqr_law`,
-:func:`mwip.control._smc_kernel.smc_step`, :func:`mwip.control._tsmc_kernel.tsmc_step` and
-:func:`mwip.observers._hodo_kernel.hodo_update`, the kernels behind the Python classes, with
-the same arguments in the same order, so both paths agree to round-off (tests/test_loop.py).
+:func:`mwip.control._tsmc_kernel.tsmc_step`, the ASTA kernels, and for the sliding-mode
+family the per-robot cores :func:`mwip.control._smc_kernel.smc_law` and
+:func:`mwip.observers._hodo_kernel.hodo_sample` of ``smc_step`` and ``hodo_update``, the
+kernels behind the Python classes, with the same numbers in the same order, so both paths
+agree to round-off (tests/test_loop.py). The sliding-mode branch evaluates ``F, G`` of (2.36)
+once per sample, at the measurement, for both the observer's held model term and the law
+(the Python classes each evaluate them at the same measurement: the same numbers), and keeps
+the previous sample's for the observer's ``"start"``/``"trapezoid"`` holds.
 
 Batches: robots are independent, so :func:`run_parallel` spreads them over threads
 (``prange``) with one barrier at the end of the run rather than one per sample.
