@@ -87,14 +87,14 @@ def observer_step(Phi, Gam, decoupled, z, d0, d1, d2, work):  # noqa: ANN001, AN
     else:
         # the loop over rows innermost keeps the m sums independent (no chain of m
         # dependent additions)
-        for a in range(m):
-            work[a] = Gam[a, 0] * d0 + Gam[a, 1] * d1 + Gam[a, 2] * d2
-        for b in range(m):
-            zb = z[b]
-            for a in range(m):
-                work[a] += Phi[a, b] * zb
-    for a in range(m):
-        z[a] = work[a]
+        for row in range(m):
+            work[row] = Gam[row, 0] * d0 + Gam[row, 1] * d1 + Gam[row, 2] * d2
+        for col in range(m):
+            zc = z[col]
+            for row in range(m):
+                work[row] += Phi[row, col] * zc
+    for row in range(m):
+        z[row] = work[row]
 
 
 @numba.njit(cache=True, inline="always")
