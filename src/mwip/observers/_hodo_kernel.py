@@ -48,16 +48,20 @@ def _fgu(fg, uA, uB):  # noqa: ANN001, ANN202 - compiled kernel
 
 @numba.njit(cache=True, inline="always")
 def channels_decoupled(Phi, Gam):  # noqa: ANN001, ANN201 - compiled kernel
-    """True when no entry couples two channels: ``Phi[a, b] = 0`` for ``a mod 3 != b mod 3``
-    and ``Gam[a, j] = 0`` for ``a mod 3 != j`` (module docstring)."""
-    m = Phi.shape[0]
-    for a in range(m):
-        for b in range(m):
-            if a % 3 != b % 3 and Phi[a, b] != 0.0:
-                return False
-        for j in range(3):
-            if a % 3 != j and Gam[a, j] != 0.0:
-                return False
+    """True when no entry couples two channels: ``Phi[3i + ca, 3j + cb] = 0`` and
+    ``Gam[3i + ca, cb] = 0`` for every ``ca != cb`` (module docstring)."""
+    n = Phi.shape[0] // 3
+    for ca in range(3):
+        for cb in range(3):
+            if ca == cb:
+                continue
+            for i in range(n):
+                row = np.uint64(3 * i + ca)
+                if Gam[row, cb] != 0.0:
+                    return False
+                for j in range(n):
+                    if Phi[row, np.uint64(3 * j + cb)] != 0.0:
+                        return False
     return True
 
 
