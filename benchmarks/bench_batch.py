@@ -160,7 +160,9 @@ def main() -> None:
     arith, trig = flops_per_rk4_step()
     scalar, vector = peak_flops()
     # law flops per sample, counted from the kernels (see docs/engine.md)
-    law = {"lqr": 24, "hodosmc": 2 * 12 * 12 + 6 * 12 + 60 + 70}
+    # HODOSMC: observer rows on uncoupled channels (12 x 9), d_k and f_k (15), F, G once (85),
+    # the surface and law (41)
+    law = {"lqr": 24, "hodosmc": 12 * 9 + 15 + 85 + 41}
     print()
     print(f"one RK4 plant step: {arith} add/sub/mul/div/neg and {trig} sin/cos calls "
           f"(optimised IR); peak of one core: {scalar / 1e9:.2f} Gflop/s scalar (8 chains), "

@@ -112,17 +112,20 @@ def pycontrol_loop(duration: float, ctrl) -> np.ndarray:  # noqa: ANN001
 
 
 def timed(fn, *args, repeat: int = 1, **kwargs):  # noqa: ANN001, ANN201
-    """(median, min, max) CPU time of this process over ``repeat`` calls, and the last result.
+    """(median, min, max) CPU time of this thread over ``repeat`` calls, and the last result.
 
-    Every run timed here is single-threaded, so the process's CPU time measures the work
-    without the time other processes hold the core (this machine is shared); the wall time
-    is printed beside it in the summary."""
+    Every run timed here is single-threaded, so the calling thread's CPU time measures the
+    work without the time other processes hold the core (this machine is shared); the wall
+    time is printed beside it in the summary. Not the process's CPU time: after a BLAS call
+    (a controller's design: ``expm``, Riccati) OpenBLAS's worker thread spins for ~0.1 s, and
+    the process's CPU time counted that spin in the runs that followed (the first four 25 s
+    HODOSMC runs after its build measured ~17 ms instead of ~7 ms)."""
     ts, res = [], None
     for _ in range(repeat):
-        t0 = time.process_time()
+        t0 = time.thread_time()
         w0 = time.perf_counter()
         res = fn(*args, **kwargs)
-        ts.append(time.process_time() - t0)
+        ts.append(time.thread_time() - t0)
         WALL.append(time.perf_counter() - w0)
         CPU.append(ts[-1])
     return (float(np.median(ts)), min(ts), max(ts)), res

@@ -1,7 +1,8 @@
 """Mutation check of the control-law kernels: does the equality test catch every sign flip?
 
-For each kernel (src/mwip/control/_smc_kernel.py, _tsmc_kernel.py, _asta_kernel.py) every
-arithmetic operator and sign is flipped, one at a time:
+For each kernel (src/mwip/control/_smc_kernel.py, _tsmc_kernel.py, _asta_kernel.py,
+src/mwip/observers/_hodo_kernel.py) every arithmetic operator and sign is flipped, one at a
+time:
 
 - binary ``+`` <-> ``-``, ``*`` <-> ``/``, ``**`` -> ``*`` (also in ``+=``-style updates);
 - unary ``-x`` -> ``x``;
@@ -37,7 +38,9 @@ KERNELS = {  # module file -> (kernel function, mismatch function in tests/test_
     "_smc_kernel.py": ("smc_step", "smc_mismatch"),
     "_tsmc_kernel.py": ("tsmc_step", "tsmc_mismatch"),
     "_asta_kernel.py": ("asta_terms", "asta_mismatch"),
+    "_hodo_kernel.py": ("hodo_update", "hodo_mismatch"),
 }
+PACKAGE = {"_hodo_kernel.py": "observers"}  # where a kernel lives when not in mwip.control
 _BIN = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
         ast.Pow: ast.Mult}  # fmt: skip
 _CMP = {ast.Lt: ast.Gt, ast.Gt: ast.Lt, ast.LtE: ast.GtE, ast.GtE: ast.LtE}
@@ -107,7 +110,9 @@ def _mutate(tree: ast.Module, where: int, which: int) -> ast.Module:
 def _load(tree: ast.Module, name: str, path: Path) -> types.ModuleType:
     mod = types.ModuleType(f"mutant_{name}")
     mod.__file__ = str(path)
-    src = ast.unparse(tree).replace("cache=True", "cache=False")
+    # bounds checked: a mutated index (``a + 1`` -> ``a - 1`` on an unsigned index) raises
+    # IndexError (a caught mutant) instead of reading outside the array
+    src = ast.unparse(tree).replace("cache=True", "cache=False, boundscheck=True")
     exec(compile(src, str(path), "exec"), mod.__dict__)  # noqa: S102 - our own source
     return mod
 
@@ -122,7 +127,7 @@ def run(verbose: bool, only: str | None = None) -> int:
     for fname, (kname, mname) in KERNELS.items():
         if only is not None and fname != only:
             continue
-        path = ROOT / "src" / "mwip" / "control" / fname
+        path = ROOT / "src" / "mwip" / PACKAGE.get(fname, "control") / fname
         tree = ast.parse(path.read_text())
         check: Callable[..., float] = getattr(test_kernels, mname)
         base = check(getattr(_load(tree, kname, path), kname))

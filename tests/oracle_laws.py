@@ -1,8 +1,9 @@
 """The test oracles: the control laws' NumPy forms, written term by term from the book's
 equations, independent of the compiled kernels that are the library's one implementation
 (:mod:`mwip.control._smc_kernel`, :mod:`~mwip.control._tsmc_kernel`,
-:mod:`~mwip.control._asta_kernel`). ``F, G`` come from :func:`mwip.models.reduced.f_g`
-(the NumPy closed forms of (2.36)), not from the kernels' compiled ``f_g_scalar``.
+:mod:`~mwip.control._asta_kernel`, :mod:`mwip.observers._hodo_kernel`). ``F, G`` come from
+:func:`mwip.models.reduced.f_g` (the NumPy closed forms of (2.36)), not from the kernels'
+compiled ``f_g_scalar``.
 
 tests/test_kernels.py holds the kernels equal to these on random, non-zero inputs for every
 term; benchmarks/mutate_kernels.py checks that those tests catch every sign flip in the
@@ -11,7 +12,8 @@ kernels.
 - SMC: sliding surface (3.49) and law (3.50) (Sec. 3.5);
 - ASTA/ASMC: sliding variables (4.1) and ``sigma' = a + b u`` (4.10)-(4.11) (Sec. 4.2);
 - TSMC: model (2.31)/(4.24), subsystem (4.26)-(4.27), augmenting cubics (4.43), surface
-  (4.30), switching gain and law (4.32) (Sec. 4.3).
+  (4.30), switching gain and law (4.32) (Sec. 4.3);
+- HODO: the sampled observer update of (3.20)-(3.23) (:mod:`mwip.observers.hodo`).
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from mwip.params import Params
 
 __all__ = [
     "sliding_surface", "smc_law", "asta_surface", "surface_dynamics", "model_2_31",
-    "subsystem", "augmenting", "tsmc_surface", "tsmc_gain", "tsmc_law",
+    "subsystem", "augmenting", "tsmc_surface", "tsmc_gain", "tsmc_law", "hodo_step",
 ]  # fmt: skip
 
 
@@ -199,3 +201,35 @@ def tsmc_law(
         - np.asarray(k, dtype=float) * np.asarray(switch, dtype=float)
     )
     return np.einsum("...ij,...j->...i", np.linalg.inv(np.asarray(G1, dtype=float)), w)
+
+
+def hodo_step(
+    p: Params,
+    Phi: NDArray[np.float64],
+    Gam: NDArray[np.float64],
+    Ts: float,
+    hold: str,
+    z: NDArray[np.float64],
+    q_prev: NDArray[np.float64],
+    qd_prev: NDArray[np.float64],
+    q: NDArray[np.float64],
+    qd: NDArray[np.float64],
+    u: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """The observer's sample (3.20)-(3.23), discretised (:mod:`mwip.observers.hodo`): the held
+    model term ``f_k = F + G [u_A, u_B]`` at the start, the end or their mean, the measured
+    disturbance ``d_k = (q'_{k+1} - q'_k) / Ts - f_k`` and ``z_{k+1} = Phi z_k + Gamma d_k``."""
+    uAB = np.column_stack([u[:, 0] + u[:, 1], u[:, 0] - u[:, 1]])
+
+    def model(qq: NDArray[np.float64], qqd: NDArray[np.float64]) -> NDArray[np.float64]:
+        F, G = f_g(p, qq, qqd)
+        return F + np.einsum("nij,nj->ni", G, uAB)
+
+    if hold == "start":
+        f = model(q_prev, qd_prev)
+    elif hold == "end":
+        f = model(q, qd)
+    else:
+        f = 0.5 * (model(q_prev, qd_prev) + model(q, qd))
+    d = (qd - qd_prev) / Ts - f
+    return z @ Phi.T + d @ Gam.T

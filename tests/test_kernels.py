@@ -23,10 +23,13 @@ from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.smc import SMCGains
 from mwip.control.switching import Switching
 from mwip.models.reduced import coefficients
+from mwip.observers._hodo_kernel import HOLD_CODES, hodo_update
+from mwip.observers.hodo import discretize_observer
 from mwip.params import NOMINAL, Params
 from oracle_laws import (
     asta_surface,
     augmenting,
+    hodo_step,
     sliding_surface,
     smc_law,
     subsystem,
@@ -151,6 +154,35 @@ def tsmc_mismatch(kernel: Callable[..., Any] = tsmc_step, seeds: tuple[int, ...]
     return worst
 
 
+def hodo_mismatch(
+    kernel: Callable[..., Any] = hodo_update, seeds: tuple[int, ...] = SEEDS
+) -> float:
+    """The observer's sample update (3.20)-(3.23) vs ``hodo_step``: every hold, gains that keep
+    the channels apart (diagonal ``L_i``: the structured product) and gains that couple them
+    (dense ``Phi``); the previous measurement must become the new one."""
+    worst = 0.0
+    v = (22.9778, 357.2853, 1831.5, 5737.7)
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        p = _robot(rng)
+        c = np.ascontiguousarray(coefficients(p).reshape(-1))
+        qp, qdp = _states(rng)
+        q, qd = _states(rng)
+        u = _nonzero(rng, 0.05, 2.0, (N, 2))
+        Ts = rng.uniform(0.001, 0.005)
+        diag = [vi * np.diag(rng.uniform(0.8, 1.2, 3)) for vi in v]
+        dense = [vi * (np.eye(3) + 0.03 * rng.normal(size=(3, 3))) for vi in v]
+        for gains in (diag, dense):
+            Phi, Gam = discretize_observer(gains, Ts)
+            z = _nonzero(rng, 0.05, 5.0, (N, Phi.shape[0]))
+            for hold, code in HOLD_CODES.items():
+                zk, qpk, qdpk = z.copy(), qp.copy(), qdp.copy()
+                kernel(c, Phi, Gam, Ts, code, zk, qpk, qdpk, q, qd, u, np.empty(Phi.shape[0]))
+                want = hodo_step(p, Phi, Gam, Ts, hold, z, qp, qdp, q, qd, u)
+                worst = max(worst, _err(zk, want), _err(qpk, q), _err(qdpk, qd))
+    return worst
+
+
 def test_smc_kernel_equals_oracle():
     assert smc_mismatch() < TOL
 
@@ -161,6 +193,10 @@ def test_asta_kernel_equals_oracle():
 
 def test_tsmc_kernel_equals_oracle():
     assert tsmc_mismatch() < TOL
+
+
+def test_hodo_kernel_equals_oracle():
+    assert hodo_mismatch() < TOL
 
 
 def test_the_check_can_fail():

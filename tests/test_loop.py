@@ -71,6 +71,36 @@ def test_hodosmc_1ms_batch_disturbance_decimation_and_stops():
     _same(a, b)
 
 
+def _coupled_gains(seed: int = 7) -> list[np.ndarray]:
+    """The book's 4th-order gains with off-diagonal terms: a dense Phi, Gamma."""
+    rng = np.random.default_rng(seed)
+    v = (22.9778, 357.2853, 1831.5, 5737.7)
+    return [vi * (np.eye(3) + 0.03 * rng.normal(size=(3, 3))) for vi in v]
+
+
+@pytest.mark.parametrize("hold", ["start", "end", "trapezoid"])
+@pytest.mark.parametrize("coupled", [False, True])
+def test_observer_holds_and_coupled_gains_equal_python_loop(hold, coupled):
+    """The loop hands the observer the F, G it evaluated for the law (at the previous sample
+    for "start"/"trapezoid"); dense (coupled) and channel-decoupled Phi alike."""
+    from mwip.control.smc import SlidingModeController, SMCGains
+    from mwip.control.switching import Switching
+    from mwip.observers.design import published_gain_sets
+
+    gains = _coupled_gains() if coupled else published_gain_sets()["do4"].gains
+    out = []
+    for compiled in (True, False):
+        obs = HighOrderDO(NOMINAL, gains, 0.002, model_hold=hold)
+        assert (np.count_nonzero(obs.Phi) > 48) == coupled
+        ctrl = SlidingModeController(SMCGains((3.0, 0.01, 0.1, 3.0), 6.3, 4.0), obs, NOMINAL,
+                                     0.002, Switching("sat", 0.05), check=False)  # fmt: skip
+        out.append(simulate(ctrl, REAL, q0=(0.1, 0.15, 0.2), qdot0=(0.5, 0.0, 0.3),
+                            duration=0.6, disturbance=Sinusoid(amplitude=(0.1, 0.2, 0.05)),
+                            compiled=compiled))  # fmt: skip
+    assert np.abs(out[0].logs["tau_hat"][-1]).max() > 1e-3  # the observer is at work
+    _same(*out)
+
+
 def test_single_run_that_falls_is_truncated_alike():
     a, b = _pair("lqr", REAL, q0=(0.0, 1.5, 0.0), qdot0=(0.0, 5.0, 0.0), duration=2.0)
     assert a.status[0] == "fell"
@@ -110,8 +140,9 @@ def test_observer_update_equals_its_numpy_form():
     from mwip.models.reduced import f_g
 
     rng = np.random.default_rng(3)
-    gains = [22.9778, 357.2853, 1831.5, 5737.7]
-    for hold in ("start", "end", "trapezoid"):
+    book = [22.9778, 357.2853, 1831.5, 5737.7]
+    for hold, gains in [(h, g) for h in ("start", "end", "trapezoid")
+                        for g in (book, _coupled_gains())]:  # fmt: skip
         obs = HighOrderDO(NOMINAL, gains, 0.005, model_hold=hold)
         q0, qd0 = rng.normal(size=(4, 3)) * 0.2, rng.normal(size=(4, 3))
         obs.reset(qd0, q0=q0)

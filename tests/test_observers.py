@@ -364,3 +364,36 @@ def test_wiring_with_the_reduced_model() -> None:
         got = obs.update(q, qd, u)
     assert np.max(np.abs(d)) > 1.0  # a real model mismatch was estimated
     np.testing.assert_allclose(got, z[:, :3], rtol=1e-8, atol=1e-8)
+
+
+def test_decoupled_observer_step_equals_the_dense_product() -> None:
+    """Diagonal gains leave the channels of z uncoupled: every entry of Phi, Gamma linking two
+    channels is an exact zero, and the kernel's structured product (which skips them) equals
+    the dense one bit for bit; one non-zero coupling entry anywhere is detected."""
+    from mwip.observers._hodo_kernel import channels_decoupled, observer_step
+
+    rng = np.random.default_rng(11)
+    for gains in (published_gain_sets()["do4"].gains, [np.diag(rng.uniform(1, 9, 3)) * 10**i
+                                                       for i in range(3)], [30.0]):  # fmt: skip
+        Phi, Gam = discretize_observer(gains, 0.005)
+        m = Phi.shape[0]
+        chan = np.arange(m) % 3
+        off = chan[:, None] != chan[None, :]
+        assert np.all(Phi[off] == 0.0) and np.all(Gam[chan[:, None] != np.arange(3)] == 0.0)
+        assert np.count_nonzero(Phi) == m * m // 3
+        assert channels_decoupled(Phi, Gam)
+        for _ in range(5):
+            z, d = rng.normal(size=m) * 10.0 ** rng.integers(-3, 3, m), rng.normal(size=3)
+            zs, zd, w = z.copy(), z.copy(), np.empty(m)
+            observer_step(Phi, Gam, True, zs, d[0], d[1], d[2], w)
+            observer_step(Phi, Gam, False, zd, d[0], d[1], d[2], w)
+            np.testing.assert_array_equal(zs, zd)
+            np.testing.assert_allclose(zs, Phi @ z + Gam @ d, rtol=1e-13, atol=1e-13)
+        for a, b in zip(*np.nonzero(off), strict=True):
+            P = Phi.copy()
+            P[a, b] = 1e-300
+            assert not channels_decoupled(P, Gam)
+        for a in range(m):
+            G = Gam.copy()
+            G[a, (a + 1) % 3] = -1e-300
+            assert not channels_decoupled(Phi, G)

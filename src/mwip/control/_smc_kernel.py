@@ -15,33 +15,46 @@ import numba
 from mwip.models._compiled import f_g_scalar
 
 
+@numba.njit(cache=True, inline="always")
+def smc_law(fg, q0, q1, q2, qd0, qd1, qd2, th0, th1, th2, t, lam, K1, K2, sat, phi, q1d_dot,  # noqa: ANN001, ANN201, PLR0913
+            q3d):  # fmt: skip
+    """(3.49)-(3.50) for one robot: ``(u_r, u_l, s1, s2)``.
+
+    ``fg = (f1, f2, f3, g1, g2, g3)``, the terms of (2.36) at the measurement ``q, q'``
+    (:func:`mwip.models._compiled.f_g_scalar`; the compiled loop hands over the ones it has
+    evaluated for the observer at the same measurement); ``th`` the disturbance estimate.
+    """
+    f1, f2, f3, g1, g2, g3 = fg
+    l1, l2, l3, l4 = lam[0], lam[1], lam[2], lam[3]
+    s1 = qd1 + l1 * q1 + l2 * (q0 - q1d_dot * t) + l3 * (qd0 - q1d_dot)
+    s2 = qd2 + l4 * (q2 - q3d)
+    if sat:
+        w1 = min(1.0, max(-1.0, s1 / phi))
+        w2 = min(1.0, max(-1.0, s2 / phi))
+    else:
+        w1 = (s1 > 0.0) - (s1 < 0.0)
+        w2 = (s2 > 0.0) - (s2 < 0.0)
+    uA = (
+        -f2 - l3 * f1 - l1 * qd1 - l2 * (qd0 - q1d_dot) - th1 - l3 * th0 - K1 * w1
+    ) / (g2 + l3 * g1)  # fmt: skip
+    uB = (-f3 - l4 * qd2 - th2 - K2 * w2) / g3
+    return 0.5 * (uA + uB), 0.5 * (uA - uB), s1, s2
+
+
 @numba.njit(cache=True)
 def smc_step(c, q, qd, tau_hat, t, lam, K1, K2, sat, phi, q1d_dot, q3d, u, S):  # noqa: ANN001, ANN201
     """Fill ``S`` (N, 2) with (3.49) and ``u`` (N, 2) with ``[u_r, u_l]`` from (3.50).
 
     ``c`` (10,) nominal coefficients; ``q, qd, tau_hat`` (N, 3); ``lam`` (4,);
     ``sat``: saturation ``clip(s / phi, -1, 1)`` instead of ``sgn`` (``sgn(0) = 0``).
+    Per robot :func:`smc_law`.
     """
-    l1, l2, l3, l4 = lam[0], lam[1], lam[2], lam[3]
     for i in range(q.shape[0]):
-        f1, f2, f3, g1, g2, g3 = f_g_scalar(
+        fg = f_g_scalar(
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9],
             q[i, 1], qd[i, 0], qd[i, 1], qd[i, 2],
         )  # fmt: skip
-        s1 = qd[i, 1] + l1 * q[i, 1] + l2 * (q[i, 0] - q1d_dot * t) + l3 * (qd[i, 0] - q1d_dot)
-        s2 = qd[i, 2] + l4 * (q[i, 2] - q3d)
-        S[i, 0] = s1
-        S[i, 1] = s2
-        if sat:
-            w1 = min(1.0, max(-1.0, s1 / phi))
-            w2 = min(1.0, max(-1.0, s2 / phi))
-        else:
-            w1 = (s1 > 0.0) - (s1 < 0.0)
-            w2 = (s2 > 0.0) - (s2 < 0.0)
-        uA = (
-            -f2 - l3 * f1 - l1 * qd[i, 1] - l2 * (qd[i, 0] - q1d_dot)
-            - tau_hat[i, 1] - l3 * tau_hat[i, 0] - K1 * w1
-        ) / (g2 + l3 * g1)  # fmt: skip
-        uB = (-f3 - l4 * qd[i, 2] - tau_hat[i, 2] - K2 * w2) / g3
-        u[i, 0] = 0.5 * (uA + uB)
-        u[i, 1] = 0.5 * (uA - uB)
+        u[i, 0], u[i, 1], S[i, 0], S[i, 1] = smc_law(
+            fg, q[i, 0], q[i, 1], q[i, 2], qd[i, 0], qd[i, 1], qd[i, 2],
+            tau_hat[i, 0], tau_hat[i, 1], tau_hat[i, 2], t, lam, K1, K2, sat, phi, q1d_dot, q3d,
+        )  # fmt: skip

@@ -14,9 +14,14 @@ model), :func:`run` does the same sequence per robot in compiled code::
 
 with the controller's state (observer, previous torque) in small arrays. The laws keep one
 implementation: the loop calls :func:`mwip.control._lqr_kernel.lqr_law`,
-:func:`mwip.control._smc_kernel.smc_step`, :func:`mwip.control._tsmc_kernel.tsmc_step` and
-:func:`mwip.observers._hodo_kernel.hodo_update`, the kernels behind the Python classes, with
-the same arguments in the same order, so both paths agree to round-off (tests/test_loop.py).
+:func:`mwip.control._tsmc_kernel.tsmc_step`, the ASTA kernels, and for the sliding-mode
+family the per-robot cores :func:`mwip.control._smc_kernel.smc_law` and
+:func:`mwip.observers._hodo_kernel.hodo_sample` of ``smc_step`` and ``hodo_update``, the
+kernels behind the Python classes, with the same numbers in the same order, so both paths
+agree to round-off (tests/test_loop.py). The sliding-mode branch evaluates ``F, G`` of (2.36)
+once per sample, at the measurement, for both the observer's held model term and the law
+(the Python classes each evaluate them at the same measurement: the same numbers), and keeps
+the previous sample's for the observer's ``"start"``/``"trapezoid"`` holds.
 
 Batches: robots are independent, so :func:`run_parallel` spreads them over threads
 (``prange``) with one barrier at the end of the run rather than one per sample.
@@ -31,10 +36,10 @@ import numpy as np
 
 from mwip.control._asta_kernel import asta_sample, asta_terms
 from mwip.control._lqr_kernel import lqr_law
-from mwip.control._smc_kernel import smc_step
+from mwip.control._smc_kernel import smc_law
 from mwip.control._tsmc_kernel import tsmc_step
 from mwip.core import LAW_ASTA, LAW_LINEAR, LAW_TSMC
-from mwip.observers._hodo_kernel import hodo_update
+from mwip.observers._hodo_kernel import channels_decoupled, hodo_sample, model_terms
 from mwip.sim.codes import PARALLEL_MIN
 from mwip.sim.kernel import DIVERGED, FELL, OK, step_one
 
@@ -57,13 +62,13 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
     th = np.zeros((1, 3))
     u1 = np.zeros((1, 2))
     S1 = np.zeros((1, 2))
-    z = np.zeros((1, m))
+    z = np.zeros(m)
     work = np.empty(m)
-    q_prev = np.empty((1, 3))
-    qd_prev = np.empty((1, 3))
-    for j in range(3):
-        q_prev[0, j] = yi[j]
-        qd_prev[0, j] = yi[3 + j]
+    qd_prev = (yi[3], yi[4], yi[5])  # the previous measurement's rates and F, G terms
+    fg_prev = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # (set by the law at every sample)
+    decoupled = channels_decoupled(Phi, Gam)
+    obs_Ts = obs[0] if m > 0 else 1.0
+    hold = np.int64(obs[1]) if m > 0 else np.int64(0)
     sat = sc[2] != 0.0
     s2 = np.zeros((1, 2))
     k2 = np.zeros((1, 2))
@@ -101,15 +106,20 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
             tsmc_step(c_nom, q1, qd1, t, t - sc[4], cub, sc[0], tC, sc[1], tD, tIDinv, tGam, sat,
                       sc[3], refs, u1, s2, k2, a2)  # fmt: skip
         else:
-            for j in range(3):
-                q1[0, j] = ym[0, j]
-                qd1[0, j] = ym[0, 3 + j]
+            # F, G of (2.36) at this measurement, once: the observer's held model term
+            # (hold "end"; "start" uses the previous sample's) and the law's
+            qd = (yi[3], yi[4], yi[5])
+            fg = model_terms(c_nom, yi[1], yi[3], yi[4], yi[5])
             if m > 0 and k > 0:  # observer first, with the torque held over the last sample
-                hodo_update(c_nom, Phi, Gam, obs[0], np.int64(obs[1]), z, q_prev, qd_prev,
-                            q1, qd1, u1, work)  # fmt: skip
+                hodo_sample(Phi, Gam, decoupled, obs_Ts, hold, z, qd_prev, qd, fg_prev, fg,
+                            u1[0, 0] + u1[0, 1], u1[0, 0] - u1[0, 1], work)  # fmt: skip
                 for j in range(3):
-                    th[0, j] = z[0, j]
-            smc_step(c_nom, q1, qd1, th, t, lam, sc[0], sc[1], sat, sc[3], sc[4], sc[5], u1, S1)
+                    th[0, j] = z[j]
+            u1[0, 0], u1[0, 1], S1[0, 0], S1[0, 1] = smc_law(
+                fg, yi[0], yi[1], yi[2], yi[3], yi[4], yi[5], th[0, 0], th[0, 1], th[0, 2], t,
+                lam, sc[0], sc[1], sat, sc[3], sc[4], sc[5],
+            )  # fmt: skip
+            fg_prev, qd_prev = fg, qd
         if row < n_rec and rec_idx[row] == k:
             for j in range(8):
                 states[i, row, j] = yi[j]
