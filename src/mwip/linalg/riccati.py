@@ -1,0 +1,272 @@
+"""Stabilising solutions of the continuous and discrete algebraic Riccati equations.
+
+CARE (SciPy's ``solve_continuous_are(a, b, q, r)``), with ``G = B R^{-1} B^T``:
+
+.. math::
+
+    A^T X + X A - X G X + Q = 0, \\qquad A - G X \\ \\text{Hurwitz}.
+
+DARE (``solve_discrete_are(a, b, q, r)``):
+
+.. math::
+
+    A^T X A - X - A^T X B (R + B^T X B)^{-1} B^T X A + Q = 0
+    \\iff X = Q + A^T X (I + G X)^{-1} A,
+
+with ``A - B (R + B^T X B)^{-1} B^T X A`` Schur stable (eigenvalues inside the unit circle).
+
+Method: the structure-preserving doubling algorithm (SDA). For the DARE (E. K.-W. Chu,
+H.-Y. Fan, W.-W. Lin, C.-S. Wang, "Structure-preserving algorithms for periodic discrete-time
+algebraic Riccati equations", Int. J. Control 77(8):767-788, 2004), from
+``A_0 = A, G_0 = G, H_0 = Q``:
+
+.. math::
+
+    W_k = I + G_k H_k, \\quad A_{k+1} = A_k W_k^{-1} A_k, \\quad
+    G_{k+1} = G_k + A_k W_k^{-1} G_k A_k^T, \\quad H_{k+1} = H_k + A_k^T H_k W_k^{-1} A_k,
+
+and ``H_k -> X`` quadratically, ``||H_k - X|| = O(rho^{2^k})`` with ``rho`` the spectral
+radius of the closed loop. For the CARE (E. K.-W. Chu, H.-Y. Fan, W.-W. Lin, "A
+structure-preserving doubling algorithm for continuous-time algebraic Riccati equations",
+Linear Algebra Appl. 396:55-80, 2005) the Cayley transform with ``gamma > 0`` maps the
+Hamiltonian ``[[A, -G], [-Q, -A^T]]`` to the same form, with ``A_g = A - gamma I``,
+``W_g = A_g^T + Q A_g^{-1} G``:
+
+.. math::
+
+    A_0 = I + 2\\gamma W_g^{-T}, \\quad G_0 = 2\\gamma A_g^{-1} G W_g^{-1}, \\quad
+    H_0 = 2\\gamma W_g^{-1} Q A_g^{-1},
+
+and the closed-loop poles ``lambda`` become ``(lambda + gamma) / (lambda - gamma)``. We pick
+``gamma`` among values spread geometrically over the range of the stable eigenvalues of the
+Hamiltonian to make ``rho = max |(lambda + gamma) / (lambda - gamma)|`` small. The doubling
+result is then refined by Newton's method in correction form (D. L. Kleinman, IEEE TAC
+13:114-115, 1968, for the CARE; G. A. Hewer, IEEE TAC 16:382-384, 1971, for the DARE): a
+Lyapunov (Stein) equation in the closed loop for the correction ``Delta`` of the residual,
+kept while the residual decreases, so that the answer is as accurate as the equation's
+conditioning allows.
+
+Failures raise ``ValueError``: ``(A, B)`` not stabilisable (a PBH rank test on the unstable
+eigenvalues of ``A``), Hamiltonian eigenvalues on the imaginary axis / an unobservable mode
+of ``(A, Q)`` on the unit circle (no stabilising solution), no convergence, or a result that
+does not stabilise the closed loop. ``R`` must be symmetric positive definite (SciPy also
+accepts an indefinite, nonsingular ``R``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mwip.linalg._check import matrix, square
+from mwip.linalg.lyapunov import solve_continuous_lyapunov, solve_discrete_lyapunov
+
+__all__ = ["solve_continuous_are", "solve_discrete_are"]
+
+_EPS = float(np.finfo(float).eps)
+_MAX_DOUBLINGS = 64
+_MAX_NEWTON = 4
+_CONVERGED = 1e-12  # relative change of H_k after which one more doubling step is taken
+_RESIDUAL_OK = 1e-8  # relative residual above which the result is refused
+
+
+def _sym(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    return 0.5 * (x + x.T)
+
+
+def _norm(x: NDArray[np.float64]) -> float:
+    return float(np.abs(x).sum(axis=0).max()) if x.size else 0.0
+
+
+def _operands(
+    a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike
+) -> tuple[NDArray[np.float64], ...]:
+    """Checked ``(A, B, Q, R, G)`` with ``G = B R^{-1} B^T``."""
+    A = square("a", a, complex_ok=False)
+    n = A.shape[0]
+    if n == 0:
+        raise ValueError("a must be at least 1x1, got shape (0, 0)")
+    B = matrix("b", b, n)
+    m = B.shape[1]
+    Q = matrix("q", q, n, n)
+    R = matrix("r", r, m, m)
+    if not np.allclose(Q, Q.T, rtol=1e-12, atol=1e-14 * max(_norm(Q), 1e-300)):
+        raise ValueError("q must be symmetric")
+    if not np.allclose(R, R.T, rtol=1e-12, atol=1e-14 * max(_norm(R), 1e-300)):
+        raise ValueError("r must be symmetric")
+    try:
+        np.linalg.cholesky(_sym(R))
+    except np.linalg.LinAlgError:
+        raise ValueError("r must be positive definite") from None
+    G = _sym(B @ np.linalg.solve(_sym(R), B.T))
+    return A, B, _sym(Q), _sym(R), G
+
+
+def _pbh_unstable_uncontrollable(
+    A: NDArray[np.float64], B: NDArray[np.float64], unstable: NDArray
+) -> complex | None:
+    """An eigenvalue in ``unstable`` where ``rank [A - lambda I, B] < n`` (PBH), else ``None``."""
+    n = A.shape[0]
+    scale = _norm(A) + _norm(B)
+    for lam in unstable:
+        blk = np.hstack([A - lam * np.eye(n), B])
+        smin = np.linalg.svd(blk, compute_uv=False)[-1]
+        if smin <= 1e3 * n * _EPS * (scale + abs(lam)):
+            return complex(lam)
+    return None
+
+
+def _doubling(
+    A0: NDArray[np.float64], G0: NDArray[np.float64], H0: NDArray[np.float64], what: str
+) -> NDArray[np.float64]:
+    """SDA iteration (module docstring) from ``(A0, G0, H0)``; returns ``H_k -> X``."""
+    n = A0.shape[0]
+    eye = np.eye(n)
+    Ak, Gk, Hk = A0, G0, H0
+    converged = False
+    for _ in range(_MAX_DOUBLINGS):
+        try:
+            S = np.linalg.solve(eye + Gk @ Hk, np.hstack([Ak, Gk]))  # W_k^{-1} [A_k, G_k]
+        except np.linalg.LinAlgError:
+            raise ValueError(f"{what}: the doubling iteration broke down "
+                             "(I + G_k H_k singular)") from None  # fmt: skip
+        WA, WG = S[:, :n], S[:, n:]
+        H_next = _sym(Hk + Ak.T @ Hk @ WA)
+        Gk = _sym(Gk + Ak @ WG @ Ak.T)
+        Ak = Ak @ WA
+        if not (np.all(np.isfinite(H_next)) and np.all(np.isfinite(Gk))):
+            raise ValueError(f"{what}: the doubling iteration diverged (no stabilising solution)")
+        change = _norm(H_next - Hk)
+        Hk = H_next
+        if converged:
+            return Hk
+        converged = change <= _CONVERGED * max(_norm(Hk), np.finfo(float).tiny)
+    raise ValueError(f"{what}: the doubling iteration did not converge in {_MAX_DOUBLINGS} steps "
+                     "(closed-loop poles on the stability boundary?)")  # fmt: skip
+
+
+def _care_residual(A: NDArray, G: NDArray, Q: NDArray, X: NDArray) -> NDArray[np.float64]:
+    return _sym(A.T @ X + X @ A - X @ G @ X + Q)
+
+
+def _dare_residual(A: NDArray, B: NDArray, Q: NDArray, R: NDArray, X: NDArray) -> NDArray:
+    BX = B.T @ X
+    return _sym(A.T @ X @ A - X - (BX @ A).T @ np.linalg.solve(R + BX @ B, BX @ A) + Q)
+
+
+def solve_continuous_are(a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike) -> NDArray:
+    """The stabilising ``X`` of ``A^T X + X A - X B R^{-1} B^T X + Q = 0`` (SciPy's convention).
+
+    SDA with Cayley parameter ``gamma`` and Newton refinement (module docstring). Raises
+    ``ValueError`` when ``(A, B)`` is not stabilisable, the Hamiltonian has eigenvalues on the
+    imaginary axis, or the iteration fails.
+    """
+    A, B, Q, R, G = _operands(a, b, q, r)
+    n = A.shape[0]
+    what = "continuous Riccati equation"
+    lam_a = np.linalg.eigvals(A)
+    bad = _pbh_unstable_uncontrollable(A, B, lam_a[lam_a.real >= 0.0])
+    if bad is not None:
+        raise ValueError(f"{what}: (A, B) is not stabilisable (uncontrollable mode {bad:.6g})")
+    ham = np.block([[A, -G], [-Q, -A.T]])
+    lam = np.linalg.eigvals(ham)
+    if np.min(np.abs(lam.real)) <= 1e2 * 2 * n * _EPS * _norm(ham):
+        raise ValueError(f"{what}: the Hamiltonian has eigenvalues on the imaginary axis "
+                         "(a mode of (A, Q) unobservable there): no stabilising solution")  # fmt: skip
+    stable = lam[lam.real < 0.0]
+    mags = np.abs(stable)
+    cands = np.geomspace(mags.min(), mags.max(), 25) if mags.max() > mags.min() else mags[:1]
+    rho = np.max(np.abs((stable[None, :] + cands[:, None]) / (stable[None, :] - cands[:, None])),
+                 axis=1)  # fmt: skip
+    eye = np.eye(n)
+    for gamma in cands[np.argsort(rho)]:
+        Ag = A - gamma * eye
+        if np.linalg.cond(Ag) > 1.0 / np.sqrt(_EPS):
+            continue
+        Wg = Ag.T + Q @ np.linalg.solve(Ag, G)
+        if np.linalg.cond(Wg) > 1.0 / np.sqrt(_EPS):
+            continue
+        A0 = eye + 2.0 * gamma * np.linalg.inv(Wg).T
+        G0 = _sym(2.0 * gamma * np.linalg.solve(Ag, G) @ np.linalg.inv(Wg))
+        H0 = _sym(2.0 * gamma * np.linalg.solve(Wg, Q) @ np.linalg.inv(Ag))
+        break
+    else:
+        raise ValueError(f"{what}: no Cayley parameter gives well-conditioned A - gamma I and W")
+    X = _doubling(A0, G0, H0, what)
+
+    def residual(x: NDArray) -> NDArray:
+        return _care_residual(A, G, Q, x)
+
+    def correction(x: NDArray, res: NDArray) -> NDArray:
+        return solve_continuous_lyapunov((A - G @ x).T, -res)  # Ac^T D + D Ac = -Res
+
+    X = _newton(X, residual, correction)
+    poles = np.linalg.eigvals(A - G @ X)
+    if not np.max(poles.real) < 0.0:
+        raise ValueError(f"{what}: the solution does not stabilise A - B K "
+                         f"(max Re pole {np.max(poles.real):.3g})")  # fmt: skip
+    _check_residual(residual(X), _norm(Q) + 2 * _norm(A) * _norm(X) + _norm(X @ G @ X), what)
+    return X
+
+
+def solve_discrete_are(a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike) -> NDArray:
+    """The stabilising ``X`` of ``A^T X A - X - A^T X B (R + B^T X B)^{-1} B^T X A + Q = 0``.
+
+    SciPy's convention. SDA and Newton refinement (module docstring). Raises ``ValueError``
+    when ``(A, B)`` is not stabilisable, ``(A, Q)`` has an unobservable mode on the unit circle,
+    or the iteration fails.
+    """
+    A, B, Q, R, G = _operands(a, b, q, r)
+    what = "discrete Riccati equation"
+    lam_a = np.linalg.eigvals(A)
+    bad = _pbh_unstable_uncontrollable(A, B, lam_a[np.abs(lam_a) >= 1.0])
+    if bad is not None:
+        raise ValueError(f"{what}: (A, B) is not stabilisable (uncontrollable mode {bad:.6g})")
+    on_circle = lam_a[np.abs(np.abs(lam_a) - 1.0) <= 1e3 * A.shape[0] * _EPS * max(_norm(A), 1)]
+    bad = _pbh_unstable_uncontrollable(A.T, Q, on_circle)  # PBH on (A^T, Q): observability
+    if bad is not None:
+        raise ValueError(f"{what}: (A, Q) has an unobservable mode {bad:.6g} on the unit circle: "
+                         "no stabilising solution")  # fmt: skip
+    X = _doubling(A, G, Q, what)
+
+    def residual(x: NDArray) -> NDArray:
+        return _dare_residual(A, B, Q, R, x)
+
+    def correction(x: NDArray, res: NDArray) -> NDArray:
+        BX = B.T @ x
+        Ac = A - B @ np.linalg.solve(R + BX @ B, BX @ A)
+        return solve_discrete_lyapunov(Ac.T, res)  # Ac^T D Ac - D + Res = 0
+
+    X = _newton(X, residual, correction)
+    BX = B.T @ X
+    z = np.linalg.eigvals(A - B @ np.linalg.solve(R + BX @ B, BX @ A))
+    if not np.max(np.abs(z)) < 1.0:
+        raise ValueError(f"{what}: the solution does not stabilise A - B K "
+                         f"(max |z| {np.max(np.abs(z)):.3g})")  # fmt: skip
+    _check_residual(residual(X), _norm(Q) + _norm(A) ** 2 * _norm(X) + _norm(X), what)
+    return X
+
+
+def _newton(X: NDArray, residual, correction) -> NDArray:  # noqa: ANN001
+    """Newton steps ``X + Delta`` (Kleinman / Hewer, correction form) while the residual drops."""
+    res = residual(X)
+    size = _norm(res)
+    for _ in range(_MAX_NEWTON):
+        if size == 0.0:
+            break
+        try:
+            X_new = _sym(X + correction(X, res))
+        except ValueError:
+            break
+        res_new = residual(X_new)
+        size_new = _norm(res_new)
+        if not size_new < size:
+            break
+        X, res, size = X_new, res_new, size_new
+    return X
+
+
+def _check_residual(res: NDArray, scale: float, what: str) -> None:
+    rel = _norm(res) / max(scale, np.finfo(float).tiny)
+    if not rel <= _RESIDUAL_OK:
+        raise ValueError(f"{what}: no accurate solution (relative residual {rel:.3g})")
