@@ -171,8 +171,10 @@ def solve_continuous_are(a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike)
     ham = np.block([[A, -G], [-Q, -A.T]])
     lam = np.linalg.eigvals(ham)
     if np.min(np.abs(lam.real)) <= 1e2 * 2 * n * _EPS * _norm(ham):
-        raise ValueError(f"{what}: the Hamiltonian has eigenvalues on the imaginary axis "
-                         "(a mode of (A, Q) unobservable there): no stabilising solution")  # fmt: skip
+        raise ValueError(
+            f"{what}: the Hamiltonian has eigenvalues on the imaginary axis "
+            "(a mode of (A, Q) unobservable there): no stabilising solution"
+        )
     stable = lam[lam.real < 0.0]
     mags = np.abs(stable)
     cands = np.geomspace(mags.min(), mags.max(), 25) if mags.max() > mags.min() else mags[:1]
