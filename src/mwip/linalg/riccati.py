@@ -55,6 +55,8 @@ accepts an indefinite, nonsingular ``R``).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -145,6 +147,40 @@ def _doubling(
                      "(closed-loop poles on the stability boundary?)")  # fmt: skip
 
 
+def _cayley(
+    A: NDArray[np.float64],
+    G: NDArray[np.float64],
+    Q: NDArray[np.float64],
+    stable: NDArray,
+    what: str,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """SDA start ``(A_0, G_0, H_0)`` for the CARE (Chu, Fan, Lin 2005; module docstring).
+
+    ``gamma`` is tried over 25 values spread geometrically over ``|stable|`` (the stable
+    eigenvalues of the Hamiltonian, i.e. the closed-loop poles), best convergence factor
+    ``rho = max |(lambda + gamma) / (lambda - gamma)|`` first, skipping values where
+    ``A - gamma I`` or ``W_gamma`` is ill-conditioned.
+    """
+    n = A.shape[0]
+    mags = np.abs(stable)
+    cands = np.geomspace(mags.min(), mags.max(), 25) if mags.max() > mags.min() else mags[:1]
+    rho = np.max(np.abs((stable[None, :] + cands[:, None]) / (stable[None, :] - cands[:, None])),
+                 axis=1)  # fmt: skip
+    eye = np.eye(n)
+    for gamma in cands[np.argsort(rho)]:
+        Ag = A - gamma * eye
+        if np.linalg.cond(Ag) > 1.0 / np.sqrt(_EPS):
+            continue
+        Wg = Ag.T + Q @ np.linalg.solve(Ag, G)
+        if np.linalg.cond(Wg) > 1.0 / np.sqrt(_EPS):
+            continue
+        A0 = eye + 2.0 * gamma * np.linalg.inv(Wg).T
+        G0 = _sym(2.0 * gamma * np.linalg.solve(Ag, G) @ np.linalg.inv(Wg))
+        H0 = _sym(2.0 * gamma * np.linalg.solve(Wg, Q) @ np.linalg.inv(Ag))
+        return A0, G0, H0
+    raise ValueError(f"{what}: no Cayley parameter gives well-conditioned A - gamma I and W")
+
+
 def _care_residual(A: NDArray, G: NDArray, Q: NDArray, X: NDArray) -> NDArray[np.float64]:
     return _sym(A.T @ X + X @ A - X @ G @ X + Q)
 
@@ -175,25 +211,7 @@ def solve_continuous_are(a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike)
             f"{what}: the Hamiltonian has eigenvalues on the imaginary axis "
             "(a mode of (A, Q) unobservable there): no stabilising solution"
         )
-    stable = lam[lam.real < 0.0]
-    mags = np.abs(stable)
-    cands = np.geomspace(mags.min(), mags.max(), 25) if mags.max() > mags.min() else mags[:1]
-    rho = np.max(np.abs((stable[None, :] + cands[:, None]) / (stable[None, :] - cands[:, None])),
-                 axis=1)  # fmt: skip
-    eye = np.eye(n)
-    for gamma in cands[np.argsort(rho)]:
-        Ag = A - gamma * eye
-        if np.linalg.cond(Ag) > 1.0 / np.sqrt(_EPS):
-            continue
-        Wg = Ag.T + Q @ np.linalg.solve(Ag, G)
-        if np.linalg.cond(Wg) > 1.0 / np.sqrt(_EPS):
-            continue
-        A0 = eye + 2.0 * gamma * np.linalg.inv(Wg).T
-        G0 = _sym(2.0 * gamma * np.linalg.solve(Ag, G) @ np.linalg.inv(Wg))
-        H0 = _sym(2.0 * gamma * np.linalg.solve(Wg, Q) @ np.linalg.inv(Ag))
-        break
-    else:
-        raise ValueError(f"{what}: no Cayley parameter gives well-conditioned A - gamma I and W")
+    A0, G0, H0 = _cayley(A, G, Q, lam[lam.real < 0.0], what)
     X = _doubling(A0, G0, H0, what)
 
     def residual(x: NDArray) -> NDArray:
@@ -249,7 +267,11 @@ def solve_discrete_are(a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike) -
     return X
 
 
-def _newton(X: NDArray, residual, correction) -> NDArray:  # noqa: ANN001
+def _newton(
+    X: NDArray,
+    residual: Callable[[NDArray], NDArray],
+    correction: Callable[[NDArray, NDArray], NDArray],
+) -> NDArray:
     """Newton steps ``X + Delta`` (Kleinman / Hewer, correction form) while the residual drops."""
     res = residual(X)
     size = _norm(res)
