@@ -152,6 +152,40 @@ def test_dare_random_systems_match_scipy(seed):
     assert well >= 6
 
 
+def _undetectable_system(rng, n, discrete):
+    """A random system whose unstable modes are all unobservable through Q (Q C_u = 0 on
+    their real eigenspace): a stabilising solution exists, the dual one does not."""
+    while True:
+        A = rng.standard_normal((n, n)) * (1.3 / math.sqrt(n) if discrete else 1.0)
+        lam, V = np.linalg.eig(A)
+        unstable = np.abs(lam) > 1.05 if discrete else lam.real > 0.05
+        if unstable.any() and (~unstable).any():
+            break
+    Vu = np.hstack([V[:, unstable].real, V[:, unstable].imag])
+    P = np.eye(n) - Vu @ np.linalg.pinv(Vu)  # projector that kills the unstable eigenspace
+    C = rng.standard_normal((n, n)) @ P
+    B = rng.standard_normal((n, int(rng.integers(1, n + 1))))
+    return A, B, C.T @ C, np.eye(B.shape[1])
+
+
+@pytest.mark.parametrize("discrete", [False, True])
+def test_undetectable_q_uses_the_sign_function_and_matches_scipy(discrete, monkeypatch):
+    """Rank-deficient Q hiding the unstable modes: the doubling iteration's convergence
+    theory needs the dual solution, which does not exist here (it then diverges or stops at a
+    wrong point), so the PBH test sends these to the sign function (Byers 1987) first; the
+    result must meet the same bounds against SciPy."""
+    import mwip.linalg.riccati as ric
+
+    calls = []
+    original = ric._sign_subspace
+    monkeypatch.setattr(ric, "_sign_subspace", lambda Z, what: calls.append(1) or original(Z, what))
+    rng = np.random.default_rng(17 + discrete)
+    for n in range(2, 9):
+        A, B, Q, R = _undetectable_system(rng, n, discrete)
+        (_check_dare if discrete else _check_care)(A, B, Q, R)
+    assert len(calls) == 7
+
+
 @pytest.mark.parametrize("kind", ["care", "dare"])
 def test_doubling_alone_is_accurate(kind):
     """The structure-preserving doubling iteration, before the Newton refinement, already

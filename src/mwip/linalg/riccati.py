@@ -44,7 +44,13 @@ result is then refined by Newton's method in correction form (D. L. Kleinman, IE
 13:114-115, 1968, for the CARE; G. A. Hewer, IEEE TAC 16:382-384, 1971, for the DARE): a
 Lyapunov (Stein) equation in the closed loop for the correction ``Delta`` of the residual,
 kept while the residual decreases, so that the answer is as accurate as the equation's
-conditioning allows.
+conditioning allows. The doubling iteration also needs the dual equation to have a solution,
+i.e. ``(A, Q)`` detectable; where it fails (an unobservable mode of ``(A, Q)`` off the
+stability boundary, e.g. a rank-deficient ``Q``), the stable invariant subspace is found by
+the matrix sign function instead (:func:`_sign_subspace`), then refined the same way (tried
+first when a PBH test finds an unstable mode of ``(A, Q)`` unobservable). A start is taken
+only if its refined result stabilises the closed loop and leaves a relative residual below
+1e-8.
 
 Failures raise ``ValueError``: ``(A, B)`` not stabilisable (a PBH rank test on the unstable
 eigenvalues of ``A``), Hamiltonian eigenvalues on the imaginary axis / an unobservable mode
@@ -136,6 +142,8 @@ def _doubling(
         H_next = _sym(Hk + Ak.T @ Hk @ WA)
         Gk = _sym(Gk + Ak @ WG @ Ak.T)
         Ak = Ak @ WA
+        if _norm(Ak) > 1e100:  # the dual solution does not exist: (A, Q) not detectable
+            raise ValueError(f"{what}: the doubling iteration diverged (A_k unbounded)")
         if not (np.all(np.isfinite(H_next)) and np.all(np.isfinite(Gk))):
             raise ValueError(f"{what}: the doubling iteration diverged (no stabilising solution)")
         change = _norm(H_next - Hk)
@@ -193,7 +201,8 @@ def _dare_residual(A: NDArray, B: NDArray, Q: NDArray, R: NDArray, X: NDArray) -
 def solve_continuous_are(a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike) -> NDArray:
     """The stabilising ``X`` of ``A^T X + X A - X B R^{-1} B^T X + Q = 0`` (SciPy's convention).
 
-    SDA with Cayley parameter ``gamma`` and Newton refinement (module docstring). Raises
+    SDA with Cayley parameter ``gamma`` (the sign function where it fails) and Newton
+    refinement (module docstring). Raises
     ``ValueError`` when ``(A, B)`` is not stabilisable, the Hamiltonian has eigenvalues on the
     imaginary axis, or the iteration fails.
     """
@@ -211,8 +220,6 @@ def solve_continuous_are(a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike)
             f"{what}: the Hamiltonian has eigenvalues on the imaginary axis "
             "(a mode of (A, Q) unobservable there): no stabilising solution"
         )
-    A0, G0, H0 = _cayley(A, G, Q, lam[lam.real < 0.0], what)
-    X = _doubling(A0, G0, H0, what)
 
     def residual(x: NDArray) -> NDArray:
         return _care_residual(A, G, Q, x)
@@ -220,19 +227,31 @@ def solve_continuous_are(a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike)
     def correction(x: NDArray, res: NDArray) -> NDArray:
         return solve_continuous_lyapunov((A - G @ x).T, -res)  # Ac^T D + D Ac = -Res
 
-    X = _newton(X, residual, correction)
-    poles = np.linalg.eigvals(A - G @ X)
-    if not np.max(poles.real) < 0.0:
-        raise ValueError(f"{what}: the solution does not stabilise A - B K "
-                         f"(max Re pole {np.max(poles.real):.3g})")  # fmt: skip
-    _check_residual(residual(X), _norm(Q) + 2 * _norm(A) * _norm(X) + _norm(X @ G @ X), what)
-    return X
+    def max_pole(x: NDArray) -> float:
+        return float(np.max(np.linalg.eigvals(A - G @ x).real))
+
+    def doubling() -> NDArray:
+        return _doubling(*_cayley(A, G, Q, lam[lam.real < 0.0], what), what)
+
+    def sign() -> NDArray:
+        return _sign_subspace(ham, what)
+
+    detectable = _pbh_unstable_uncontrollable(A.T, Q, lam_a[lam_a.real >= 0.0]) is None
+    return _first_stabilising(
+        (doubling, sign) if detectable else (sign, doubling),
+        residual,
+        correction,
+        lambda x: max_pole(x) < 0.0,
+        lambda x: _norm(Q) + 2 * _norm(A) * _norm(x) + _norm(G) * _norm(x) ** 2,
+        what,
+    )
 
 
 def solve_discrete_are(a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike) -> NDArray:
     """The stabilising ``X`` of ``A^T X A - X - A^T X B (R + B^T X B)^{-1} B^T X A + Q = 0``.
 
-    SciPy's convention. SDA and Newton refinement (module docstring). Raises ``ValueError``
+    SciPy's convention. SDA (the sign function where it fails) and Newton refinement (module
+    docstring). Raises ``ValueError``
     when ``(A, B)`` is not stabilisable, ``(A, Q)`` has an unobservable mode on the unit circle,
     or the iteration fails.
     """
@@ -247,24 +266,113 @@ def solve_discrete_are(a: ArrayLike, b: ArrayLike, q: ArrayLike, r: ArrayLike) -
     if bad is not None:
         raise ValueError(f"{what}: (A, Q) has an unobservable mode {bad:.6g} on the unit circle: "
                          "no stabilising solution")  # fmt: skip
-    X = _doubling(A, G, Q, what)
 
     def residual(x: NDArray) -> NDArray:
         return _dare_residual(A, B, Q, R, x)
 
-    def correction(x: NDArray, res: NDArray) -> NDArray:
+    def closed_loop(x: NDArray) -> NDArray:
         BX = B.T @ x
-        Ac = A - B @ np.linalg.solve(R + BX @ B, BX @ A)
+        return A - B @ np.linalg.solve(R + BX @ B, BX @ A)
+
+    def correction(x: NDArray, res: NDArray) -> NDArray:
+        Ac = closed_loop(x)
         return solve_discrete_lyapunov(Ac.T, res)  # Ac^T D Ac - D + Res = 0
 
-    X = _newton(X, residual, correction)
-    BX = B.T @ X
-    z = np.linalg.eigvals(A - B @ np.linalg.solve(R + BX @ B, BX @ A))
-    if not np.max(np.abs(z)) < 1.0:
-        raise ValueError(f"{what}: the solution does not stabilise A - B K "
-                         f"(max |z| {np.max(np.abs(z)):.3g})")  # fmt: skip
-    _check_residual(residual(X), _norm(Q) + _norm(A) ** 2 * _norm(X) + _norm(X), what)
-    return X
+    def cayley_of_pencil() -> NDArray:
+        n = A.shape[0]
+        M = np.block([[A, np.zeros((n, n))], [-Q, np.eye(n)]])
+        L = np.block([[np.eye(n), G], [np.zeros((n, n)), A.T]])
+        try:
+            return np.linalg.solve(M + L, M - L)
+        except np.linalg.LinAlgError:
+            raise ValueError(f"{what}: the pencil has the eigenvalue -1") from None
+
+    def doubling() -> NDArray:
+        return _doubling(A, G, Q, what)
+
+    def sign() -> NDArray:
+        return _sign_subspace(cayley_of_pencil(), what)
+
+    detectable = _pbh_unstable_uncontrollable(A.T, Q, lam_a[np.abs(lam_a) >= 1.0]) is None
+    return _first_stabilising(
+        (doubling, sign) if detectable else (sign, doubling),
+        residual,
+        correction,
+        lambda x: float(np.max(np.abs(np.linalg.eigvals(closed_loop(x))))) < 1.0,
+        lambda x: (
+            _norm(Q) + (_norm(A) ** 2 + 1) * _norm(x) + _norm(A) ** 2 * _norm(G) * _norm(x) ** 2
+        ),
+        what,
+    )
+
+
+def _sign_subspace(Z: NDArray[np.float64], what: str) -> NDArray[np.float64]:
+    """``X`` with ``span [I; X]`` the stable invariant subspace of ``Z`` (2n x 2n), by the
+    matrix sign function (the fallback when the doubling iteration fails).
+
+    Newton's iteration ``Z <- (Z / c + c Z^{-1}) / 2`` with determinant scaling
+    ``c = |det Z|^{1/2n}`` (R. Byers, "Solving the algebraic Riccati equation with the matrix
+    sign function", Linear Algebra Appl. 85:267-279, 1987) converges to ``S = sign(Z)``; the
+    stable subspace is the kernel of ``S + I``, so ``[S_12; S_22 + I] X = -[S_11 + I; S_21]``
+    (J. D. Gardiner, A. J. Laub, Int. J. Control 44:823-832, 1986), solved in least squares.
+    Unlike the doubling iteration it needs no dual solution, i.e. it also works when ``(A, Q)``
+    has unobservable modes off the stability boundary. For the CARE ``Z`` is the Hamiltonian;
+    for the DARE the Cayley transform ``(M + L)^{-1} (M - L)`` of the symplectic pencil
+    ``M - z L`` (``M = [[A, 0], [-Q, I]]``, ``L = [[I, G], [0, A^T]]``), which maps the inside
+    of the unit circle to the left half-plane.
+    """
+    N = Z.shape[0]
+    n = N // 2
+    scale = True
+    converged = False
+    for _ in range(100):
+        sign, logdet = np.linalg.slogdet(Z)
+        if sign == 0 or not np.isfinite(logdet):
+            raise ValueError(f"{what}: the sign iteration broke down (singular iterate)")
+        c = float(np.exp(logdet / N)) if scale else 1.0
+        Z_next = 0.5 * (Z / c + c * np.linalg.inv(Z))
+        change = _norm(Z_next - Z)
+        Z = Z_next
+        if converged:
+            break
+        scale = change > 1e-2 * _norm(Z)
+        converged = change <= 1e-12 * _norm(Z)
+    else:
+        raise ValueError(f"{what}: the sign iteration did not converge")
+    eye = np.eye(n)
+    lhs = np.vstack([Z[:n, n:], Z[n:, n:] + eye])
+    rhs = -np.vstack([Z[:n, :n] + eye, Z[n:, :n]])
+    X = np.asarray(np.linalg.lstsq(lhs, rhs, rcond=None)[0], dtype=np.float64)
+    if not np.all(np.isfinite(X)):
+        raise ValueError(f"{what}: the sign iteration gave a non-finite solution")
+    return _sym(X)
+
+
+def _first_stabilising(
+    starts: tuple[Callable[[], NDArray], ...],
+    residual: Callable[[NDArray], NDArray],
+    correction: Callable[[NDArray, NDArray], NDArray],
+    stabilises: Callable[[NDArray], bool],
+    scale: Callable[[NDArray], float],
+    what: str,
+) -> NDArray:
+    """The first start that, Newton-refined, stabilises the closed loop and solves the
+    equation (relative residual ``||Res|| / scale(X) <= 1e-8``; round-off is ~1e-16)."""
+    reasons = []
+    for start in starts:
+        try:
+            X = _newton(start(), residual, correction)
+        except ValueError as exc:
+            reasons.append(str(exc).removeprefix(f"{what}: "))
+            continue
+        rel = _norm(residual(X)) / max(scale(X), np.finfo(float).tiny)
+        if not stabilises(X):
+            reasons.append("the result does not stabilise the closed loop")
+        elif not rel <= _RESIDUAL_OK:
+            reasons.append(f"the result is inaccurate (relative residual {rel:.3g})")
+        else:
+            return X
+    raise ValueError(f"{what}: no stabilising solution found ({'; '.join(reasons)})")
 
 
 def _newton(
@@ -288,9 +396,3 @@ def _newton(
             break
         X, res, size = X_new, res_new, size_new
     return X
-
-
-def _check_residual(res: NDArray, scale: float, what: str) -> None:
-    rel = _norm(res) / max(scale, np.finfo(float).tiny)
-    if not rel <= _RESIDUAL_OK:
-        raise ValueError(f"{what}: no accurate solution (relative residual {rel:.3g})")
