@@ -10,8 +10,9 @@ that use them), so short NumPy implementations of published algorithms do the jo
 - :func:`expm`: scaling and squaring with Pade approximants of degree 3 .. 13
   (Al-Mohy & Higham 2009, which refines Higham 2005), module :mod:`mwip.linalg.expm`;
 - :func:`solve_continuous_are`, :func:`solve_discrete_are`: the structure-preserving
-  doubling algorithm (Chu, Fan, Lin 2005; Chu, Fan, Lin, Wang 2004) followed by Newton
-  refinement (Kleinman 1968; Hewer 1971), module :mod:`mwip.linalg.riccati`;
+  doubling algorithm (Chu, Fan, Lin 2005; Chu, Fan, Lin, Wang 2004), or the matrix sign
+  function (Byers 1987) where ``(A, Q)`` is not detectable, followed by Newton refinement
+  (Kleinman 1968; Hewer 1971), module :mod:`mwip.linalg.riccati`;
 - :func:`solve_continuous_lyapunov`, :func:`solve_discrete_lyapunov`: the Kronecker
   (vec) form, module :mod:`mwip.linalg.lyapunov`.
 
