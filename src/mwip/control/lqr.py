@@ -23,10 +23,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.core import LAW_LINEAR, CompiledLaw, Measurement
+from mwip.linalg import expm, solve_continuous_are, solve_discrete_are
 from mwip.linearize import linearize
 from mwip.params import NOMINAL, Params
 from mwip.validate import finite_array, real
@@ -51,7 +51,7 @@ def lqr(A: ArrayLike, B: ArrayLike, Q: ArrayLike, R: ArrayLike) -> tuple[NDArray
     """Continuous-time LQR: returns ``(K, P, E)`` (gain, Riccati solution, closed-loop poles)."""
     A, B, Q, R = (np.asarray(x, dtype=float) for x in (A, B, Q, R))
     _check_weights(Q, R, A.shape[0], B.shape[1])
-    P = sla.solve_continuous_are(A, B, Q, R)
+    P = solve_continuous_are(A, B, Q, R)
     K = np.linalg.solve(R, B.T @ P)
     return K, P, np.linalg.eigvals(A - B @ K)
 
@@ -62,7 +62,7 @@ def zoh(A: ArrayLike, B: ArrayLike, Ts: float) -> tuple[NDArray, NDArray]:
     n, m = B.shape
     blk = np.zeros((n + m, n + m))
     blk[:n, :n], blk[:n, n:] = A, B
-    E = sla.expm(blk * Ts)
+    E = expm(blk * Ts)
     return E[:n, :n], E[:n, n:]
 
 
@@ -80,7 +80,7 @@ def dlqr(
     Q, R = np.asarray(Q, dtype=float), np.asarray(R, dtype=float)
     Ad, Bd = zoh(A, B, Ts)
     _check_weights(Q, R, Ad.shape[0], Bd.shape[1])
-    P = sla.solve_discrete_are(Ad, Bd, Q, R)
+    P = solve_discrete_are(Ad, Bd, Q, R)
     K = np.linalg.solve(R + Bd.T @ P @ Bd, Bd.T @ P @ Ad)
     return K, P, np.linalg.eigvals(Ad - Bd @ K)
 

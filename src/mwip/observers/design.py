@@ -72,8 +72,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
+
+from mwip.linalg import solve_continuous_lyapunov
 
 if TYPE_CHECKING:  # cvxpy is imported where an LMI is solved (it takes ~1 s to import)
     import cvxpy as cp
@@ -218,7 +219,7 @@ def impulse_to_energy_gain(gains: GainsLike) -> float:
             f"D_n is not Hurwitz for gains {_describe(gains)} (max Re(eig) = {margin:.4g}); "
             "the impulse-to-energy gain (3.35) is infinite"
         )
-    Y = sla.solve_continuous_lyapunov(D.T, -np.eye(D.shape[0]))  # D^T Y + Y D = -I  (3.39)
+    Y = solve_continuous_lyapunov(D.T, -np.eye(D.shape[0]))  # D^T Y + Y D = -I  (3.39)
     Y = 0.5 * (Y + Y.T)
     return float(math.sqrt(np.linalg.norm(E.T @ Y @ E, 2)))  # (3.41)
 

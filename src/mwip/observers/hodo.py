@@ -64,9 +64,9 @@ from collections.abc import Callable
 from typing import Literal
 
 import numpy as np
-import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.linalg import expm
 from mwip.models._compiled import f_plus_g_u
 from mwip.observers._hodo_kernel import HOLD_CODES, hodo_update
 from mwip.observers.design import GainsLike, as_gain_matrices, error_dynamics, stacked_gain
@@ -111,7 +111,7 @@ def discretize_observer(
         M = np.zeros((k + 3, k + 3))
         M[:k, :k] = D
         M[:k, k:] = Lc
-        ex = sla.expm(M * Ts)
+        ex = expm(M * Ts)
         return ex[:k, :k], ex[:k, k:]
     if discretization == "euler":
         h = Ts / substeps
