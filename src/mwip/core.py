@@ -134,6 +134,10 @@ class Actuator(Protocol):
 #: Law codes of :class:`CompiledLaw`: linear state feedback (LQR), sliding mode (SMC family),
 #: terminal sliding mode (TSMC), adaptive super-twisting / adaptive SMC (ASTA, ASMC).
 LAW_LINEAR, LAW_SMC, LAW_TSMC, LAW_ASTA = 0, 1, 2, 3
+#: Observer ``hold`` codes (``CompiledLaw.obs[1]``): where the model terms ``F, G`` of (2.36)
+#: are evaluated over a sample (:mod:`mwip.observers._hodo_kernel`).
+HOLD_START, HOLD_END, HOLD_TRAPEZOID = 0, 1, 2
+HOLD_CODES = {"start": HOLD_START, "end": HOLD_END, "trapezoid": HOLD_TRAPEZOID}
 
 _EMPTY = np.zeros(0)
 

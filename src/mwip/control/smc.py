@@ -35,7 +35,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.control._smc_kernel import smc_step
 from mwip.control.switching import Switching
 from mwip.core import LAW_SMC, CompiledLaw, Measurement, Observer
 from mwip.models.reduced import coefficients
@@ -171,6 +170,8 @@ class SlidingModeController:
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         """(3.49)-(3.50) at a sample, in one compiled loop (:mod:`mwip.control._smc_kernel`,
         the law's one implementation)."""
+        from mwip.control._smc_kernel import smc_step  # Numba: loaded by the Python loop only
+
         q = np.ascontiguousarray(meas.q)
         qd = np.ascontiguousarray(meas.qdot)
         tau_hat = np.ascontiguousarray(self.disturbance_estimate(t, meas), dtype=float)
@@ -189,7 +190,7 @@ class SlidingModeController:
         kernels (:func:`~mwip.control._smc_kernel.smc_step`, and the observer's
         :func:`~mwip.observers._hodo_kernel.hodo_update`); ``None`` when the observer is not a
         :class:`~mwip.observers.HighOrderDO` on the default model (the Python loop runs it)."""
-        from mwip.observers._hodo_kernel import HOLD_CODES
+        from mwip.core import HOLD_CODES
         from mwip.observers.hodo import HighOrderDO
 
         sw = self.switching

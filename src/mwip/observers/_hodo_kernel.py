@@ -25,11 +25,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from mwip.core import HOLD_CODES, HOLD_END, HOLD_START, HOLD_TRAPEZOID  # noqa: F401 - re-exported
 from mwip.models._compiled import f_g_scalar
-
-#: ``hold`` codes: where ``F, G`` are evaluated over a sample.
-HOLD_START, HOLD_END, HOLD_TRAPEZOID = 0, 1, 2
-HOLD_CODES = {"start": HOLD_START, "end": HOLD_END, "trapezoid": HOLD_TRAPEZOID}
 
 
 @numba.njit(cache=True, inline="always")

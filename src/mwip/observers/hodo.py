@@ -66,9 +66,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.core import HOLD_CODES
 from mwip.linalg import expm
-from mwip.models._compiled import f_plus_g_u
-from mwip.observers._hodo_kernel import HOLD_CODES, hodo_update
 from mwip.observers.design import GainsLike, as_gain_matrices, error_dynamics, stacked_gain
 from mwip.params import Params
 
@@ -276,6 +275,8 @@ class HighOrderDO:
     ) -> NDArray[np.float64]:
         """``F + G [u_A, u_B]`` of (2.36) on the nominal parameters."""
         if self._coef is not None:  # the default model: one compiled loop
+            from mwip.models._compiled import f_plus_g_u  # Numba: loaded by the Python loop
+
             return f_plus_g_u(self._coef, np.ascontiguousarray(q), np.ascontiguousarray(qdot),
                               np.ascontiguousarray(uAB), np.empty((q.shape[0], 3)))  # fmt: skip
         F, G = self._f_g(self.params, q, qdot)  # (2.36)
@@ -304,6 +305,8 @@ class HighOrderDO:
                 f"{qq.shape}, {qd.shape}, {uu.shape}"
             )
         if self._coef is not None:  # the default model: the compiled update, one loop
+            from mwip.observers._hodo_kernel import hodo_update  # Numba: the Python loop only
+
             z = np.ascontiguousarray(self._z)
             q_prev = np.array(qq if self._q_prev is None else self._q_prev, dtype=float)
             qd_prev = np.array(self._qdot_prev, dtype=float)
