@@ -1,0 +1,223 @@
+"""Compiled kernels of the Fig. 5.3 fuzzy law: the PDC balance law (5.10) with the membership
+grades of Fig. 5.1 / (5.7)-(5.8), and the two-input Mamdani FLSs of Section 5.3.2 (Tables
+5.1-5.2: uniform triangular partitions, minimum t-norm, Begian-Melek-Mendel type reduction
+for IT2, the weighted average for type 1), one robot per row of a batch.
+
+The one implementation of :meth:`mwip.fuzzy.fig53.Fig53Controller.__call__`,
+:meth:`mwip.fuzzy.mamdani.MamdaniFLS.__call__` and
+:func:`mwip.fuzzy.ts_model.nie_tan_weights` / ``type1_weights``; the compiled closed loop
+(:mod:`mwip.sim.loop`) calls :func:`fig53_law` with the same arguments. Its NumPy oracle is in
+tests/oracle_laws.py (built from :mod:`mwip.fuzzy.sets` and :mod:`mwip.fuzzy.reducers`);
+tests/test_kernels.py holds the two equal on random inputs and benchmarks/mutate_kernels.py
+checks that a sign flip here fails them.
+
+Operation order: each membership, firing strength and ratio is computed with the operations
+(and operands) of the NumPy building blocks (``sets.triangle``, ``firing_grid``,
+``reducers.bmm`` / ``weighted_average``), and the sums over the rules use NumPy's pairwise
+summation (:func:`_pairwise`), so an FLS output is bit for bit the one of the NumPy
+composition that preceded this kernel. The PDC sum ``sum_ij m_i G_ij x_j`` is accumulated
+``i`` outer, ``j`` inner from zero (NumPy's ``einsum`` took that order for batches of 3 or
+more; for one robot it grouped the sum by ``i``, so single runs differ from the former
+NumPy law in the last bit).
+
+An FLS is a flat float64 *block* (:meth:`mwip.fuzzy.mamdani.MamdaniFLS.block` writes one):
+``[n, t1, m, nw, R1, R2, a1, a2, b]``, then per input the ``n`` apexes, lower-MF feet ``a``,
+``c`` and upper-MF feet ``a``, ``c`` (``5 n`` numbers each), then the ``n * n`` consequent
+centroids per rule (``[i * n + j]`` for "x1 is A_i and x2 is B_j"). It evaluates
+``y = b * FLS(a1 x1, a2 x2)`` (the scaling that turns the position FLS into the direction FLS,
+:func:`mwip.fuzzy.fig53.direction_as_position`; ``1, 1, 1`` for a plain FLS: exact).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from mwip.fuzzy.ts_model import LOWER_HALF_WIDTH, THETA_VERTEX, UPPER_HALF_WIDTH
+
+__all__ = [
+    "HEAD", "ROW_WIDTH", "block_length", "fls_eval", "fls_batch", "pdc_weights",
+    "pdc_weights_batch", "fig53_law",
+]  # fmt: skip
+
+#: Header length of an FLS block (``n, t1, m, nw, R1, R2, a1, a2, b``).
+HEAD = 9
+#: Columns of a Fig. 5.3 row: ``[kind (0 it2, 1 t1), G (8, row-major), p_d, alpha_d,
+#: pos_on, dir_on, r_nom]``.
+ROW_WIDTH = 14
+
+
+def block_length(n: int) -> int:
+    """Length of the block of an FLS with ``n`` sets per variable."""
+    return HEAD + 10 * n + n * n
+
+
+@numba.njit(cache=True)
+def _tri(x, a, b, c):  # noqa: ANN001, ANN202 - compiled kernel
+    """Triangle ``(a, b, c)`` of height 1 at ``x``, as :func:`mwip.fuzzy.sets.triangle`."""
+    rise = (x - a) / (b - a) if b > a else (1.0 if x >= b else 0.0)
+    fall = (c - x) / (c - b) if c > b else (1.0 if x <= b else 0.0)
+    v = min(rise, fall)
+    return min(max(v, 0.0), 1.0)
+
+
+@numba.njit(cache=True)
+def _pairwise(a, lo, n):  # noqa: ANN001, ANN202
+    """``a[lo : lo + n].sum()`` in NumPy's pairwise order (8 partial sums, blocks of 128)."""
+    if n < 8:
+        res = -0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    if n <= 128:
+        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+        i = 8
+        while i < n - n % 8:
+            r0 += a[lo + i]
+            r1 += a[lo + i + 1]
+            r2 += a[lo + i + 2]
+            r3 += a[lo + i + 3]
+            r4 += a[lo + i + 4]
+            r5 += a[lo + i + 5]
+            r6 += a[lo + i + 6]
+            r7 += a[lo + i + 7]
+            i += 8
+        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+        while i < n:
+            res += a[lo + i]
+            i += 1
+        return res
+    n2 = n // 2
+    n2 -= n2 % 8
+    return _pairwise(a, lo, n2) + _pairwise(a, lo + n2, n - n2)
+
+
+@numba.njit(cache=True)
+def fls_eval(x1, x2, blk, work):  # noqa: ANN001, ANN201
+    """Crisp output ``b * FLS(a1 x1, a2 x2)`` of the FLS ``blk`` (module docstring).
+
+    Inputs saturated to ``[-R, R]``; lower and upper memberships of each set (triangles);
+    firing intervals with the minimum t-norm; IT2: BMM ``m sum f y / sum f + nw sum fbar y /
+    sum fbar``; type 1: ``sum fbar y / sum fbar`` (a sum of zero gives 0). ``work`` is
+    scratch of at least ``4 n + 4 n n`` numbers."""
+    n = int(blk[0])
+    t1 = blk[1] != 0.0
+    nn = n * n
+    z1 = min(max(blk[6] * x1, -blk[4]), blk[4])
+    z2 = min(max(blk[7] * x2, -blk[5]), blk[5])
+    o1 = HEAD
+    o2 = HEAD + 5 * n
+    for k in range(n):  # memberships: lower / upper of input 1 at work[0:2n], input 2 at 2n:4n
+        work[k] = _tri(z1, blk[o1 + n + k], blk[o1 + k], blk[o1 + 2 * n + k])
+        work[n + k] = _tri(z1, blk[o1 + 3 * n + k], blk[o1 + k], blk[o1 + 4 * n + k])
+        work[2 * n + k] = _tri(z2, blk[o2 + n + k], blk[o2 + k], blk[o2 + 2 * n + k])
+        work[3 * n + k] = _tri(z2, blk[o2 + 3 * n + k], blk[o2 + k], blk[o2 + 4 * n + k])
+    f_lo, fy_lo, f_hi, fy_hi = 4 * n, 4 * n + nn, 4 * n + 2 * nn, 4 * n + 3 * nn
+    oy = HEAD + 10 * n
+    for i in range(n):
+        for j in range(n):
+            r = i * n + j
+            lo = min(work[i], work[2 * n + j])
+            hi = min(work[n + i], work[3 * n + j])
+            work[f_lo + r] = lo
+            work[fy_lo + r] = lo * blk[oy + r]
+            work[f_hi + r] = hi
+            work[fy_hi + r] = hi * blk[oy + r]
+    den = 0.0 + _pairwise(work, f_hi, nn)
+    num = 0.0 + _pairwise(work, fy_hi, nn)
+    wa_hi = num / den if den > 0.0 else 0.0
+    if t1:
+        return blk[8] * wa_hi
+    den = 0.0 + _pairwise(work, f_lo, nn)
+    num = 0.0 + _pairwise(work, fy_lo, nn)
+    wa_lo = num / den if den > 0.0 else 0.0
+    return blk[8] * (blk[2] * wa_lo + blk[3] * wa_hi)
+
+
+@numba.njit(cache=True)
+def fls_batch(x1, x2, blk, out):  # noqa: ANN001, ANN201
+    """:func:`fls_eval` for every element of ``x1``, ``x2`` (M,) into ``out`` (M,)."""
+    n = int(blk[0])
+    work = np.empty(4 * n + 4 * n * n)
+    for i in range(x1.shape[0]):
+        out[i] = fls_eval(x1[i], x2[i], blk, work)
+
+
+@numba.njit(cache=True)
+def pdc_weights(theta, t1):  # noqa: ANN001, ANN201
+    """``(m_1, m_2)`` of the PDC law (5.10) at the measured pitch ``theta``.
+
+    IT2 (``t1`` false): Nie-Tan (5.8) on the memberships of Fig. 5.1 / (5.7) (theta saturated
+    to the model's domain ``[-pi/6, pi/6]``): ``lower_1 = max(0, 1 - |theta| / (pi/7))``,
+    ``upper_1 = max(0, 1 - |theta| / (pi/6))``, ``M2 = 1 - M1`` on both bounds, and
+    ``m_i = (lower_i + upper_i) / sum_j (lower_j + upper_j)``. Type 1: ``m_1`` the triangle at
+    the middle of the footprint (half-width ``(pi/7 + pi/6) / 2``), ``m_2 = 1 - m_1``."""
+    th = min(max(theta, -THETA_VERTEX), THETA_VERTEX)
+    a = abs(th)
+    if t1:
+        m1 = max(0.0, 1.0 - a / (0.5 * (LOWER_HALF_WIDTH + UPPER_HALF_WIDTH)))
+        return m1, 1.0 - m1
+    lo1 = max(0.0, 1.0 - a / LOWER_HALF_WIDTH)
+    up1 = max(0.0, 1.0 - a / UPPER_HALF_WIDTH)
+    w0 = lo1 + up1
+    w1 = (1.0 - up1) + (1.0 - lo1)
+    s = w0 + w1
+    return w0 / s, w1 / s
+
+
+@numba.njit(cache=True)
+def pdc_weights_batch(theta, t1, out):  # noqa: ANN001, ANN201
+    """:func:`pdc_weights` for ``theta`` (M,) into ``out`` (M, 2)."""
+    for i in range(theta.shape[0]):
+        m1, m2 = pdc_weights(theta[i], t1)
+        out[i, 0] = m1
+        out[i, 1] = m2
+
+
+@numba.njit(cache=True)
+def fig53_law(y, rows, fls, first, u, theta_off, u_alpha):  # noqa: ANN001, ANN201
+    """The Fig. 5.3 law for a batch: ``u`` (N, 2) = ``[u_r, u_l]``, ``theta_off``, ``u_alpha``
+    (N,) from the measurements ``y`` (N, 8).
+
+    Robot ``k`` uses the row ``first + k`` of ``rows`` (R, :data:`ROW_WIDTH`), or row 0 when
+    ``R == 1``; its kind ``c`` (0 IT2, 1 type 1) picks the position FLS ``fls[2 c]`` and the
+    direction FLS ``fls[2 c + 1]``. Term by term (Section 5.3.2, Fig. 5.3)::
+
+        theta_off = FLS_p(r_nom psi - p_d, theta')        (0 without a position target)
+        u_alpha   = FLS_alpha(alpha - alpha_d, alpha')     (0 without a heading target)
+        x         = [theta - theta_off, theta', psi (0 with a position target), psi']
+        u_p       = (1/2) sum_i m_i(theta) G_i x           (5.10)
+        u         = [u_p + u_alpha, u_p - u_alpha]
+    """
+    nmax = 1
+    for k in range(fls.shape[0]):
+        nmax = max(nmax, int(fls[k, 0]))
+    work = np.empty(4 * nmax + 4 * nmax * nmax)
+    single = rows.shape[0] == 1
+    for k in range(y.shape[0]):
+        row = rows[0] if single else rows[first + k]
+        c = int(row[0])
+        th_off = 0.0
+        ua = 0.0
+        if row[11] != 0.0:
+            th_off = fls_eval(row[13] * y[k, 0] - row[9], y[k, 4], fls[2 * c], work)
+        if row[12] != 0.0:
+            ua = fls_eval(y[k, 2] - row[10], y[k, 5], fls[2 * c + 1], work)
+        m1, m2 = pdc_weights(y[k, 1], c == 1)
+        x0 = y[k, 1] - th_off
+        x2 = 0.0 if row[11] != 0.0 else y[k, 0]
+        acc = 0.0
+        acc += (m1 * row[1]) * x0
+        acc += (m1 * row[2]) * y[k, 4]
+        acc += (m1 * row[3]) * x2
+        acc += (m1 * row[4]) * y[k, 3]
+        acc += (m2 * row[5]) * x0
+        acc += (m2 * row[6]) * y[k, 4]
+        acc += (m2 * row[7]) * x2
+        acc += (m2 * row[8]) * y[k, 3]
+        up = 0.5 * acc
+        u[k, 0] = up + ua
+        u[k, 1] = up - ua
+        theta_off[k] = th_off
+        u_alpha[k] = ua
