@@ -1,7 +1,7 @@
 """Mutation check of the control-law kernels: does the equality test catch every sign flip?
 
-For each kernel (src/mwip/control/_smc_kernel.py, _tsmc_kernel.py, _asta_kernel.py) every
-arithmetic operator and sign is flipped, one at a time:
+For each kernel (src/mwip/control/_smc_kernel.py, _tsmc_kernel.py, _asta_kernel.py,
+src/mwip/fuzzy/_fig53_kernel.py) every arithmetic operator and sign is flipped, one at a time:
 
 - binary ``+`` <-> ``-``, ``*`` <-> ``/``, ``**`` -> ``*`` (also in ``+=``-style updates);
 - unary ``-x`` -> ``x``;
@@ -33,10 +33,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-KERNELS = {  # module file -> (kernel function, mismatch function in tests/test_kernels.py)
-    "_smc_kernel.py": ("smc_step", "smc_mismatch"),
-    "_tsmc_kernel.py": ("tsmc_step", "tsmc_mismatch"),
-    "_asta_kernel.py": ("asta_terms", "asta_mismatch"),
+KERNELS = {  # module file -> (package, kernel function, mismatch function in test_kernels.py)
+    "_smc_kernel.py": ("control", "smc_step", "smc_mismatch"),
+    "_tsmc_kernel.py": ("control", "tsmc_step", "tsmc_mismatch"),
+    "_asta_kernel.py": ("control", "asta_terms", "asta_mismatch"),
+    "_fig53_kernel.py": ("fuzzy", "fig53_law", "fig53_mismatch"),
 }
 _BIN = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
         ast.Pow: ast.Mult}  # fmt: skip
@@ -119,10 +120,10 @@ def run(verbose: bool, only: str | None = None) -> int:
     import test_kernels  # noqa: PLC0415 - after sys.path
 
     survivors = 0
-    for fname, (kname, mname) in KERNELS.items():
+    for fname, (package, kname, mname) in KERNELS.items():
         if only is not None and fname != only:
             continue
-        path = ROOT / "src" / "mwip" / "control" / fname
+        path = ROOT / "src" / "mwip" / package / fname
         tree = ast.parse(path.read_text())
         check: Callable[..., float] = getattr(test_kernels, mname)
         base = check(getattr(_load(tree, kname, path), kname))

@@ -54,43 +54,78 @@ def block_length(n: int) -> int:
 
 @numba.njit(cache=True)
 def _tri(x, a, b, c):  # noqa: ANN001, ANN202 - compiled kernel
-    """Triangle ``(a, b, c)`` of height 1 at ``x``, as :func:`mwip.fuzzy.sets.triangle`."""
-    rise = (x - a) / (b - a) if b > a else (1.0 if x >= b else 0.0)
-    fall = (c - x) / (c - b) if c > b else (1.0 if x <= b else 0.0)
-    v = min(rise, fall)
+    """Triangle ``(a, b, c)`` of height 1 at ``x``, ``a < b < c`` (every set of a
+    :class:`~mwip.fuzzy.sets.UniformPartition`), as :func:`mwip.fuzzy.sets.triangle`."""
+    v = min((x - a) / (b - a), (c - x) / (c - b))
     return min(max(v, 0.0), 1.0)
 
 
 @numba.njit(cache=True)
+def _block8(a, lo, n):  # noqa: ANN001, ANN202
+    """``a[lo : lo + n].sum()`` for ``8 <= n <= 128`` as NumPy's pairwise sum does it: eight
+    partial sums over the multiples of 8, combined pairwise, then the rest in order."""
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = 8
+    while i < n - n % 8:
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@numba.njit(cache=True)
 def _pairwise(a, lo, n):  # noqa: ANN001, ANN202
-    """``a[lo : lo + n].sum()`` in NumPy's pairwise order (8 partial sums, blocks of 128)."""
-    if n < 8:
-        res = -0.0
-        for i in range(n):
-            res += a[lo + i]
-        return res
+    """``a[lo : lo + n].sum()`` for ``n >= 8`` in NumPy's pairwise order: above 128 numbers
+    the sum of the two halves (the first a multiple of 8), recursively; here with an explicit
+    stack (numba cannot cache a recursive function). NaN if the stack (64) would overflow."""
     if n <= 128:
-        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-        i = 8
-        while i < n - n % 8:
-            r0 += a[lo + i]
-            r1 += a[lo + i + 1]
-            r2 += a[lo + i + 2]
-            r3 += a[lo + i + 3]
-            r4 += a[lo + i + 4]
-            r5 += a[lo + i + 5]
-            r6 += a[lo + i + 6]
-            r7 += a[lo + i + 7]
-            i += 8
-        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-        while i < n:
-            res += a[lo + i]
-            i += 1
-        return res
-    n2 = n // 2
-    n2 -= n2 % 8
-    return _pairwise(a, lo, n2) + _pairwise(a, lo + n2, n - n2)
+        return _block8(a, lo, n)
+    seg_lo = np.empty(64, np.int64)
+    seg_n = np.empty(64, np.int64)
+    stage = np.zeros(64, np.int64)  # 0: not split, 1: left half pending, 2: right pending
+    left = np.empty(64)
+    top = 0
+    seg_lo[0] = lo
+    seg_n[0] = n
+    while True:
+        m = seg_n[top]
+        if m > 128 and stage[top] == 0:  # split: push the left half
+            if top >= 63:
+                return np.nan
+            half = m // 2
+            half -= half % 8
+            stage[top] = 1
+            seg_lo[top + 1] = seg_lo[top]
+            seg_n[top + 1] = half
+            stage[top + 1] = 0
+            top += 1
+            continue
+        v = _block8(a, seg_lo[top], m)
+        top -= 1
+        while top >= 0 and stage[top] == 2:  # v completes a right half: add the left one
+            v = left[top] + v
+            top -= 1
+        if top < 0:
+            return v
+        left[top] = v  # v completes a left half: push the right one
+        stage[top] = 2
+        half = seg_n[top] // 2
+        half -= half % 8
+        seg_lo[top + 1] = seg_lo[top] + half
+        seg_n[top + 1] = seg_n[top] - half
+        stage[top + 1] = 0
+        top += 1
 
 
 @numba.njit(cache=True)
@@ -100,7 +135,7 @@ def fls_eval(x1, x2, blk, work):  # noqa: ANN001, ANN201
     Inputs saturated to ``[-R, R]``; lower and upper memberships of each set (triangles);
     firing intervals with the minimum t-norm; IT2: BMM ``m sum f y / sum f + nw sum fbar y /
     sum fbar``; type 1: ``sum fbar y / sum fbar`` (a sum of zero gives 0). ``work`` is
-    scratch of at least ``4 n + 4 n n`` numbers."""
+    scratch of at least ``4 n + 4 n n`` numbers (``4 len(blk)`` is enough)."""
     n = int(blk[0])
     t1 = blk[1] != 0.0
     nn = n * n
@@ -138,8 +173,7 @@ def fls_eval(x1, x2, blk, work):  # noqa: ANN001, ANN201
 @numba.njit(cache=True)
 def fls_batch(x1, x2, blk, out):  # noqa: ANN001, ANN201
     """:func:`fls_eval` for every element of ``x1``, ``x2`` (M,) into ``out`` (M,)."""
-    n = int(blk[0])
-    work = np.empty(4 * n + 4 * n * n)
+    work = np.empty(4 * blk.shape[0])
     for i in range(x1.shape[0]):
         out[i] = fls_eval(x1[i], x2[i], blk, work)
 
@@ -190,10 +224,7 @@ def fig53_law(y, rows, fls, first, u, theta_off, u_alpha):  # noqa: ANN001, ANN2
         u_p       = (1/2) sum_i m_i(theta) G_i x           (5.10)
         u         = [u_p + u_alpha, u_p - u_alpha]
     """
-    nmax = 1
-    for k in range(fls.shape[0]):
-        nmax = max(nmax, int(fls[k, 0]))
-    work = np.empty(4 * nmax + 4 * nmax * nmax)
+    work = np.empty(4 * fls.shape[1])
     single = rows.shape[0] == 1
     for k in range(y.shape[0]):
         row = rows[0] if single else rows[first + k]
