@@ -17,13 +17,14 @@ Operation order: each membership, firing strength and ratio is computed with the
 summation (:func:`_pairwise`), so an FLS output is bit for bit the one of the NumPy
 composition that preceded this kernel. The PDC sum ``sum_ij m_i G_ij x_j`` is accumulated
 ``i`` outer, ``j`` inner from zero (NumPy's ``einsum`` took that order for batches of 3 or
-more; for one robot it grouped the sum by ``i``, so single runs differ from the former
-NumPy law in the last bit).
+more robots; for one robot, and two sharing one design, it grouped the sum by ``i``, so
+those runs differ from the former NumPy law in the last bit of ``u``).
 
 An FLS is a flat float64 *block* (:meth:`mwip.fuzzy.mamdani.MamdaniFLS.block` writes one):
 ``[n, t1, m, nw, R1, R2, a1, a2, b]``, then per input the ``n`` apexes, lower-MF feet ``a``,
 ``c`` and upper-MF feet ``a``, ``c`` (``5 n`` numbers each), then the ``n * n`` consequent
-centroids per rule (``[i * n + j]`` for "x1 is A_i and x2 is B_j"). It evaluates
+centroids per rule (``[i * n + j]`` for "x1 is A_i and x2 is B_j"): ``9 + 10 n + n^2``
+numbers. It evaluates
 ``y = b * FLS(a1 x1, a2 x2)`` (the scaling that turns the position FLS into the direction FLS,
 :func:`mwip.fuzzy.fig53.direction_as_position`; ``1, 1, 1`` for a plain FLS: exact).
 """
@@ -36,7 +37,7 @@ import numpy as np
 from mwip.fuzzy.ts_model import LOWER_HALF_WIDTH, THETA_VERTEX, UPPER_HALF_WIDTH
 
 __all__ = [
-    "HEAD", "ROW_WIDTH", "block_length", "fls_eval", "fls_batch", "pdc_weights",
+    "HEAD", "ROW_WIDTH", "fls_eval", "fls_batch", "pdc_weights",
     "pdc_weights_batch", "fig53_law",
 ]  # fmt: skip
 
@@ -45,11 +46,6 @@ HEAD = 9
 #: Columns of a Fig. 5.3 row: ``[kind (0 it2, 1 t1), G (8, row-major), p_d, alpha_d,
 #: pos_on, dir_on, r_nom]``.
 ROW_WIDTH = 14
-
-
-def block_length(n: int) -> int:
-    """Length of the block of an FLS with ``n`` sets per variable."""
-    return HEAD + 10 * n + n * n
 
 
 @numba.njit(cache=True)
@@ -66,21 +62,19 @@ def _block8(a, lo, n):  # noqa: ANN001, ANN202
     partial sums over the multiples of 8, combined pairwise, then the rest in order."""
     r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
     r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-    i = 8
-    while i < n - n % 8:
-        r0 += a[lo + i]
-        r1 += a[lo + i + 1]
-        r2 += a[lo + i + 2]
-        r3 += a[lo + i + 3]
-        r4 += a[lo + i + 4]
-        r5 += a[lo + i + 5]
-        r6 += a[lo + i + 6]
-        r7 += a[lo + i + 7]
-        i += 8
+    m8 = n - n % 8
+    for i in range(lo + 8, lo + m8, 8):
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
     res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        res += a[lo + i]
-        i += 1
+    for i in range(lo + m8, lo + n):
+        res += a[i]
     return res
 
 
@@ -88,36 +82,42 @@ def _block8(a, lo, n):  # noqa: ANN001, ANN202
 def _pairwise(a, lo, n):  # noqa: ANN001, ANN202
     """``a[lo : lo + n].sum()`` for ``n >= 8`` in NumPy's pairwise order: above 128 numbers
     the sum of the two halves (the first a multiple of 8), recursively; here with an explicit
-    stack (numba cannot cache a recursive function). NaN if the stack (64) would overflow."""
+    stack of segments (numba cannot load a cached recursive function) and bounded loops.
+    NaN if the stack (64 segments, ``n`` up to 2^60) would overflow."""
     if n <= 128:
         return _block8(a, lo, n)
-    seg_lo = np.empty(64, np.int64)
-    seg_n = np.empty(64, np.int64)
+    seg_lo = np.zeros(64, np.int64)
+    seg_n = np.zeros(64, np.int64)
     stage = np.zeros(64, np.int64)  # 0: not split, 1: left half pending, 2: right pending
-    left = np.empty(64)
+    left = np.zeros(64)
     top = 0
     seg_lo[0] = lo
     seg_n[0] = n
-    while True:
+    for _ in range(2 * n):  # two visits per split segment at most: ends long before
         m = seg_n[top]
         if m > 128 and stage[top] == 0:  # split: push the left half
-            if top >= 63:
-                return np.nan
             half = m // 2
             half -= half % 8
             stage[top] = 1
-            seg_lo[top + 1] = seg_lo[top]
-            seg_n[top + 1] = half
-            stage[top + 1] = 0
+            lo_top = seg_lo[top]
             top += 1
+            if top < 1 or top > 63:
+                return np.nan
+            seg_lo[top] = lo_top
+            seg_n[top] = half
+            stage[top] = 0
             continue
         v = _block8(a, seg_lo[top], m)
         top -= 1
-        while top >= 0 and stage[top] == 2:  # v completes a right half: add the left one
+        for _ in range(64):  # v completes right halves: add their left ones
+            if top < 0 or top > 63 or stage[top] != 2:
+                break
             v = left[top] + v
             top -= 1
         if top < 0:
             return v
+        if top > 62:
+            return np.nan
         left[top] = v  # v completes a left half: push the right one
         stage[top] = 2
         half = seg_n[top] // 2
@@ -126,6 +126,7 @@ def _pairwise(a, lo, n):  # noqa: ANN001, ANN202
         seg_n[top + 1] = seg_n[top] - half
         stage[top + 1] = 0
         top += 1
+    return np.nan
 
 
 @numba.njit(cache=True)

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.core import Measurement
-from mwip.fuzzy._fig53_kernel import HEAD, block_length, fls_batch
+from mwip.fuzzy._fig53_kernel import HEAD, fls_batch
 from mwip.fuzzy.pdc import PDCBalance, PDCDesign
 from mwip.fuzzy.sets import LABELS7, UniformPartition
 from mwip.params import NOMINAL, Params
@@ -140,7 +140,7 @@ class MamdaniFLS:
         type-1 FLS) and the rule outputs ``_y``."""
         parts = [p if self.kind == "it2" else p.type1() for p in (self.in1, self.in2)]
         n = self.in1.n
-        out = np.empty(block_length(n))
+        out = np.empty(HEAD + 10 * n + n * n)
         out[:HEAD] = [n, float(self.kind == "t1"), self.m, self.n, parts[0].half_range,
                       parts[1].half_range, a1, a2, b]  # fmt: skip
         for k, p in enumerate(parts):
