@@ -10,8 +10,8 @@ src/mwip/fuzzy/_fig53_kernel.py) every arithmetic operator and sign is flipped, 
 
 Each mutant's source is executed as a fresh module and the mismatch functions of
 tests/test_kernels.py (the kernel against its NumPy oracle on random, non-zero inputs; for
-the fuzzy kernel also its pairwise sum against NumPy's) are run on it; a mutant is *killed*
-when a mismatch exceeds the test's tolerance or it raises.
+the fuzzy kernel also its batch FLS and its pairwise sum against NumPy's) are run on it; a
+mutant is *killed* when a mismatch exceeds the test's tolerance or it raises.
 Every mutant is compiled by numba as the real kernel is (no cache), about a second each.
 
 Usage::
@@ -38,7 +38,7 @@ KERNELS = {  # module file -> (package, [(kernel function, mismatch function in 
     "_smc_kernel.py": ("control", [("smc_step", "smc_mismatch")]),
     "_tsmc_kernel.py": ("control", [("tsmc_step", "tsmc_mismatch")]),
     "_asta_kernel.py": ("control", [("asta_terms", "asta_mismatch")]),
-    "_fig53_kernel.py": ("fuzzy", [("fig53_law", "fig53_mismatch"),
+    "_fig53_kernel.py": ("fuzzy", [("fig53_law", "fig53_mismatch"), ("fls_batch", "fls_mismatch"),
                                    ("_pairwise", "pairwise_mismatch")]),
 }  # fmt: skip
 _BIN = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,

@@ -22,7 +22,7 @@ from mwip.control._smc_kernel import smc_step
 from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.smc import SMCGains
 from mwip.control.switching import Switching
-from mwip.fuzzy._fig53_kernel import ROW_WIDTH, _pairwise, fig53_law
+from mwip.fuzzy._fig53_kernel import ROW_WIDTH, _pairwise, fig53_law, fls_batch
 from mwip.fuzzy.mamdani import MamdaniFLS, RuleBase, direction_controller, position_controller
 from mwip.fuzzy.sets import UniformPartition
 from mwip.models.reduced import coefficients
@@ -227,6 +227,28 @@ def pairwise_mismatch(kernel: Callable[..., Any] = _pairwise) -> float:
         if kernel(a, 3, n) != a[3:].sum():
             return 1.0
     return 0.0
+
+
+def fls_mismatch(kernel: Callable[..., Any] = fls_batch, seeds: tuple[int, ...] = SEEDS) -> float:
+    """``fls_batch`` (what ``MamdaniFLS.__call__`` runs) vs ``oracle_laws.mamdani`` on random
+    FLSs (IT2 and type 1, 3 to 13 sets) and inputs inside and beyond the ranges: 0 if bit for
+    bit equal, else 1."""
+    for seed in seeds:
+        rng = np.random.default_rng(100 + seed)
+        for kind in ("it2", "t1"):
+            for n in (3, 7, 13):
+                fls = _random_fls(rng, kind, n)
+                x1 = _nonzero(rng, 0.01, 1.3 * fls.in1.half_range, N)
+                x2 = _nonzero(rng, 0.01, 1.3 * fls.in2.half_range, N)
+                out = np.empty(N)
+                kernel(x1, x2, fls.block(), out)
+                if not np.array_equal(out, mamdani(fls, x1, x2)):
+                    return 1.0
+    return 0.0
+
+
+def test_fls_batch_equals_oracle():
+    assert fls_mismatch() == 0.0
 
 
 def test_pairwise_sum_is_numpys():

@@ -130,13 +130,14 @@ def _pairwise(a, lo, n):  # noqa: ANN001, ANN202
 
 
 @numba.njit(cache=True)
-def fls_eval(x1, x2, blk, work):  # noqa: ANN001, ANN201
+def fls_eval(x1, x2, blk, mem, fr):  # noqa: ANN001, ANN201
     """Crisp output ``b * FLS(a1 x1, a2 x2)`` of the FLS ``blk`` (module docstring).
 
     Inputs saturated to ``[-R, R]``; lower and upper memberships of each set (triangles);
     firing intervals with the minimum t-norm; IT2: BMM ``m sum f y / sum f + nw sum fbar y /
-    sum fbar``; type 1: ``sum fbar y / sum fbar`` (a sum of zero gives 0). ``work`` is
-    scratch of at least ``4 n + 4 n n`` numbers (``4 len(blk)`` is enough)."""
+    sum fbar``; type 1: ``sum fbar y / sum fbar`` (a sum of zero gives 0). Scratch: ``mem``
+    (4, >= n) the lower / upper memberships of input 1, then input 2; ``fr`` (4, >= n n) the
+    lower firing strengths, times the rule outputs, the upper ones, times the outputs."""
     n = int(blk[0])
     t1 = blk[1] != 0.0
     nn = n * n
@@ -144,29 +145,28 @@ def fls_eval(x1, x2, blk, work):  # noqa: ANN001, ANN201
     z2 = min(max(blk[7] * x2, -blk[5]), blk[5])
     o1 = HEAD
     o2 = HEAD + 5 * n
-    for k in range(n):  # memberships: lower / upper of input 1 at work[0:2n], input 2 at 2n:4n
-        work[k] = _tri(z1, blk[o1 + n + k], blk[o1 + k], blk[o1 + 2 * n + k])
-        work[n + k] = _tri(z1, blk[o1 + 3 * n + k], blk[o1 + k], blk[o1 + 4 * n + k])
-        work[2 * n + k] = _tri(z2, blk[o2 + n + k], blk[o2 + k], blk[o2 + 2 * n + k])
-        work[3 * n + k] = _tri(z2, blk[o2 + 3 * n + k], blk[o2 + k], blk[o2 + 4 * n + k])
-    f_lo, fy_lo, f_hi, fy_hi = 4 * n, 4 * n + nn, 4 * n + 2 * nn, 4 * n + 3 * nn
+    for k in range(n):
+        mem[0, k] = _tri(z1, blk[o1 + n + k], blk[o1 + k], blk[o1 + 2 * n + k])
+        mem[1, k] = _tri(z1, blk[o1 + 3 * n + k], blk[o1 + k], blk[o1 + 4 * n + k])
+        mem[2, k] = _tri(z2, blk[o2 + n + k], blk[o2 + k], blk[o2 + 2 * n + k])
+        mem[3, k] = _tri(z2, blk[o2 + 3 * n + k], blk[o2 + k], blk[o2 + 4 * n + k])
     oy = HEAD + 10 * n
     for i in range(n):
         for j in range(n):
             r = i * n + j
-            lo = min(work[i], work[2 * n + j])
-            hi = min(work[n + i], work[3 * n + j])
-            work[f_lo + r] = lo
-            work[fy_lo + r] = lo * blk[oy + r]
-            work[f_hi + r] = hi
-            work[fy_hi + r] = hi * blk[oy + r]
-    den = 0.0 + _pairwise(work, f_hi, nn)
-    num = 0.0 + _pairwise(work, fy_hi, nn)
+            lo = min(mem[0, i], mem[2, j])
+            hi = min(mem[1, i], mem[3, j])
+            fr[0, r] = lo
+            fr[1, r] = lo * blk[oy + r]
+            fr[2, r] = hi
+            fr[3, r] = hi * blk[oy + r]
+    den = 0.0 + _pairwise(fr[2], 0, nn)
+    num = 0.0 + _pairwise(fr[3], 0, nn)
     wa_hi = num / den if den > 0.0 else 0.0
     if t1:
         return blk[8] * wa_hi
-    den = 0.0 + _pairwise(work, f_lo, nn)
-    num = 0.0 + _pairwise(work, fy_lo, nn)
+    den = 0.0 + _pairwise(fr[0], 0, nn)
+    num = 0.0 + _pairwise(fr[1], 0, nn)
     wa_lo = num / den if den > 0.0 else 0.0
     return blk[8] * (blk[2] * wa_lo + blk[3] * wa_hi)
 
@@ -174,9 +174,10 @@ def fls_eval(x1, x2, blk, work):  # noqa: ANN001, ANN201
 @numba.njit(cache=True)
 def fls_batch(x1, x2, blk, out):  # noqa: ANN001, ANN201
     """:func:`fls_eval` for every element of ``x1``, ``x2`` (M,) into ``out`` (M,)."""
-    work = np.empty(4 * blk.shape[0])
+    mem = np.empty((4, blk.shape[0]))
+    fr = np.empty((4, blk.shape[0]))
     for i in range(x1.shape[0]):
-        out[i] = fls_eval(x1[i], x2[i], blk, work)
+        out[i] = fls_eval(x1[i], x2[i], blk, mem, fr)
 
 
 @numba.njit(cache=True)
@@ -225,7 +226,8 @@ def fig53_law(y, rows, fls, first, u, theta_off, u_alpha):  # noqa: ANN001, ANN2
         u_p       = (1/2) sum_i m_i(theta) G_i x           (5.10)
         u         = [u_p + u_alpha, u_p - u_alpha]
     """
-    work = np.empty(4 * fls.shape[1])
+    mem = np.empty((4, fls.shape[1]))
+    fr = np.empty((4, fls.shape[1]))
     single = rows.shape[0] == 1
     for k in range(y.shape[0]):
         row = rows[0] if single else rows[first + k]
@@ -233,9 +235,9 @@ def fig53_law(y, rows, fls, first, u, theta_off, u_alpha):  # noqa: ANN001, ANN2
         th_off = 0.0
         ua = 0.0
         if row[11] != 0.0:
-            th_off = fls_eval(row[13] * y[k, 0] - row[9], y[k, 4], fls[2 * c], work)
+            th_off = fls_eval(row[13] * y[k, 0] - row[9], y[k, 4], fls[2 * c], mem, fr)
         if row[12] != 0.0:
-            ua = fls_eval(y[k, 2] - row[10], y[k, 5], fls[2 * c + 1], work)
+            ua = fls_eval(y[k, 2] - row[10], y[k, 5], fls[2 * c + 1], mem, fr)
         m1, m2 = pdc_weights(y[k, 1], c == 1)
         x0 = y[k, 1] - th_off
         x2 = 0.0 if row[11] != 0.0 else y[k, 0]
