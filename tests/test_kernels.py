@@ -184,8 +184,8 @@ def fig53_mismatch(kernel: Callable[..., Any] = fig53_law, seeds: tuple[int, ...
             scaled = (float(rng.uniform(0.5, 4.0)), float(rng.uniform(0.5, 4.0)),
                       float(rng.uniform(0.1, 3.0)))  # fmt: skip
             fls[kind] = (pos, pos, scaled) if seed % 2 else (pos, plain, (1.0, 1.0, 1.0))
-        blocks = [b for k in ("it2", "t1") for b in (fls[k][0].block(),
-                                                     fls[k][1].block(*fls[k][2]))]  # fmt: skip
+        blocks = [fls["it2"][0].block(), fls["t1"][0].block(),
+                  *(fls[k][1].block(*fls[k][2]) for k in ("it2", "t1"))]  # fmt: skip
         fl = np.zeros((4, max(b.size for b in blocks)))
         for j, b in enumerate(blocks):
             fl[j, : b.size] = b

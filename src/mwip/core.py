@@ -158,7 +158,7 @@ class CompiledLaw:
     0, 0, 0]`` of :mod:`mwip.control._asta_kernel`.
     ``LAW_FUZZY``: ``rows`` (R, 14), one row per robot (or one for all): ``[kind (0 IT2,
     1 type 1), G (2 x 4 row-major), p_d, alpha_d, position on, direction on, r_nom]``, and
-    ``fls`` (4, L) the FLS blocks ``[IT2 position, IT2 direction, T1 position, T1 direction]``
+    ``fls`` (4, L) the FLS blocks ``[IT2 position, T1 position, IT2 direction, T1 direction]``
     (layout in :mod:`mwip.fuzzy._fig53_kernel`; unused kinds zero) of
     :func:`mwip.fuzzy._fig53_kernel.fig53_law`.
     ``log_names``: the controller's logs and their widths, in the order of the loop's log

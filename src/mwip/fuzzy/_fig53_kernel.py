@@ -101,7 +101,7 @@ def _pairwise(a, lo, n):  # noqa: ANN001, ANN202
             stage[top] = 1
             lo_top = seg_lo[top]
             top += 1
-            if top < 1 or top > 63:
+            if top > 63:
                 return np.nan
             seg_lo[top] = lo_top
             seg_n[top] = half
@@ -217,8 +217,8 @@ def fig53_law(y, rows, fls, first, u, theta_off, u_alpha):  # noqa: ANN001, ANN2
     (N,) from the measurements ``y`` (N, 8).
 
     Robot ``k`` uses the row ``first + k`` of ``rows`` (R, :data:`ROW_WIDTH`), or row 0 when
-    ``R == 1``; its kind ``c`` (0 IT2, 1 type 1) picks the position FLS ``fls[2 c]`` and the
-    direction FLS ``fls[2 c + 1]``. Term by term (Section 5.3.2, Fig. 5.3)::
+    ``R == 1``; its kind ``c`` (0 IT2, 1 type 1) picks the position FLS ``fls[c]`` and the
+    direction FLS ``fls[2 + c]``. Term by term (Section 5.3.2, Fig. 5.3)::
 
         theta_off = FLS_p(r_nom psi - p_d, theta')        (0 without a position target)
         u_alpha   = FLS_alpha(alpha - alpha_d, alpha')     (0 without a heading target)
@@ -235,9 +235,9 @@ def fig53_law(y, rows, fls, first, u, theta_off, u_alpha):  # noqa: ANN001, ANN2
         th_off = 0.0
         ua = 0.0
         if row[11] != 0.0:
-            th_off = fls_eval(row[13] * y[k, 0] - row[9], y[k, 4], fls[2 * c], mem, fr)
+            th_off = fls_eval(row[13] * y[k, 0] - row[9], y[k, 4], fls[c], mem, fr)
         if row[12] != 0.0:
-            ua = fls_eval(y[k, 2] - row[10], y[k, 5], fls[2 * c + 1], mem, fr)
+            ua = fls_eval(y[k, 2] - row[10], y[k, 5], fls[2 + c], mem, fr)
         m1, m2 = pdc_weights(y[k, 1], c == 1)
         x0 = y[k, 1] - th_off
         x2 = 0.0 if row[11] != 0.0 else y[k, 0]

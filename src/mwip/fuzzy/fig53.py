@@ -81,7 +81,7 @@ class Fig53Controller:
         self.Ts = Ts
         self._scale = {k: direction_as_position(c) for k, c in self._ref.items()}
         self._log: dict[str, NDArray[np.float64]] = {}
-        # the kernel's data: one row per design, the FLS blocks [it2 pos, it2 dir, t1 pos,
+        # the kernel's data: one row per design, the FLS blocks [it2 pos, t1 pos, it2 dir,
         # t1 dir]; with a direction that is a scaled position FLS, its block is the position
         # FLS's with the scales (one FLS for both loops, as direction_as_position states)
         kind_code = {"it2": 0.0, "t1": 1.0}
@@ -99,7 +99,7 @@ class Fig53Controller:
         self._fls = np.zeros((4, width))
         for k, pair in blocks.items():
             for j, b in enumerate(pair):
-                self._fls[2 * int(kind_code[k]) + j, : b.size] = b
+                self._fls[int(kind_code[k]) + 2 * j, : b.size] = b
 
     def reset(self, meas: Measurement) -> None:
         """Nothing to reset (static law); checks the batch matches the rows."""
