@@ -1,9 +1,12 @@
 """The test oracles: the control laws' NumPy forms, written term by term from the book's
 equations, independent of the compiled kernels that are the library's one implementation
 (:mod:`mwip.control._smc_kernel`, :mod:`~mwip.control._tsmc_kernel`,
-:mod:`~mwip.control._asta_kernel`, :mod:`mwip.observers._hodo_kernel`). ``F, G`` come from
+:mod:`~mwip.control._asta_kernel`, :mod:`mwip.observers._hodo_kernel`,
+:mod:`mwip.fuzzy._fig53_kernel`). ``F, G`` come from
 :func:`mwip.models.reduced.f_g` (the NumPy closed forms of (2.36)), not from the kernels'
-compiled ``f_g_scalar``.
+compiled ``f_g_scalar``; the fuzzy law is composed of the NumPy building blocks
+:mod:`mwip.fuzzy.sets` (memberships, minimum t-norm), :mod:`mwip.fuzzy.reducers` (BMM,
+weighted average) and :func:`mwip.fuzzy.ts_model.memberships` (Fig. 5.1).
 
 tests/test_kernels.py holds the kernels equal to these on random, non-zero inputs for every
 term; benchmarks/mutate_kernels.py checks that those tests catch every sign flip in the
@@ -14,6 +17,8 @@ kernels.
 - TSMC: model (2.31)/(4.24), subsystem (4.26)-(4.27), augmenting cubics (4.43), surface
   (4.30), switching gain and law (4.32) (Sec. 4.3);
 - HODO: the sampled observer update of (3.20)-(3.23) (:mod:`mwip.observers.hodo`).
+- Fig. 5.3: the Mamdani FLSs (Sec. 5.3.2, Tables 5.1-5.2), the PDC weights (5.7)-(5.8) and
+  the balance law (5.10) on ``theta - theta_off`` (Sec. 5.3).
 """
 
 from __future__ import annotations
@@ -25,12 +30,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from mwip.control.smc import SMCGains
 from mwip.control.switching import Switching
+from mwip.fuzzy.mamdani import MamdaniFLS
+from mwip.fuzzy.reducers import bmm, weighted_average
+from mwip.fuzzy.sets import firing_grid
+from mwip.fuzzy.ts_model import first_weight, memberships
 from mwip.models.reduced import f_g
 from mwip.params import Params
 
 __all__ = [
     "sliding_surface", "smc_law", "asta_surface", "surface_dynamics", "model_2_31",
-    "subsystem", "augmenting", "tsmc_surface", "tsmc_gain", "tsmc_law", "hodo_step",
+    "subsystem", "augmenting", "tsmc_surface", "tsmc_gain", "tsmc_law", "hodo_step", "mamdani",
+    "pdc_weights", "fig53",
 ]  # fmt: skip
 
 
@@ -233,3 +243,53 @@ def hodo_step(
         f = 0.5 * (model(q_prev, qd_prev) + model(q, qd))
     d = (qd - qd_prev) / Ts - f
     return z @ Phi.T + d @ Gam.T
+
+
+def mamdani(fls: MamdaniFLS, x1: ArrayLike, x2: ArrayLike) -> NDArray[np.float64]:
+    """Crisp output of a two-input Mamdani FLS (Sec. 5.3.2): lower and upper memberships of
+    the saturated inputs (the type-1 sets for a type-1 FLS), firing intervals with the
+    minimum t-norm, the consequents' centroids per rule; BMM (IT2) or the weighted average
+    of the firing strengths (type 1)."""
+    p1, p2 = (p if fls.kind == "it2" else p.type1() for p in (fls.in1, fls.in2))
+    l1, u1 = p1.memberships(x1)
+    l2, u2 = p2.memberships(x2)
+    flo, fhi = firing_grid(l1, u1, l2, u2)
+    flo = flo.reshape(*flo.shape[:-2], -1)
+    fhi = fhi.reshape(*fhi.shape[:-2], -1)
+    y = fls.out.centers[fls.rules.index].ravel()
+    if fls.kind == "t1":
+        return weighted_average(fhi, y)
+    return bmm(flo, fhi, y, fls.m, fls.n)
+
+
+def pdc_weights(theta: ArrayLike, kind: str) -> NDArray[np.float64]:
+    """``m_i(theta)`` (..., 2) of (5.10): Nie-Tan (5.8) on the memberships of Fig. 5.1 (IT2),
+    or M1 at the middle of the footprint and ``M2 = 1 - M1`` (type 1)."""
+    if kind == "t1":
+        m1 = first_weight(theta, type1=True)
+        return np.stack([m1, 1.0 - m1], -1)
+    lo, up = memberships(theta)
+    return (lo + up) / (lo + up).sum(-1, keepdims=True)
+
+
+def fig53(
+    y: NDArray[np.float64], G: NDArray[np.float64], kind: str, p_d: float | None,
+    alpha_d: float | None, r: float, position: MamdaniFLS, direction: MamdaniFLS,
+    scale: tuple[float, float, float] = (1.0, 1.0, 1.0),
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    """Fig. 5.3 for measurements ``y`` (N, 8), one design: ``u`` (N, 2), ``theta_off``,
+    ``u_alpha`` (N,). ``u_alpha = b * direction(a1 (alpha - alpha_d), a2 alpha')`` with
+    ``scale = (a1, a2, b)``::
+
+        theta_off = position(r psi - p_d, theta')     (0 without p_d)
+        x = [theta - theta_off, theta', psi (0 with p_d), psi'],  u_p = m(theta) G x / 2
+        u = [u_p + u_alpha, u_p - u_alpha]
+    """
+    n = y.shape[0]
+    th = np.zeros(n) if p_d is None else mamdani(position, r * y[:, 0] - p_d, y[:, 4])
+    a1, a2, b = scale
+    ua = (np.zeros(n) if alpha_d is None
+          else b * mamdani(direction, a1 * (y[:, 2] - alpha_d), a2 * y[:, 5]))  # fmt: skip
+    x = np.column_stack([y[:, 1] - th, y[:, 4], y[:, 0] * (p_d is None), y[:, 3]])
+    up = 0.5 * np.einsum("ni,ij,nj->n", pdc_weights(y[:, 1], kind), G, x)
+    return np.column_stack([up + ua, up - ua]), th, ua

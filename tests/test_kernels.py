@@ -22,6 +22,9 @@ from mwip.control._smc_kernel import smc_step
 from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.smc import SMCGains
 from mwip.control.switching import Switching
+from mwip.fuzzy._fig53_kernel import ROW_WIDTH, _pairwise, fig53_law, fls_batch
+from mwip.fuzzy.mamdani import MamdaniFLS, RuleBase, direction_controller, position_controller
+from mwip.fuzzy.sets import UniformPartition
 from mwip.models.reduced import coefficients
 from mwip.observers._hodo_kernel import HOLD_CODES, hodo_update
 from mwip.observers.hodo import discretize_observer
@@ -29,7 +32,9 @@ from mwip.params import NOMINAL, Params
 from oracle_laws import (
     asta_surface,
     augmenting,
+    fig53,
     hodo_step,
+    mamdani,
     sliding_surface,
     smc_law,
     subsystem,
@@ -181,6 +186,119 @@ def hodo_mismatch(
                 want = hodo_step(p, Phi, Gam, Ts, hold, z, qp, qdp, q, qd, u)
                 worst = max(worst, _err(zk, want), _err(qpk, q), _err(qdpk, qd))
     return worst
+
+
+def _random_fls(rng: np.random.Generator, kind: str, n: int) -> MamdaniFLS:
+    """A Mamdani FLS with ``n`` sets, random ranges, footprint, BMM weights and rule table
+    (not symmetric: an exchange of the inputs or a transposed rule index shows)."""
+    labels = tuple(f"S{k}" for k in range(n))
+    parts = [UniformPartition(float(rng.uniform(0.2, 5.0)), n, float(rng.uniform(0.05, 0.45)),
+                              labels) for _ in range(3)]  # fmt: skip
+    table = tuple(tuple(labels[k] for k in row) for row in rng.integers(0, n, (n, n)))
+    m = float(rng.uniform(0.2, 0.8))
+    return MamdaniFLS(*parts, RuleBase(table, labels), kind, m, float(rng.uniform(0.2, 0.8)))
+
+
+def fig53_mismatch(kernel: Callable[..., Any] = fig53_law, seeds: tuple[int, ...] = SEEDS) -> float:
+    """Fig. 5.3 (5.7)-(5.10), Sec. 5.3.2: the kernel vs ``oracle_laws.fig53`` on random rows
+    (kind, gains, targets on or off, wheel radius), random FLSs (3, 5, 7 or 13 sets: the
+    pairwise sums above 128 rules too; plain and scaled direction blocks), inputs inside and
+    beyond every range, a row offset and one row for all. The FLS outputs ``theta_off`` and
+    ``u_alpha`` are computed with the oracle's operations in its order: any difference
+    counts 1; ``u`` within round-off."""
+    worst = 0.0
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        fls: dict[str, tuple[MamdaniFLS, MamdaniFLS, tuple[float, float, float]]] = {}
+        for kind in ("it2", "t1"):
+            pos = _random_fls(rng, kind, int(rng.choice([3, 5, 7, 13])))
+            plain = _random_fls(rng, kind, int(rng.choice([3, 5, 7, 13])))
+            scaled = (float(rng.uniform(0.5, 4.0)), float(rng.uniform(0.5, 4.0)),
+                      float(rng.uniform(0.1, 3.0)))  # fmt: skip
+            fls[kind] = (pos, pos, scaled) if seed % 2 else (pos, plain, (1.0, 1.0, 1.0))
+        blocks = [fls["it2"][0].block(), fls["t1"][0].block(),
+                  *(fls[k][1].block(*fls[k][2]) for k in ("it2", "t1"))]  # fmt: skip
+        fl = np.zeros((4, max(b.size for b in blocks)))
+        for j, b in enumerate(blocks):
+            fl[j, : b.size] = b
+        first = 3
+        rows = np.zeros((N + first, ROW_WIDTH))
+        spec = []
+        for i in range(N + first):
+            kind = ("it2", "t1")[int(rng.integers(0, 2))]
+            G = _nonzero(rng, 0.05, 50.0, (2, 4))
+            p_d = _nonzero(rng, 0.1, 2.0) if rng.random() < 0.7 else None
+            a_d = _nonzero(rng, 0.1, 1.0) if rng.random() < 0.7 else None
+            r = rng.uniform(0.02, 0.2)
+            rows[i] = [kind == "t1", *G.ravel(), p_d or 0.0, a_d or 0.0, p_d is not None,
+                       a_d is not None, r]  # fmt: skip
+            spec.append((G, kind, p_d, a_d, r))
+        y = np.column_stack([_nonzero(rng, 0.1, 80.0, N), _nonzero(rng, 0.01, 0.8, N),
+                             _nonzero(rng, 0.05, 6.0, N), _nonzero(rng, 0.1, 8.0, (N, 3)),
+                             np.zeros((N, 2))])  # fmt: skip
+        for tab, off in ((rows, first), (rows[first + 5 : first + 6], 0)):
+            u, th, ua = np.empty((N, 2)), np.empty(N), np.empty(N)
+            kernel(y, tab, fl, off, u, th, ua)
+            for k in range(N):
+                G, kind, p_d, a_d, r = spec[k + off] if tab.shape[0] > 1 else spec[first + 5]
+                pos, dirn, sc = fls[kind]
+                want = fig53(y[k : k + 1], G, kind, p_d, a_d, r, pos, dirn, sc)
+                exact = th[k] == want[1][0] and ua[k] == want[2][0]
+                worst = max(worst, _err(u[k], want[0][0]), 0.0 if exact else 1.0)
+    return worst
+
+
+def pairwise_mismatch(kernel: Callable[..., Any] = _pairwise) -> float:
+    """The kernel's sum over the rules vs ``numpy.sum`` (pairwise summation) on dense random
+    data of every length 8..600 and a few long ones, at an offset: 0 if every sum is bit for
+    bit NumPy's, else 1 (the FLS's firing grids are sparse: a changed order rarely shows
+    there)."""
+    rng = np.random.default_rng(11)
+    for n in [*range(8, 601), 1031, 4099]:
+        a = rng.normal(size=n + 3) * rng.choice([1e-3, 1.0, 1e4], n + 3)
+        if kernel(a, 3, n) != a[3:].sum():
+            return 1.0
+    return 0.0
+
+
+def fls_mismatch(kernel: Callable[..., Any] = fls_batch, seeds: tuple[int, ...] = SEEDS) -> float:
+    """``fls_batch`` (what ``MamdaniFLS.__call__`` runs) vs ``oracle_laws.mamdani`` on random
+    FLSs (IT2 and type 1, 3 to 13 sets) and inputs inside and beyond the ranges: 0 if bit for
+    bit equal, else 1."""
+    for seed in seeds:
+        rng = np.random.default_rng(100 + seed)
+        for kind in ("it2", "t1"):
+            for n in (3, 7, 13):
+                fls = _random_fls(rng, kind, n)
+                x1 = _nonzero(rng, 0.01, 1.3 * fls.in1.half_range, N)
+                x2 = _nonzero(rng, 0.01, 1.3 * fls.in2.half_range, N)
+                out = np.empty(N)
+                kernel(x1, x2, fls.block(), out)
+                if not np.array_equal(out, mamdani(fls, x1, x2)):
+                    return 1.0
+    return 0.0
+
+
+def test_fls_batch_equals_oracle():
+    assert fls_mismatch() == 0.0
+
+
+def test_pairwise_sum_is_numpys():
+    assert pairwise_mismatch() == 0.0
+
+
+def test_fls_kernel_equals_oracle_on_the_book_fls():
+    """MamdaniFLS.__call__ (the kernel) is the NumPy composition bit for bit: Table 5.1's
+    position and direction FLSs, IT2 and type 1, on a grid beyond the ranges."""
+    x1, x2 = np.meshgrid(np.linspace(-4.0, 4.0, 41), np.linspace(-5.0, 5.0, 37))
+    for kind in ("it2", "t1"):
+        for fls in (position_controller(kind), direction_controller(kind)):
+            np.testing.assert_array_equal(fls(x1, x2), mamdani(fls, x1, x2))
+            assert float(fls(0.3, -0.2)) == float(mamdani(fls, 0.3, -0.2))
+
+
+def test_fig53_kernel_equals_oracle():
+    assert fig53_mismatch() < TOL
 
 
 def test_smc_kernel_equals_oracle():

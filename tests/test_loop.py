@@ -17,7 +17,7 @@ from mwip.observers import HighOrderDO
 from mwip.params import NOMINAL, REAL, REAL_LITERAL, stack_params
 from mwip.sim import Sinusoid, simulate
 
-COMPILED = ("lqr", "dlqr", "smc", "do1smc", "hodosmc", "tsmc", "asta", "asmc")
+COMPILED = ("lqr", "dlqr", "smc", "do1smc", "hodosmc", "tsmc", "asta", "asmc", "it2", "t1")
 
 
 def _pair(name, plant, Ts="default", **kw):
@@ -130,8 +130,10 @@ def test_falls_back_to_python_loop_and_compiled_true_refuses():
     assert res.settings["compiled"] is False
     with pytest.raises(ValueError, match="compiled=True"):
         simulate(ctrl, REAL, duration=0.1, sensor=Noisy(), compiled=True)
-    it2 = registry.build("it2", NOMINAL)  # no compiled law (yet): the Python loop
-    assert simulate(it2, REAL, duration=0.1).settings["compiled"] is False
+    from mwip.fuzzy.pdc import BOOK_G1, BOOK_G2, PDCBalance
+
+    pdc = PDCBalance(np.array([BOOK_G1, BOOK_G2]) * 1e-3)  # no compiled law: the Python loop
+    assert simulate(pdc, REAL, duration=0.1).settings["compiled"] is False
 
 
 def test_observer_update_equals_its_numpy_form():
@@ -197,3 +199,77 @@ def test_a_subclass_that_changes_the_python_calls_runs_the_python_loop():
     assert a.settings["compiled"] and np.array_equal(a.states, b.states)
     c = simulate(ASMC(NOMINAL, Ts=0.0005), REAL, **kw)
     assert not np.array_equal(a.states, c.states)  # K = 0 is another law
+
+
+FUZZY_TARGETS = ({}, {"p_d": 0.4}, {"alpha_d": -0.6}, {"p_d": -0.3, "alpha_d": 0.8})
+
+
+@pytest.mark.parametrize("name", ["it2", "t1"])
+@pytest.mark.parametrize("targets", FUZZY_TARGETS, ids=lambda s: "-".join(s) or "none")
+def test_fuzzy_5ms_runs_equal_python_loop(name, targets):
+    """Fig. 5.3 (IT2 and type 1) at 5 ms with and without position / heading targets: a
+    single run on the default robot and a batch with varied parameters (one robot falls),
+    bit for bit (both loops call fuzzy._fig53_kernel.fig53_law); the targets are reached."""
+    spec = registry.get(name)
+    kw = dict(q0=(0.0, 0.1, 0.2), qdot0=(0.5, 0.0, 0.0), duration=5.0)
+    a, b = (simulate(spec.build(NOMINAL, targets, Ts=0.005), REAL, compiled=c, **kw)
+            for c in (True, False))  # fmt: skip
+    assert a.settings["integrator"] == "RK4" and a.status[0] == "ok"
+    assert list(a.logs) == ["theta_off", "u_alpha"]
+    _same_bits(a, b)
+    if "alpha_d" in targets:  # the heading moves towards its target
+        assert abs(a.alpha[-1] - targets["alpha_d"]) < abs(0.2 - targets["alpha_d"])
+    else:
+        assert not np.any(a.logs["u_alpha"])
+    if "p_d" not in targets:
+        assert not np.any(a.logs["theta_off"])
+    rng = np.random.default_rng(5)
+    plants = [replace(REAL, mb=REAL.mb * f, l=REAL.l * g, r=REAL.r * h)
+              for f, g, h in 1 + 0.2 * rng.uniform(-1, 1, (6, 3))]  # fmt: skip
+    q0 = np.zeros((6, 3))
+    q0[:, 1] = [0.05, -0.1, 0.15, 0.0, 0.08, 1.4]
+    qd0 = np.zeros((6, 3))
+    qd0[5, 1] = 10.0
+    kw = dict(q0=q0, qdot0=qd0, duration=5.0, record_every=3)
+    a, b = (simulate(spec.build(NOMINAL, targets, Ts=0.005), stack_params(plants), compiled=c,
+                     **kw) for c in (True, False))  # fmt: skip
+    assert list(a.status[:5]) == ["ok"] * 5 and a.status[5] == "fell"
+    _same_bits(a, b)
+
+
+def test_fuzzy_rows_batch_and_parallel_loop_equal_python_loop():
+    """A Fig53Controller with one row per robot (kinds, gains and targets differ), run on
+    the threaded loop (N >= PARALLEL_MIN): each robot gets its row, as in the Python loop."""
+    from mwip.fuzzy.fig53 import Fig53Controller
+    from mwip.fuzzy.pdc import design_pdc
+    from mwip.sim.loop import PARALLEL_MIN
+
+    n = PARALLEL_MIN + 2
+    d = design_pdc(epsilon=0.2, rho=20.0, params=NOMINAL)
+    rng = np.random.default_rng(2)
+    designs = [replace(d, G=d.G * rng.uniform(0.9, 1.1, (2, 4))) for _ in range(n)]
+    kinds = ["it2" if i % 3 else "t1" for i in range(n)]
+    p_d = [None if i % 4 == 0 else float(v) for i, v in enumerate(rng.uniform(-1, 1, n))]
+    a_d = [None if i % 5 == 0 else float(v) for i, v in enumerate(rng.uniform(-1, 1, n))]
+    q0 = np.zeros((n, 3))
+    q0[:, 1] = rng.uniform(-0.15, 0.15, n)
+
+    def ctrl():
+        return Fig53Controller(designs, kinds, p_d, a_d, params=NOMINAL, Ts=0.005)
+
+    a, b = (simulate(ctrl(), REAL, q0=q0, duration=1.0, compiled=c) for c in (True, False))
+    _same_bits(a, b)
+    one = simulate(Fig53Controller([designs[7]], [kinds[7]], [p_d[7]], [a_d[7]]), REAL,
+                   q0=q0[7], duration=1.0)  # fmt: skip
+    np.testing.assert_array_equal(one.states[0], a.states[7])
+    with pytest.raises(ValueError, match=f"{n} rows, the batch 3"):
+        simulate(ctrl(), REAL, q0=q0[:3], duration=0.1)
+
+
+def _same_bits(a, b):
+    """Equal runs, bit for bit (``_same`` allows round-off; these need none)."""
+    _same(a, b)
+    np.testing.assert_array_equal(a.states, b.states)
+    np.testing.assert_array_equal(a.inputs, b.inputs)
+    for k in a.logs:
+        np.testing.assert_array_equal(a.logs[k], b.logs[k])

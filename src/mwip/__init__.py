@@ -23,7 +23,6 @@ __getattr__, __dir__ = exports(
 )  # fmt: skip
 
 
-
 class _Package(types.ModuleType):
     """``mwip.linearize`` is both a submodule and the function it defines; importing the
     submodule sets the package attribute to the module, so the function is put there instead

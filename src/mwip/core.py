@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "Measurement", "Controller", "Observer", "Sensor", "Actuator", "FloatArray", "CompiledLaw",
-    "LAW_LINEAR", "LAW_SMC", "LAW_TSMC", "LAW_ASTA",
+    "LAW_LINEAR", "LAW_SMC", "LAW_TSMC", "LAW_ASTA", "LAW_FUZZY",
 ]  # fmt: skip
 
 #: A float64 NumPy array (any shape).
@@ -132,8 +132,9 @@ class Actuator(Protocol):
 
 
 #: Law codes of :class:`CompiledLaw`: linear state feedback (LQR), sliding mode (SMC family),
-#: terminal sliding mode (TSMC), adaptive super-twisting / adaptive SMC (ASTA, ASMC).
-LAW_LINEAR, LAW_SMC, LAW_TSMC, LAW_ASTA = 0, 1, 2, 3
+#: terminal sliding mode (TSMC), adaptive super-twisting / adaptive SMC (ASTA, ASMC), the
+#: Fig. 5.3 fuzzy law (IT2 and type-1 PDC + Mamdani FLSs).
+LAW_LINEAR, LAW_SMC, LAW_TSMC, LAW_ASTA, LAW_FUZZY = 0, 1, 2, 3, 4
 #: Observer ``hold`` codes (``CompiledLaw.obs[1]``): where the model terms ``F, G`` of (2.36)
 #: are evaluated over a sample (:mod:`mwip.observers._hodo_kernel`).
 HOLD_START, HOLD_END, HOLD_TRAPEZOID = 0, 1, 2
@@ -159,6 +160,11 @@ class CompiledLaw:
     ``LAW_ASTA``: ``coef``, ``lam`` (3,), ``refs`` (4,) of ``asta_terms``, ``C`` = ``K``,
     ``Gam`` = the adaptation rates, ``offset`` = ``Gamma0``, ``scalars`` = ``[eps, Ts, asmc,
     0, 0, 0]`` of :mod:`mwip.control._asta_kernel`.
+    ``LAW_FUZZY``: ``rows`` (R, 14), one row per robot (or one for all): ``[kind (0 IT2,
+    1 type 1), G (2 x 4 row-major), p_d, alpha_d, position on, direction on, r_nom]``, and
+    ``fls`` (4, L) the FLS blocks ``[IT2 position, T1 position, IT2 direction, T1 direction]``
+    (layout in :mod:`mwip.fuzzy._fig53_kernel`; unused kinds zero) of
+    :func:`mwip.fuzzy._fig53_kernel.fig53_law`.
     ``log_names``: the controller's logs and their widths, in the order of the loop's log
     columns.
     """
@@ -178,4 +184,6 @@ class CompiledLaw:
     IDinv: FloatArray = field(default_factory=lambda: np.zeros((2, 2)))
     refs: FloatArray = field(default_factory=lambda: np.zeros(3))
     cubic: FloatArray = field(default_factory=lambda: np.zeros((1, 2, 4)))
+    rows: FloatArray = field(default_factory=lambda: np.zeros((1, 14)))
+    fls: FloatArray = field(default_factory=lambda: np.zeros((4, 1)))
     log_names: tuple[tuple[str, int], ...] = ()

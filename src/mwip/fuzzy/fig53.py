@@ -10,10 +10,13 @@ Per row ``i`` the law is :class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` (desig
     u_alpha   = FLS_alpha(alpha - alpha_d, alpha')  (0 without a heading target)
     u         = [u_p + u_alpha, u_p - u_alpha]      (Fig. 5.3)
 
-evaluated for all rows at once: one call of each FLS per kind and sample instead of one per
-robot (the FLS cost dominates a twin run). With a single row the same law drives every robot
-of the batch. Tested equal to :class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` row by row
-(tests/test_fig53.py). The controller sees only measurements and the nominal wheel radius.
+evaluated for all rows in one call of the compiled kernel
+:func:`mwip.fuzzy._fig53_kernel.fig53_law` (the law's one implementation), which the
+compiled closed loop (:mod:`mwip.sim.loop`, through :meth:`Fig53Controller.compiled_law`)
+calls too. With a single row the same law drives every robot of the batch. Tested equal to
+:class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` row by row (tests/test_fig53.py) and to the
+NumPy oracle (tests/test_kernels.py). The controller sees only measurements and the nominal
+wheel radius.
 """
 
 from __future__ import annotations
@@ -23,10 +26,10 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from mwip.core import Measurement
+from mwip.core import LAW_FUZZY, CompiledLaw, Measurement
+from mwip.fuzzy._fig53_kernel import ROW_WIDTH, fig53_law
 from mwip.fuzzy.mamdani import FuzzyMWIPController
 from mwip.fuzzy.pdc import PDCDesign
-from mwip.fuzzy.ts_model import nie_tan_weights, type1_weights
 from mwip.params import NOMINAL, Params
 
 __all__ = ["Fig53Controller", "direction_as_position"]
@@ -69,7 +72,6 @@ class Fig53Controller:
         self._ref = {k: FuzzyMWIPController(designs[0], kind=k, params=params) for k in
                      sorted(set(kinds))}  # fmt: skip
         self._kinds = np.array(list(kinds))
-        self._groups = {k: np.array([i for i in range(n) if kinds[i] == k]) for k in self._ref}
         self.G = np.stack([d.G for d in designs])
         self.pos_on = np.array([v is not None for v in p_d])
         self.dir_on = np.array([v is not None for v in alpha_d])
@@ -79,49 +81,52 @@ class Fig53Controller:
         self.Ts = Ts
         self._scale = {k: direction_as_position(c) for k, c in self._ref.items()}
         self._log: dict[str, NDArray[np.float64]] = {}
+        # the kernel's data: one row per design, the FLS blocks [it2 pos, t1 pos, it2 dir,
+        # t1 dir]; with a direction that is a scaled position FLS, its block is the position
+        # FLS's with the scales (one FLS for both loops, as direction_as_position states)
+        kind_code = {"it2": 0.0, "t1": 1.0}
+        self._table = np.column_stack([
+            [kind_code[k] for k in kinds], self.G.reshape(n, 8), self.p_d, self.alpha_d,
+            self.pos_on.astype(float), self.dir_on.astype(float), np.full(n, self.r),
+        ])  # fmt: skip
+        assert self._table.shape == (n, ROW_WIDTH)
+        blocks = {}
+        for k, ref in self._ref.items():
+            sc = self._scale[k]
+            blocks[k] = (ref.position.block(), ref.direction.block() if sc is None
+                         else ref.position.block(*sc))  # fmt: skip
+        width = max(b.size for pair in blocks.values() for b in pair)
+        self._fls = np.zeros((4, width))
+        for k, pair in blocks.items():
+            for j, b in enumerate(pair):
+                self._fls[int(kind_code[k]) + 2 * j, : b.size] = b
 
     def reset(self, meas: Measurement) -> None:
-        """Nothing to reset (static law)."""
+        """Nothing to reset (static law); checks the batch matches the rows."""
+        self._check_batch(meas.y.shape[0])
 
-    def _rowwise(
-        self, n: int
-    ) -> tuple[dict[str, NDArray[np.int64]], NDArray[np.float64], NDArray[np.float64],
-               NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:  # fmt: skip
-        """Groups and per-row arrays for ``n`` robots (one row: broadcast to all)."""
-        if n == self.rows:
-            return (self._groups, self.G, self.p_d, self.alpha_d, self.pos_on, self.dir_on)
-        if self.rows != 1:
+    def _check_batch(self, n: int) -> None:
+        if self.rows not in (1, n):
             raise ValueError(f"the controller has {self.rows} rows, the batch {n} robots")
-        groups = {str(self._kinds[0]): np.arange(n)}
-        return (groups, np.broadcast_to(self.G, (n, 2, 4)), np.repeat(self.p_d, n),
-                np.repeat(self.alpha_d, n), np.repeat(self.pos_on, n),
-                np.repeat(self.dir_on, n))  # fmt: skip
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
-        """Fig. 5.3 at a sample: (5.10) on ``theta - theta_off`` plus the direction FLS."""
-        y = meas.y
+        """Fig. 5.3 at a sample: (5.10) on ``theta - theta_off`` plus the direction FLS, in
+        the compiled kernel :func:`mwip.fuzzy._fig53_kernel.fig53_law` (the one
+        implementation; the compiled closed loop calls it too)."""
+        y = np.ascontiguousarray(meas.y, dtype=float)
         n = y.shape[0]
-        groups, G, p_d, alpha_d, pos_on, dir_on = self._rowwise(n)
-        theta_off, u_a, m = np.zeros(n), np.zeros(n), np.zeros((n, 2))
-        for kind, rows in groups.items():
-            ref, yr, sc = self._ref[kind], y[rows], self._scale[kind]
-            pe, thd = self.r * yr[:, 0] - p_d[rows], yr[:, 4]
-            ae, ad = yr[:, 2] - alpha_d[rows], yr[:, 5]
-            if sc is None:
-                theta_off[rows] = ref.position(pe, thd)
-                u_a[rows] = ref.direction(ae, ad)
-            else:  # one FLS call for both loops (the FLS cost dominates a twin run)
-                both = ref.position(np.concatenate([pe, sc[0] * ae]),
-                                    np.concatenate([thd, sc[1] * ad]))  # fmt: skip
-                theta_off[rows], u_a[rows] = both[: rows.size], sc[2] * both[rows.size :]
-            m[rows] = (nie_tan_weights if kind == "it2" else type1_weights)(yr[:, 1])
-        theta_off = np.where(pos_on, theta_off, 0.0)
-        u_a = np.where(dir_on, u_a, 0.0)
-        x = np.stack([y[:, 1] - theta_off, y[:, 4], np.where(pos_on, 0.0, y[:, 0]),
-                      y[:, 3]], -1)  # fmt: skip
-        u_p = 0.5 * np.einsum("ni,nij,nj->n", m, G, x)
+        self._check_batch(n)
+        u, theta_off, u_a = np.empty((n, 2)), np.empty(n), np.empty(n)
+        fig53_law(y, self._table, self._fls, 0, u, theta_off, u_a)
         self._log = {"theta_off": theta_off, "u_alpha": u_a}
-        return np.stack([u_p + u_a, u_p - u_a], -1)
+        return u
+
+    def compiled_law(self) -> CompiledLaw:
+        """The law for the compiled closed loop (:mod:`mwip.sim.loop`): the same kernel,
+        :func:`~mwip.fuzzy._fig53_kernel.fig53_law`, with this controller's row table and
+        FLS blocks; logs ``theta_off`` and ``u_alpha`` as :meth:`log`."""
+        return CompiledLaw(LAW_FUZZY, rows=self._table, fls=self._fls,
+                           log_names=(("theta_off", 1), ("u_alpha", 1)))  # fmt: skip
 
     def log(self) -> Mapping[str, NDArray[np.float64]]:
         """``theta_off`` (the position FLS's lean) and ``u_alpha`` (N,)."""

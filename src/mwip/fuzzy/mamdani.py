@@ -32,9 +32,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.core import Measurement
+from mwip.fuzzy._fig53_kernel import HEAD, fls_batch
 from mwip.fuzzy.pdc import PDCBalance, PDCDesign
-from mwip.fuzzy.reducers import bmm, weighted_average
-from mwip.fuzzy.sets import LABELS7, UniformPartition, firing_grid
+from mwip.fuzzy.sets import LABELS7, UniformPartition
 from mwip.params import NOMINAL, Params
 
 __all__ = [
@@ -117,6 +117,7 @@ class MamdaniFLS:
     m: float = 0.5
     n: float = 0.5
     _y: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _block: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.kind not in ("it2", "t1"):
@@ -125,22 +126,44 @@ class MamdaniFLS:
             raise ValueError("partitions and rule base must have the same number of sets")
         # consequent centroids (symmetric sets: the apex) per rule, flattened
         object.__setattr__(self, "_y", self.out.centers[self.rules.index].ravel())
+        object.__setattr__(self, "_block", self.block())
 
     def type1(self) -> MamdaniFLS:
         """Type-1 counterpart: same rules, type-1 sets at the middle of each footprint."""
         return MamdaniFLS(self.in1.type1(), self.in2.type1(), self.out.type1(), self.rules,
                           "t1", self.m, self.n)  # fmt: skip
 
+    def block(self, a1: float = 1.0, a2: float = 1.0, b: float = 1.0) -> NDArray[np.float64]:
+        """This FLS as the flat array of the compiled kernel (:mod:`mwip.fuzzy._fig53_kernel`),
+        evaluating ``b * FLS(a1 x1, a2 x2)``: the sets' apexes and lower / upper feet
+        (``c -+ (1 -+ fou) h`` of :meth:`UniformPartition.memberships`; the type-1 sets for a
+        type-1 FLS) and the rule outputs ``_y``."""
+        parts = [p if self.kind == "it2" else p.type1() for p in (self.in1, self.in2)]
+        n = self.in1.n
+        out = np.empty(HEAD + 10 * n + n * n)
+        out[:HEAD] = [n, float(self.kind == "t1"), self.m, self.n, parts[0].half_range,
+                      parts[1].half_range, a1, a2, b]  # fmt: skip
+        for k, p in enumerate(parts):
+            c, h = p.centers, p.spacing
+            wl, wu = (1.0 - p.fou) * h, (1.0 + p.fou) * h
+            out[HEAD + 5 * n * k : HEAD + 5 * n * (k + 1)] = np.concatenate(
+                [c, c - wl, c + wl, c - wu, c + wu]
+            )
+        out[HEAD + 10 * n :] = self._y
+        return out
+
     def __call__(self, x1: ArrayLike, x2: ArrayLike) -> NDArray[np.float64]:
-        """Crisp output for inputs broadcast together (vectorised)."""
-        l1, u1 = (self.in1 if self.kind == "it2" else self.in1.type1()).memberships(x1)
-        l2, u2 = (self.in2 if self.kind == "it2" else self.in2.type1()).memberships(x2)
-        flo, fhi = firing_grid(l1, u1, l2, u2)
-        flo = flo.reshape(*flo.shape[:-2], -1)
-        fhi = fhi.reshape(*fhi.shape[:-2], -1)
-        if self.kind == "t1":
-            return weighted_average(fhi, self._y)
-        return bmm(flo, fhi, self._y, self.m, self.n)
+        """Crisp output for inputs broadcast together (vectorised): saturated inputs, lower
+        and upper memberships, firing intervals by the minimum t-norm (``firing_grid``), BMM
+        (IT2) or the weighted average (type 1) over the rules, in the compiled kernel
+        :func:`mwip.fuzzy._fig53_kernel.fls_eval` (the one implementation; the NumPy oracle
+        composed of :mod:`mwip.fuzzy.sets` and :mod:`mwip.fuzzy.reducers` is in
+        tests/oracle_laws.py)."""
+        a, b = np.broadcast_arrays(np.asarray(x1, dtype=float), np.asarray(x2, dtype=float))
+        out = np.empty(a.shape)
+        fls_batch(np.ascontiguousarray(a).reshape(-1), np.ascontiguousarray(b).reshape(-1),
+                  self._block, out.reshape(-1))  # fmt: skip
+        return out if out.ndim else out[()]
 
 
 def position_controller(

@@ -181,19 +181,28 @@ def first_weight(theta: ArrayLike, *, type1: bool = False) -> NDArray[np.float64
 
 
 def nie_tan_weights(theta: ArrayLike) -> NDArray[np.float64]:
-    """Normalised Nie-Tan weights ``m_i(theta)`` of (5.8)/(5.10), (..., 2), summing to 1."""
-    lo, up = memberships(theta)
-    w = lo + up
-    return w / w.sum(-1, keepdims=True)
+    """Normalised Nie-Tan weights ``m_i(theta)`` of (5.8)/(5.10), (..., 2), summing to 1:
+    ``m_i = (lower_i + upper_i) / sum_j (lower_j + upper_j)`` with the memberships of
+    :func:`memberships`, computed by the compiled PDC kernel
+    (:func:`mwip.fuzzy._fig53_kernel.pdc_weights`, the one implementation)."""
+    return _weights(theta, t1=False)
 
 
 def type1_weights(theta: ArrayLike) -> NDArray[np.float64]:
     """Type-1 counterpart: M1 is the triangle at the middle of the footprint.
 
-    Half-width ``(pi/7 + pi/6) / 2``; M2 = 1 - M1.
+    Half-width ``(pi/7 + pi/6) / 2``; M2 = 1 - M1 (the compiled PDC kernel).
     """
-    m1 = first_weight(theta, type1=True)
-    return np.stack([m1, 1.0 - m1], -1)
+    return _weights(theta, t1=True)
+
+
+def _weights(theta: ArrayLike, *, t1: bool) -> NDArray[np.float64]:
+    from mwip.fuzzy._fig53_kernel import pdc_weights_batch  # the kernel imports this module
+
+    th = np.asarray(theta, dtype=float)
+    out = np.empty((*th.shape, 2))
+    pdc_weights_batch(np.ascontiguousarray(th).reshape(-1), t1, out.reshape(-1, 2))
+    return out
 
 
 def ts_model(p: Params = NOMINAL, reading: Reading = "sector") -> TSModel:

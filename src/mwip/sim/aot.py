@@ -70,6 +70,7 @@ SOURCES: tuple[str, ...] = (
     "control/_smc_kernel.py",
     "control/_tsmc_kernel.py",
     "observers/_hodo_kernel.py",
+    "fuzzy/_fig53_kernel.py",
 )
 
 #: The one signature of :func:`mwip.sim.loop.run` (Numba's type syntax): the argument order of
@@ -77,7 +78,7 @@ SOURCES: tuple[str, ...] = (
 RUN_SIGNATURE = (
     "i8(f8[:, ::1], f8[:, ::1], f8[:, :, :, ::1], i8, f8, i8, i8, f8, i8[::1], i8, "
     "f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[:, ::1], f8[:, ::1], f8[::1], "
-    "f8[::1], f8[::1], f8[:, ::1], f8[:, ::1], f8[::1], f8[:, :, ::1], "
+    "f8[::1], f8[::1], f8[:, ::1], f8[:, ::1], f8[::1], f8[:, :, ::1], f8[:, ::1], f8[:, ::1], "
     "f8[:, :, ::1], f8[:, :, ::1], f8[:, :, ::1], i8[::1], f8[::1])"
 )
 

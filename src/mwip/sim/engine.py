@@ -511,7 +511,8 @@ def _call(fn, law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, 
        *(np.array(a, dtype=f64, order="C") for a in (law.gain, law.offset, law.coef, law.lam,
                                                        law.scalars, law.Phi, law.Gamma, law.obs,
                                                        law.C, law.Gam, law.D, law.IDinv,
-                                                       law.refs, law.cubic)),
+                                                       law.refs, law.cubic, law.rows,
+                                                       law.fls)),
        states, us, log_arr, status, t_end)  # fmt: skip
 
 

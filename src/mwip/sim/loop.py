@@ -3,8 +3,8 @@
 The Python loop of :func:`mwip.sim.engine.simulate` pays the interpreter at every sample
 (measurement, controller call, logs, kernel dispatch): for a single run that was ~80 % of the
 time. When the controller offers its law as a :class:`mwip.core.CompiledLaw` (the registered
-LQR and sliding-mode family do) and the loop is the plain one (ideal sensor, no actuator
-model), :func:`run` does the same sequence per robot in compiled code::
+LQR, sliding-mode family and fuzzy controllers do) and the loop is the plain one (ideal
+sensor, no actuator model), :func:`run` does the same sequence per robot in compiled code::
 
     for k = 0 .. n_samples:                 # t_k = k Ts
         u = law(t_k, y)                      # the controller's own compiled kernel
@@ -22,6 +22,7 @@ agree to round-off (tests/test_loop.py). The sliding-mode branch evaluates ``F, 
 once per sample, at the measurement, for both the observer's held model term and the law
 (the Python classes each evaluate them at the same measurement: the same numbers), and keeps
 the previous sample's for the observer's ``"start"``/``"trapezoid"`` holds.
+The fuzzy law of Fig. 5.3 (it2, t1) calls :func:`mwip.fuzzy._fig53_kernel.fig53_law`.
 
 Batches: robots are independent, so :func:`run_parallel` spreads them over threads
 (``prange``) with one barrier at the end of the run rather than one per sample.
@@ -38,7 +39,8 @@ from mwip.control._asta_kernel import asta_sample, asta_terms
 from mwip.control._lqr_kernel import lqr_law
 from mwip.control._smc_kernel import smc_law
 from mwip.control._tsmc_kernel import tsmc_step
-from mwip.core import LAW_ASTA, LAW_LINEAR, LAW_TSMC
+from mwip.core import LAW_ASTA, LAW_FUZZY, LAW_LINEAR, LAW_TSMC
+from mwip.fuzzy._fig53_kernel import fig53_law
 from mwip.observers._hodo_kernel import channels_decoupled, hodo_sample, model_terms
 from mwip.sim.codes import PARALLEL_MIN
 from mwip.sim.kernel import DIVERGED, FELL, OK, step_one
@@ -48,10 +50,14 @@ __all__ = ["run", "run_parallel", "PARALLEL_MIN"]
 _FELL_ANGLE = 0.5 * math.pi
 
 
+# _run_one takes some arrays in tuples: CPython compiles a call with more than 30 positional
+# arguments to a *args call, which numba cannot inline
 @numba.njit(cache=True, inline="always")
 def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001, ANN202, PLR0913
              kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs, cubic,
-             states, us, logs, status, t_end):  # fmt: skip
+             fuzzy, out, status, t_end):  # fmt: skip
+    frows, fls = fuzzy
+    states, us, logs = out
     yi = y[i]
     c = coef[i if coef.shape[0] > 1 else 0]
     ti = i if tau.shape[2] > 1 else 0
@@ -81,6 +87,8 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
     w_st = np.zeros((1, 2))
     g_log = np.zeros((1, 2))
     w_log = np.zeros((1, 2))
+    th_off = np.zeros(1)  # the fuzzy law's logs
+    u_alpha = np.zeros(1)
     row = 0
     n_rec = rec_idx.shape[0]
     stopped = False
@@ -99,6 +107,8 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
                 g_log[0, j] = g_st[0, j]
                 w_log[0, j] = w_st[0, j]
             asta_sample(k2, a2, s2, tC, tGam, sc[0], sc[1], sc[2] != 0.0, g_st, w_st, u1)
+        elif kind == LAW_FUZZY:
+            fig53_law(ym, frows, fls, i, u1, th_off, u_alpha)
         elif kind == LAW_TSMC:
             for j in range(3):
                 q1[0, j] = ym[0, j]
@@ -130,6 +140,9 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
                     logs[i, row, j] = s2[0, j]
                     logs[i, row, 2 + j] = g_log[0, j]
                     logs[i, row, 4 + j] = w_log[0, j]
+            elif kind == LAW_FUZZY:
+                logs[i, row, 0] = th_off[0]
+                logs[i, row, 1] = u_alpha[0]
             elif kind == LAW_TSMC:
                 for j in range(2):
                     logs[i, row, j] = s2[0, j]
@@ -161,7 +174,7 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
 @numba.njit(cache=True)
 def run(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001, ANN201, PLR0913
         kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs, cubic,
-        states, us, logs, status, t_end):  # fmt: skip
+        frows, fls, states, us, logs, status, t_end):  # fmt: skip
     """Run every robot's closed loop to the end, one after the other; returns the robots
     still running.
 
@@ -172,14 +185,14 @@ def run(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001,
     sample indices; a stopped robot is recorded at the next sample instant (kept by the engine
     when it stopped exactly there) and then left. The law's arguments are the fields of
     :class:`mwip.core.CompiledLaw`.
-    ``states`` (N, R, 8), ``us`` (N, R, 2), ``logs`` (N, R, 0 or 5) are filled at the
+    ``states`` (N, R, 8), ``us`` (N, R, 2), ``logs`` (N, R, the law's log width) are filled at the
     recorded samples (left as they are elsewhere); ``status``, ``t_end`` (N,) as the kernel.
     """
     running = 0
     for i in range(y.shape[0]):
         _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, kind, gain,
                  offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs, cubic,
-                 states, us, logs, status, t_end)  # fmt: skip
+                 (frows, fls), (states, us, logs), status, t_end)  # fmt: skip
         running += status[i] == OK
     return running
 
@@ -187,12 +200,12 @@ def run(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001,
 @numba.njit(cache=True, parallel=True)
 def run_parallel(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001, ANN201, PLR0913
                  kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs,
-                 cubic, states, us, logs, status, t_end):  # fmt: skip
+                 cubic, frows, fls, states, us, logs, status, t_end):  # fmt: skip
     """:func:`run` with the robots spread over threads: one barrier, at the end of the run."""
     for i in numba.prange(y.shape[0]):
         _run_one(np.int64(i), y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,
                  kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs,
-                 cubic, states, us, logs, status, t_end)  # fmt: skip
+                 cubic, (frows, fls), (states, us, logs), status, t_end)  # fmt: skip
     running = 0
     for i in range(y.shape[0]):
         running += status[i] == OK
