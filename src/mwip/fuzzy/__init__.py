@@ -8,20 +8,13 @@
 - :mod:`mwip.fuzzy.design_cli` - the ``mwip design it2`` command body
 
 See ``docs/fuzzy.md``.
+
+The names below are imported on first use (:mod:`mwip.lazy`).
 """
 
-from __future__ import annotations
+from typing import TYPE_CHECKING
 
-from mwip.fuzzy.reducers import bmm, karnik_mendel, km_output, nie_tan, weighted_average
-from mwip.fuzzy.sets import (
-    LABELS7,
-    TriangularIT2Set,
-    TriangularSet,
-    UniformPartition,
-    firing_grid,
-    min_tnorm,
-    triangle,
-)
+from mwip.lazy import exports
 
 __all__ = [
     "LABELS7",
@@ -37,3 +30,21 @@ __all__ = [
     "nie_tan",
     "weighted_average",
 ]
+
+__getattr__, __dir__ = exports(
+    __name__,
+    {**{n: "mwip.fuzzy.sets" for n in __all__[:7]},
+     **{n: "mwip.fuzzy.reducers" for n in __all__[7:]}},
+)  # fmt: skip
+
+if TYPE_CHECKING:
+    from mwip.fuzzy.reducers import bmm, karnik_mendel, km_output, nie_tan, weighted_average
+    from mwip.fuzzy.sets import (
+        LABELS7,
+        TriangularIT2Set,
+        TriangularSet,
+        UniformPartition,
+        firing_grid,
+        min_tnorm,
+        triangle,
+    )

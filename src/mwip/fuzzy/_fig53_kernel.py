@@ -34,6 +34,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from mwip.fuzzy.layout import HEAD, ROW_WIDTH
 from mwip.fuzzy.ts_model import LOWER_HALF_WIDTH, THETA_VERTEX, UPPER_HALF_WIDTH
 
 __all__ = [
@@ -41,11 +42,6 @@ __all__ = [
     "pdc_weights_batch", "fig53_law",
 ]  # fmt: skip
 
-#: Header length of an FLS block (``n, t1, m, nw, R1, R2, a1, a2, b``).
-HEAD = 9
-#: Columns of a Fig. 5.3 row: ``[kind (0 it2, 1 t1), G (8, row-major), p_d, alpha_d,
-#: pos_on, dir_on, r_nom]``.
-ROW_WIDTH = 14
 
 
 @numba.njit(cache=True)

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mwip.core import LAW_FUZZY, CompiledLaw, Measurement
-from mwip.fuzzy._fig53_kernel import ROW_WIDTH, fig53_law
+from mwip.fuzzy.layout import ROW_WIDTH
 from mwip.fuzzy.mamdani import FuzzyMWIPController
 from mwip.fuzzy.pdc import PDCDesign
 from mwip.params import NOMINAL, Params
@@ -113,6 +113,8 @@ class Fig53Controller:
         """Fig. 5.3 at a sample: (5.10) on ``theta - theta_off`` plus the direction FLS, in
         the compiled kernel :func:`mwip.fuzzy._fig53_kernel.fig53_law` (the one
         implementation; the compiled closed loop calls it too)."""
+        from mwip.fuzzy._fig53_kernel import fig53_law  # Numba: loaded by the Python loop only
+
         y = np.ascontiguousarray(meas.y, dtype=float)
         n = y.shape[0]
         self._check_batch(n)

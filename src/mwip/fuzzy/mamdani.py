@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.core import Measurement
-from mwip.fuzzy._fig53_kernel import HEAD, fls_batch
+from mwip.fuzzy.layout import HEAD
 from mwip.fuzzy.pdc import PDCBalance, PDCDesign
 from mwip.fuzzy.sets import LABELS7, UniformPartition
 from mwip.params import NOMINAL, Params
@@ -159,6 +159,8 @@ class MamdaniFLS:
         :func:`mwip.fuzzy._fig53_kernel.fls_eval` (the one implementation; the NumPy oracle
         composed of :mod:`mwip.fuzzy.sets` and :mod:`mwip.fuzzy.reducers` is in
         tests/oracle_laws.py)."""
+        from mwip.fuzzy._fig53_kernel import fls_batch  # Numba: loaded when evaluated
+
         a, b = np.broadcast_arrays(np.asarray(x1, dtype=float), np.asarray(x2, dtype=float))
         out = np.empty(a.shape)
         fls_batch(np.ascontiguousarray(a).reshape(-1), np.ascontiguousarray(b).reshape(-1),

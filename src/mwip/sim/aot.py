@@ -71,6 +71,8 @@ SOURCES: tuple[str, ...] = (
     "control/_tsmc_kernel.py",
     "observers/_hodo_kernel.py",
     "fuzzy/_fig53_kernel.py",
+    "fuzzy/ts_model.py",
+    "fuzzy/layout.py",
 )
 
 #: The one signature of :func:`mwip.sim.loop.run` (Numba's type syntax): the argument order of
