@@ -155,3 +155,19 @@ def test_plain_simulate_imports_only_what_it_uses(name, tmp_path):
     code_s, *loaded = res.stdout.strip().splitlines()[-1].split()
     assert code_s == "0"
     assert loaded == [], f"{name} imported {loaded}"
+
+
+def test_every_compiled_kernel_is_hashed_and_uses_the_stamped_cache():
+    """Numba reuses a cached function while its own file is unchanged; the loop inlines
+    kernels of other files. Every mwip module that compiles with Numba is in aot.SOURCES and
+    its functions use mwip.jit_cache's locators, whose stamp carries aot.key()."""
+    from mwip import jit_cache
+    from mwip.sim import loop
+
+    compiled = {str(p.relative_to(SRC)) for p in SRC.rglob("*.py")
+                if "numba.njit" in p.read_text() and p.name != "jit_cache.py"}  # fmt: skip
+    assert compiled and compiled <= set(aot.SOURCES)
+    for fn in (loop.run, loop.run_parallel):
+        locator = fn._cache._impl._locator
+        assert isinstance(locator, jit_cache.LOCATORS)
+        assert locator.get_source_stamp()[1] == aot.key()

@@ -292,8 +292,8 @@ def test_long_simulations_show_progress_without_a_terminal(monkeypatch, capsys):
     assert main(["simulate", "--duration", "0.1"]) == 0
     assert capsys.readouterr().err == ""  # short: quiet
     monkeypatch.setattr(budget, "SAMPLE_S", 1.0)  # as if each sample took a second
-    # a controller without a compiled loop (the fuzzy one) reports every tenth of the way
-    assert main(["simulate", "--controller", "it2", "--duration", "0.1"]) == 0
+    # a loop that is not compiled (the digital twin's sensors) reports every tenth of the way
+    assert main(["simulate", "--twin", "--duration", "0.1"]) == 0
     err = capsys.readouterr().err.splitlines()
     assert "about 20 s" in err[0]
     assert err[1:] == [f"simulating: {10 * k}% ({2 * k}/20)" for k in range(1, 11)]

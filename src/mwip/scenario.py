@@ -186,7 +186,6 @@ class Scenario:
 
             base = self.twin_config if self.twin_config is not None else Twin()
             tw = replace(base, Ts=self.Ts, dt=base.dt if self.dt is None else self.dt)
-            kwargs.pop("progress", None)  # the twin's runner reports no progress
             kwargs.pop("budget", None)  # the twin's fixed Ts, dt: the default budget applies
             return run_on_twin(
                 self.build_controller(), self.case, twin=tw,

@@ -14,6 +14,7 @@ import math
 
 import numba
 
+import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
 from mwip.models._compiled import f_g_scalar
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numba
 
+import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
+
 
 @numba.njit(cache=True)
 def lqr_law(y, gain, offset, u):  # noqa: ANN001, ANN201 - compiled kernel

@@ -34,6 +34,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
 from mwip.fuzzy.layout import HEAD, ROW_WIDTH
 from mwip.fuzzy.ts_model import LOWER_HALF_WIDTH, THETA_VERTEX, UPPER_HALF_WIDTH
 
@@ -41,7 +42,6 @@ __all__ = [
     "HEAD", "ROW_WIDTH", "fls_eval", "fls_batch", "pdc_weights",
     "pdc_weights_batch", "fig53_law",
 ]  # fmt: skip
-
 
 
 @numba.njit(cache=True)

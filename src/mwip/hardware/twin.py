@@ -34,7 +34,7 @@ instantaneous acceleration.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -411,6 +411,7 @@ def run_on_twin(
     stick_height: float = 0.01,
     rows: Iterable[Iterable[str]] | None = None,
     common_noise: bool | None = None,
+    progress: Callable[[int], None] | None = None,
 ) -> SimResult:
     """Run ``controller`` (any mwip controller, unchanged) on the twin for a Chapter 6 case.
 
@@ -423,7 +424,8 @@ def run_on_twin(
     measurement (``y_meas``), the drive's ``duty``, ``current``, ``voltage``, ``supply``,
     ``torque`` (whole motor torque), ``limited``, ``friction`` and the IMU's raw tilt and gyro
     beside the controller's own logs and the applied torque ``u_applied`` (the held part: a
-    voltage drive's back-EMF torque is in the plant's ``Db``).
+    voltage drive's back-EMF torque is in the plant's ``Db``). ``progress(k)`` is called as
+    samples complete (as :func:`mwip.sim.engine.simulate`).
     """
     tw = twin if twin is not None else Twin()
     base = plant if plant is not None else case_plant(case)
@@ -441,7 +443,7 @@ def run_on_twin(
     return simulate(
         _Logged(controller, sensor, actuator), p, q0=q0, qdot0=qdot0, duration=duration,
         Ts=tw.Ts, dt=tw.dt, disturbance=dist, sensor=sensor, actuator=actuator,
-        record_every=record_every, seed=seed,
+        record_every=record_every, seed=seed, progress=progress,
     )  # fmt: skip
 
 

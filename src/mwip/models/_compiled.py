@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numba
 
+import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
 from mwip.models.reduced import f_g_terms
 
 #: The closed forms of (2.36) compiled (inlined into every kernel that needs ``F, G``).

@@ -25,6 +25,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
 from mwip.core import HOLD_CODES, HOLD_END, HOLD_START, HOLD_TRAPEZOID  # noqa: F401 - re-exported
 from mwip.models._compiled import f_g_scalar
 

@@ -56,6 +56,8 @@ __all__ = [
 #: (tests/test_aot.py checks that every mwip module the loop imports is listed).
 SOURCES: tuple[str, ...] = (
     "sim/aot.py",
+    "jit_cache.py",
+    "cache.py",
     "sim/loop.py",
     "sim/kernel.py",
     "sim/codes.py",

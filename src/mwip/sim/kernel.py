@@ -33,6 +33,7 @@ import math
 import numba
 import numpy as np
 
+import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
 from mwip.models.reduced import generalized_forces, solve_shifted
 from mwip.sim.codes import DIVERGED, FELL, GAMMA, METHOD_NAMES, OK, RK4, ROS2W, STATUS_NAMES
 

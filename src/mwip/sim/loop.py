@@ -35,6 +35,7 @@ import math
 import numba
 import numpy as np
 
+import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
 from mwip.control._asta_kernel import asta_sample, asta_terms
 from mwip.control._lqr_kernel import lqr_law
 from mwip.control._smc_kernel import smc_law
