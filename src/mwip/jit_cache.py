@@ -61,6 +61,6 @@ class UserWideLocator(_Stamped, caching.UserWideCacheLocator):
 
 LOCATORS = (UserProvidedLocator, InTreeLocator, UserWideLocator)
 
-_IMPL = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # named so since Numba 0.61
+_IMPL: Any = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")  # noqa: B009
 if LOCATORS[0] not in _IMPL._locator_classes:
     _IMPL._locator_classes[0:0] = list(LOCATORS)

@@ -258,7 +258,7 @@ def _design_key(models: Sequence[TSModel], *settings: Any) -> str:
 
     from mwip.cache import digest
 
-    versions = []
+    versions: list[str | None] = []
     for pkg in ("cvxpy", "clarabel", "scs"):
         try:
             versions.append(version(pkg))

@@ -219,7 +219,7 @@ def run_function() -> Callable[..., int] | None:
                 warnings.warn(f"mwip: {LAST_ERROR}; using the JIT loop", stacklevel=2)
             return None
         mod = load()
-    return None if mod is None else mod.run  # type: ignore[no-any-return]
+    return None if mod is None else mod.run
 
 
 def status() -> dict[str, Any]:
