@@ -353,6 +353,21 @@ def test_asta_sample_kernel_equals_oracle():
     assert asta_sample_mismatch() < TOL
 
 
+def test_the_asta_sample_check_sees_the_boundary_layer():
+    """Kernels that move the edge of (4.5)'s boundary layer are caught: adapting everywhere
+    (``eps = 0``) and stopping at ``|sigma| = eps`` (``>`` for ``>=``, the rows exactly at
+    ``+-eps``)."""
+
+    def no_layer(a, b, s, K, rate, eps, *rest):  # noqa: ANN001, ANN202
+        asta_sample(a, b, s, K, rate, 0.0, *rest)
+
+    def open_edge(a, b, s, K, rate, eps, *rest):  # noqa: ANN001, ANN202
+        asta_sample(a, b, s, K, rate, eps * (1.0 + 1e-12), *rest)
+
+    assert asta_sample_mismatch(no_layer, seeds=(0,)) > 1e-4
+    assert asta_sample_mismatch(open_edge, seeds=(0,)) > 1e-4
+
+
 def test_tsmc_kernel_equals_oracle():
     assert tsmc_mismatch() < TOL
 
