@@ -38,7 +38,8 @@ ROOT = Path(__file__).resolve().parents[1]
 KERNELS = {  # module file -> (package, [(kernel function, mismatch function in test_kernels)])
     "_smc_kernel.py": ("control", [("smc_step", "smc_mismatch")]),
     "_tsmc_kernel.py": ("control", [("tsmc_step", "tsmc_mismatch")]),
-    "_asta_kernel.py": ("control", [("asta_terms", "asta_mismatch")]),
+    "_asta_kernel.py": ("control", [("asta_terms", "asta_mismatch"),
+                                    ("asta_sample", "asta_sample_mismatch")]),
     "_fig53_kernel.py": ("fuzzy", [("fig53_law", "fig53_mismatch"), ("fls_batch", "fls_mismatch"),
                                    ("_pairwise", "pairwise_mismatch")]),
     "_hodo_kernel.py": ("observers", [("hodo_update", "hodo_mismatch")]),

@@ -13,7 +13,8 @@ term; benchmarks/mutate_kernels.py checks that those tests catch every sign flip
 kernels.
 
 - SMC: sliding surface (3.49) and law (3.50) (Sec. 3.5);
-- ASTA/ASMC: sliding variables (4.1) and ``sigma' = a + b u`` (4.10)-(4.11) (Sec. 4.2);
+- ASTA/ASMC: sliding variables (4.1) and ``sigma' = a + b u`` (4.10)-(4.11), the laws (4.7)
+  and ASMC's, the integrator (4.4) and the adaptive law (4.5) over one sample (Sec. 4.2);
 - TSMC: model (2.31)/(4.24), subsystem (4.26)-(4.27), augmenting cubics (4.43), surface
   (4.30), switching gain and law (4.32) (Sec. 4.3);
 - HODO: the sampled observer update of (3.20)-(3.23) (:mod:`mwip.observers.hodo`).
@@ -38,7 +39,8 @@ from mwip.models.reduced import f_g
 from mwip.params import Params
 
 __all__ = [
-    "sliding_surface", "smc_law", "asta_surface", "surface_dynamics", "model_2_31",
+    "sliding_surface", "smc_law", "asta_surface", "surface_dynamics", "asta_step",
+    "model_2_31",
     "subsystem", "augmenting", "tsmc_surface", "tsmc_gain", "tsmc_law", "hodo_step", "mamdani",
     "pdc_weights", "fig53",
 ]  # fmt: skip
@@ -106,6 +108,46 @@ def surface_dynamics(
     a = np.stack([F[..., 1] + l2 * F[..., 0] + l1 * qd[..., 1], F[..., 2] + l3 * qd[..., 2]], -1)
     b = np.stack([G[..., 1, 0] + l2 * G[..., 0, 0], G[..., 2, 1]], axis=-1)
     return a, b
+
+
+def asta_step(
+    a: NDArray[np.float64],
+    b: NDArray[np.float64],
+    sigma: NDArray[np.float64],
+    K: ArrayLike,
+    rate: ArrayLike,
+    eps: float,
+    Ts: float,
+    asmc: bool,
+    Gamma: NDArray[np.float64],
+    w: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """One sample of ASTA (or ASMC, ``asmc``): ``(u, Gamma_next, w_next)``, all (N, 2).
+
+    The law, per channel ``i`` (``u_A`` for ``i = 1``, ``u_B`` for ``i = 2``):
+
+    - ASTA (4.7) with the auxiliary variable ``v_i`` of (4.3):
+      ``u_i = [-a_i - K_i |sigma_i|^(1/2) sgn(sigma_i) + v_i] / b_i``;
+    - ASMC (the book's baseline, "the adaptive SMC (ASMC) with the same adaptive law",
+      Secs. 4.4, 6.2.2; its reading in docs/chapter4.md): the switching term applied
+      directly, ``v_i`` replaced by ``-Gamma_i sgn(sigma_i)``.
+
+    The wheel torques are the solution of ``u_A = u_r + u_l``, ``u_B = u_r - u_l`` (2.36).
+    Then the state over the sample ``Ts`` (forward Euler, the derivative taken at the
+    sample's start): (4.4) ``v_i' = -Gamma_i sgn(sigma_i)`` (ASTA only; ASMC has no
+    integrator) and (4.5) ``Gamma_i' = rho_i |sigma_i|`` if ``|sigma_i| >= eps``, else ``0``.
+    ``sgn(0) = 0``.
+    """
+    sg = np.sign(sigma)
+    mag = np.abs(sigma)
+    K, rate = np.asarray(K, dtype=float), np.asarray(rate, dtype=float)
+    v = -Gamma * sg if asmc else w
+    uAB = (-a - K * mag**0.5 * sg + v) / b
+    mix = np.array([[1.0, 1.0], [1.0, -1.0]])  # [u_A, u_B] = mix @ [u_r, u_l]
+    u = np.linalg.solve(mix, uAB.T).T
+    w_dot = np.zeros_like(w) if asmc else -Gamma * sg
+    Gamma_dot = np.where(mag >= eps, rate * mag, 0.0)
+    return u, Gamma + Ts * Gamma_dot, w + Ts * w_dot
 
 
 def model_2_31(

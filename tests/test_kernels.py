@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from mwip.control._asta_kernel import asta_terms
+from mwip.control._asta_kernel import asta_sample, asta_terms
 from mwip.control._smc_kernel import smc_step
 from mwip.control._tsmc_kernel import tsmc_step
 from mwip.control.smc import SMCGains
@@ -30,6 +30,7 @@ from mwip.observers._hodo_kernel import HOLD_CODES, hodo_update
 from mwip.observers.hodo import discretize_observer
 from mwip.params import NOMINAL, Params
 from oracle_laws import (
+    asta_step,
     asta_surface,
     augmenting,
     fig53,
@@ -119,6 +120,45 @@ def asta_mismatch(kernel: Callable[..., Any] = asta_terms, seeds: tuple[int, ...
         a_ref, b_ref = surface_dynamics(p, q, qd, lam)
         worst = max(worst, _err(s, asta_surface(q, qd, lam, ref)), _err(a, a_ref),
                     _err(b, b_ref))  # fmt: skip
+    return worst
+
+
+def _sigma_around(rng: np.random.Generator, eps: float) -> np.ndarray:
+    """Sliding variables (N, 2) with random signs: a third far from the boundary layer
+    (``|sigma|`` in [0.01, 3]), a third within 30 % of ``eps`` on either side, a few exactly
+    at ``+-eps`` (the edge of (4.5), where the gain adapts) and a few exactly zero
+    (``sgn 0 = 0``: no switching term, no integration; ``sigma_2 = 0`` at a start from rest)."""
+    s = _nonzero(rng, 0.01, 3.0, (N, 2))
+    near = rng.random((N, 2)) < 0.35
+    s[near] = _nonzero(rng, 0.7 * eps, 1.3 * eps, int(near.sum()))
+    s[:3, 0], s[3:6, 1] = eps * rng.choice([-1.0, 1.0], 3), eps * rng.choice([-1.0, 1.0], 3)
+    s[6, 0] = s[7, 1] = s[8] = 0.0
+    return s
+
+
+def asta_sample_mismatch(
+    kernel: Callable[..., Any] = asta_sample, seeds: tuple[int, ...] = SEEDS
+) -> float:
+    """(4.7), (4.4)-(4.5) and ASMC's law: the kernel vs ``asta_step`` over two consecutive
+    samples (the torques and the updated ``Gamma``, ``w`` after each), ASTA and ASMC, rows
+    inside, at and outside the boundary layer ``eps``; ``w`` grows and shrinks with the sign
+    of ``sigma``, ``Gamma`` grows outside the layer and holds inside it."""
+    worst = 0.0
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        a, b = _nonzero(rng, 0.1, 5.0, (N, 2)), _nonzero(rng, 0.2, 3.0, (N, 2))
+        K, rate = rng.uniform(0.3, 10.0, 2), rng.uniform(0.5, 8.0, 2)
+        eps, Ts = rng.uniform(0.05, 0.5), rng.uniform(1e-3, 0.05)
+        Gamma0, w0 = rng.uniform(0.1, 6.0, (N, 2)), _nonzero(rng, 0.05, 3.0, (N, 2))
+        sigmas = [_sigma_around(rng, eps) for _ in range(2)]
+        for asmc in (False, True):
+            Gamma_k, w_k = Gamma0.copy(), w0.copy()
+            Gamma_o, w_o = Gamma0.copy(), w0.copy()
+            for s in sigmas:
+                u = np.full((N, 2), np.nan)
+                kernel(a, b, s, K, rate, eps, Ts, asmc, Gamma_k, w_k, u)
+                u_o, Gamma_o, w_o = asta_step(a, b, s, K, rate, eps, Ts, asmc, Gamma_o, w_o)
+                worst = max(worst, _err(u, u_o), _err(Gamma_k, Gamma_o), _err(w_k, w_o))
     return worst
 
 
@@ -307,6 +347,25 @@ def test_smc_kernel_equals_oracle():
 
 def test_asta_kernel_equals_oracle():
     assert asta_mismatch() < TOL
+
+
+def test_asta_sample_kernel_equals_oracle():
+    assert asta_sample_mismatch() < TOL
+
+
+def test_the_asta_sample_check_sees_the_boundary_layer():
+    """Kernels that move the edge of (4.5)'s boundary layer are caught: adapting everywhere
+    (``eps = 0``) and stopping at ``|sigma| = eps`` (``>`` for ``>=``, the rows exactly at
+    ``+-eps``)."""
+
+    def no_layer(a, b, s, K, rate, eps, *rest):  # noqa: ANN001, ANN202
+        asta_sample(a, b, s, K, rate, 0.0, *rest)
+
+    def open_edge(a, b, s, K, rate, eps, *rest):  # noqa: ANN001, ANN202
+        asta_sample(a, b, s, K, rate, eps * (1.0 + 1e-12), *rest)
+
+    assert asta_sample_mismatch(no_layer, seeds=(0,)) > 1e-4
+    assert asta_sample_mismatch(open_edge, seeds=(0,)) > 1e-4
 
 
 def test_tsmc_kernel_equals_oracle():
