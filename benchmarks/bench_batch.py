@@ -41,9 +41,14 @@ def batch_plant(n: int, rng: np.random.Generator):  # noqa: ANN201
     return replace(REAL, **changes)
 
 
-def run(name: str, plant, q0, duration: float) -> tuple[float, float]:  # noqa: ANN001
-    """(wall time, fraction still upright) of one batch run, records at both ends only."""
-    ctrl = registry.build(name, NOMINAL)
+def run(ctrl, plant, q0, duration: float) -> tuple[float, float]:  # noqa: ANN001
+    """(wall time, fraction still upright) of one batch run, records at both ends only.
+
+    ``ctrl`` is built beforehand, not just before the run: a design's NumPy linear algebra
+    leaves OpenBLAS's worker threads spinning for a while, and a threaded batch started in
+    that time shares the cores with them (~0.5 s lost by the LQR's 2-thread run of 1.5 s on
+    this machine; ``OPENBLAS_NUM_THREADS=1`` removes it). That is the design's cost, not the
+    loop's; it is measured separately by ``--design-spin``."""
     n_samples = int(round(duration / 0.005))
     t0 = time.perf_counter()
     res = simulate(ctrl, plant, q0=q0, duration=duration, record_every=n_samples)
@@ -115,14 +120,25 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--design-spin", action="store_true",
+                    help="also time LQR batches started right after their design")  # fmt: skip
     args = ap.parse_args()
     n, duration = (1000, 2.0) if args.quick else (10_000, 10.0)
     rng = np.random.default_rng(0)
     plant = batch_plant(n, rng)
     q0 = np.zeros((n, 3))
     q0[:, 1] = rng.uniform(-0.2, 0.2, n)
-    for name in ("lqr", "hodosmc"):  # load the compiled loops
-        run(name, batch_plant(64, rng), np.zeros((64, 3)), 0.05)
+    ctrls = {name: registry.build(name, NOMINAL) for name in ("lqr", "hodosmc")}
+    for ctrl in ctrls.values():  # load the compiled loops
+        run(ctrl, batch_plant(64, rng), np.zeros((64, 3)), 0.05)
+    if args.design_spin:
+        for threads in (1, 2):
+            numba.set_num_threads(threads)
+            fresh = [run(registry.build("lqr", NOMINAL), plant, q0, duration)[0]
+                     for _ in range(args.repeat)]  # fmt: skip
+            print(f"lqr, {threads} thread(s), designed just before each run: wall "
+                  f"{np.median(fresh):.3f} s [{min(fresh):.3f}, {max(fresh):.3f}]")  # fmt: skip
+        print()
 
     print(f"N = {n} robots x {duration:g} s, 5 ms sampling; {os.cpu_count()} cores; numba "
           f"{numba.__version__}, threading layer {numba.threading_layer()}; load average "
@@ -143,7 +159,7 @@ def main() -> None:
                     numba.set_num_threads(threads)
                     ts, ok = [], 0.0
                     for _ in range(1 if args.quick else args.repeat):
-                        t, ok = run(name, plant, q0, duration)
+                        t, ok = run(ctrls[name], plant, q0, duration)
                         ts.append(t)
                     med = float(np.median(ts))
                     rate = n * duration / med
