@@ -19,7 +19,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["cache_dir", "digest", "load_arrays", "save_arrays", "enabled"]
+__all__ = ["cache_dir", "digest", "versions", "load_arrays", "save_arrays", "enabled"]
 
 
 def cache_dir() -> Path:
@@ -33,6 +33,20 @@ def cache_dir() -> Path:
 def enabled() -> bool:
     """Whether designs are read from and written to the cache (``MWIP_CACHE`` not ``off``)."""
     return os.environ.get("MWIP_CACHE", "on").strip().lower() != "off"
+
+
+def versions(packages: Iterable[str]) -> list[str | None]:
+    """The installed versions of ``packages`` (``None`` where one is absent), read from their
+    metadata without importing them: part of a cache name."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out: list[str | None] = []
+    for pkg in packages:
+        try:
+            out.append(version(pkg))
+        except PackageNotFoundError:
+            out.append(None)
+    return out
 
 
 def digest(parts: Iterable[Any]) -> str:

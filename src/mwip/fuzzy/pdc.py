@@ -254,18 +254,10 @@ _ARRAYS = ("G", "P", "Q", "N", "Y", "W")
 def _design_key(models: Sequence[TSModel], *settings: Any) -> str:
     """The cache name of a design: this module's source, cvxpy's and the solver's versions,
     every model's matrices and the settings (:mod:`mwip.cache`)."""
-    from importlib.metadata import PackageNotFoundError, version
+    from mwip.cache import digest, versions
 
-    from mwip.cache import digest
-
-    versions: list[str | None] = []
-    for pkg in ("cvxpy", "clarabel", "scs"):
-        try:
-            versions.append(version(pkg))
-        except PackageNotFoundError:
-            versions.append(None)
     arrays = [a for m in models for a in (m.A, m.B)]
-    return digest([Path(__file__), *versions, *arrays, *settings])
+    return digest([Path(__file__), *versions(["cvxpy", "clarabel", "scs"]), *arrays, *settings])
 
 
 def _cached_design(key: str, models: Sequence[TSModel], epsilon: float | None,

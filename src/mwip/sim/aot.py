@@ -45,7 +45,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from mwip.cache import cache_dir
+from mwip.cache import cache_dir, versions
 
 __all__ = [
     "SOURCES", "RUN_SIGNATURE", "key", "module_path", "load", "build",
@@ -101,14 +101,9 @@ def _mode() -> str:
 
 def _versions() -> str:
     """Python, NumPy and Numba versions and the machine, without importing Numba."""
-    from importlib.metadata import PackageNotFoundError, version
-
     import numpy as np
 
-    try:
-        nb = version("numba")
-    except PackageNotFoundError:  # pragma: no cover - numba is a dependency
-        nb = "none"
+    (nb,) = versions(["numba"])
     return f"{sys.version}|{np.__version__}|{nb}|{platform.machine()}|{RUN_SIGNATURE}"
 
 
