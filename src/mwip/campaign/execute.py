@@ -98,6 +98,10 @@ def compute_chunk(campaign: Campaign, blocks: list[int]) -> Any:
     import pandas as pd
 
     frames = []
+    if campaign.kind == "calibration":
+        from mwip.calibration.sample import run_block as run_draws
+
+        return pd.concat([run_draws(campaign, b) for b in blocks], ignore_index=True)
     if campaign.kind == "claims":
         from mwip.campaign.claims import run_block as run_claims
 
@@ -124,6 +128,8 @@ def _write_chunk(out: Path, blocks: list[int], df: Any) -> Path:
 def _order_key(campaign: Campaign) -> tuple[str, list[str]]:
     if campaign.kind == "claims":
         return "study", list(campaign.studies)
+    if campaign.kind == "calibration":
+        return "evidence", ["book"]
     return "controller", [c.label for c in campaign.controllers]
 
 

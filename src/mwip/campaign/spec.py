@@ -94,10 +94,12 @@ _CAMPAIGN_KEYS = {
         "success_theta",
     },
     "claims": {"kind", "title", "samples", "seed", "block", "studies", "quick"},
+    "calibration": {"kind", "title", "samples", "seed", "block", "duration"},
 }
 _TOP_KEYS = {
     "robustness": {"campaign", "controllers", "robot", "initial", "disturbances"},
     "claims": {"campaign"},
+    "calibration": {"campaign"},
 }
 
 
@@ -349,7 +351,9 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
         raise ValueError("campaign: missing [campaign] table")
     kind = camp.get("kind", "robustness")
     if kind not in _CAMPAIGN_KEYS:
-        raise ValueError(f"campaign.kind must be one of robustness, claims; got {kind!r}")
+        raise ValueError(
+            f"campaign.kind must be one of robustness, claims, calibration; got {kind!r}"
+        )
     _unknown(data, _TOP_KEYS[kind], "")
     _unknown(camp, _CAMPAIGN_KEYS[kind], "campaign")
     title = camp.get("title", "")
@@ -358,6 +362,9 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
     samples = _integer(camp.get("samples", 100), "campaign.samples", 1)
     seed = _integer(camp.get("seed", 0), "campaign.seed", 0)
     block = _integer(camp.get("block", 100 if kind == "robustness" else 1), "campaign.block", 1)
+    if kind == "calibration":
+        cap = _number(camp.get("duration", 0.0), "campaign.duration", 0.0, 3600.0)
+        return Campaign("calibration", title, samples, seed, block, duration=cap, source=data)
     if kind == "claims":
         from mwip.studies import study_names
 

@@ -1,0 +1,85 @@
+"""The declared split of the book's evidence (``book-evidence.toml``, beside this module).
+
+The file was written before any fit and is read, never computed: the calibration facts
+(every Chapter 6 run stands; Table 6.4's Case 1 SMC numbers), the acceptance tolerance, the
+verdict thresholds across the posterior and the prior sample (size, seed, block).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["Evidence", "Number", "load_evidence", "EVIDENCE_FILE"]
+
+EVIDENCE_FILE = Path(__file__).with_name("book-evidence.toml")
+
+
+@dataclass(frozen=True)
+class Number:
+    """A calibration number: the metric ``key`` (``<run>.<metric>``), the book's value."""
+
+    key: str
+    book: float
+    unit: str
+    source: str
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """The declaration (see ``book-evidence.toml`` for the meaning of each field)."""
+
+    title: str
+    standing_source: str
+    numbers: tuple[Number, ...]
+    tolerance: float
+    decided: float
+    interval: float
+    identified: float
+    samples: int
+    seed: int
+    block: int
+    source: dict[str, Any]
+
+    @property
+    def log_tolerance(self) -> float:
+        """``ln(tolerance)``: the largest accepted ``|ln(x / book)|``."""
+        return math.log(self.tolerance)
+
+    @property
+    def kernel_scale(self) -> float:
+        """``s = ln(tolerance) / 2`` of the ABC kernel."""
+        return math.log(self.tolerance) / 2.0
+
+
+def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
+    """Read the declaration (``ValueError`` naming the key if it is malformed)."""
+    from mwip.io import read_toml
+
+    data = read_toml(path, "evidence file")
+    try:
+        nums = tuple(
+            Number(k, float(v["book"]), str(v.get("unit", "")), str(v["source"]))
+            for k, v in data["calibration"]["numbers"].items()
+        )
+        s = data["prior_sample"]
+        ev = Evidence(
+            title=str(data["evidence"]["title"]),
+            standing_source=str(data["calibration"]["standing"]["source"]),
+            numbers=nums,
+            tolerance=float(data["acceptance"]["tolerance"]),
+            decided=float(data["verdict"]["decided"]),
+            interval=float(data["verdict"]["interval"]),
+            identified=float(data["verdict"]["identified"]),
+            samples=int(s["samples"]),
+            seed=int(s["seed"]),
+            block=int(s["block"]),
+            source=data,
+        )
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"evidence file {str(path)!r}: missing or bad entry {exc}") from None
+    if not ev.tolerance > 1.0:
+        raise ValueError("evidence file: acceptance.tolerance must be > 1")
+    return ev

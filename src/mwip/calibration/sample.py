@@ -1,0 +1,58 @@
+"""Prior draws of the twin as a campaign (``kind = "calibration"``): one block, one batch.
+
+Draw ``s`` (global index) takes every unknown of the twin's prior uniformly from its range
+with the generator of ``(campaign seed, s)`` alone (:func:`mwip.campaign.sampling.sample_rng`),
+so a draw's twin never depends on blocks, chunks or workers. A block of ``campaign.block``
+draws is one batch of twins per Chapter 6 run (:func:`mwip.calibration.runs.run_batch`, the
+studies' noise seed for every row: each row sees the noise of the study's single run).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mwip.campaign.sampling import sample_rng
+
+__all__ = ["draw", "run_block", "calibration_campaign"]
+
+
+def draw(seed: int, indices: range | list[int], prior: Any = None) -> dict[str, NDArray[np.float64]]:
+    """The unknowns of draws ``indices`` (name -> array), uniform on the prior's ranges."""
+    from mwip.hardware.prior import PRIOR
+
+    pr = PRIOR if prior is None else prior
+    b = np.asarray(pr.bounds, dtype=float)
+    u = np.array([sample_rng(seed, int(i)).random(len(pr.names)) for i in indices])
+    x = b[:, 0] + u.reshape(len(indices), len(pr.names)) * (b[:, 1] - b[:, 0])
+    return {name: x[:, j].copy() for j, name in enumerate(pr.names)}
+
+
+def run_block(campaign: Any, block: int) -> Any:
+    """The rows of block ``block``: ``evidence``, ``sample``, the unknowns and every run's
+    metrics (a pandas DataFrame)."""
+    import pandas as pd
+
+    from mwip.calibration.runs import run_batch
+
+    idx = list(range(block * campaign.block, (block + 1) * campaign.block))
+    values = draw(campaign.seed, idx)
+    cap = campaign.duration if campaign.duration > 0 else None
+    cols = run_batch(values, duration=cap)
+    data: dict[str, Any] = {"evidence": ["book"] * len(idx), "sample": idx}
+    data.update({f"param.{k}": v for k, v in values.items()})
+    data.update(cols)
+    return pd.DataFrame(data)
+
+
+def calibration_campaign(samples: int, seed: int, block: int, duration: float = 0.0) -> Any:
+    """The campaign of the book calibration (``duration`` > 0 caps every run: a smoke test)."""
+    from mwip.campaign.spec import parse_campaign
+
+    camp: dict[str, Any] = {"kind": "calibration", "title": "The book's robot: prior draws of the twin",
+                            "samples": samples, "seed": seed, "block": block}  # fmt: skip
+    if duration > 0:
+        camp["duration"] = duration
+    return parse_campaign({"campaign": camp})
