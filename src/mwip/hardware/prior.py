@@ -105,25 +105,24 @@ class Prior:
         a = np.asarray(rows, dtype=float).reshape(-1, len(self))
         return {name: a[:, i].copy() for i, name in enumerate(self.names)}
 
-    def with_defaults(self, values: Mapping[str, float]) -> Prior:
-        """The same ranges with the twin's ``values`` as defaults (validated: inside)."""
-        return Prior(tuple(replace(u, default=float(values[u.name])) if u.name in values else u
-                           for u in self.unknowns))  # fmt: skip
-
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """``{name: {"low", "high", "unit", "source"}}`` (the ``[twin.prior]`` table)."""
         return {u.name: {"low": u.low, "high": u.high, "unit": u.unit, "source": u.source}
                 for u in self.unknowns}  # fmt: skip
 
+    def check(self, values: Mapping[str, float]) -> None:
+        """Every value of ``values`` (a twin's :meth:`~mwip.hardware.twin.Twin.values`) with a
+        name in the prior inside its range: else a one-line ``ValueError`` naming
+        ``twin.prior.<name>``."""
+        for u in self.unknowns:
+            if u.name in values:
+                u.check(float(values[u.name]))
+
     @classmethod
-    def from_dict(
-        cls, data: Mapping[str, Any], base: Prior | None = None,
-        defaults: Mapping[str, float] | None = None,
-    ) -> Prior:  # fmt: skip
+    def from_dict(cls, data: Mapping[str, Any], base: Prior | None = None) -> Prior:
         """A prior from a ``[twin.prior]`` table: entries of ``base`` (default :data:`PRIOR`)
-        with ranges (and sources) replaced, names not given keeping ``base``'s, and the
-        twin's ``defaults`` (its :meth:`~mwip.hardware.twin.Twin.values`) checked inside.
-        One-line ``ValueError`` naming ``twin.prior.<name>``."""
+        with ranges (and sources) replaced, names not given keeping ``base``'s. One-line
+        ``ValueError`` naming ``twin.prior.<name>``."""
         pr = PRIOR if base is None else base
         if not isinstance(data, Mapping):
             raise ValueError(f"twin.prior must be a table, got {data!r}")
@@ -143,8 +142,6 @@ class Prior:
         for u in pr.unknowns:
             entry = data.get(u.name, {})
             kw: dict[str, Any] = {k: entry[k] for k in ("low", "high", "source") if k in entry}
-            if defaults is not None and u.name in defaults:
-                kw["default"] = float(defaults[u.name])
             try:
                 out.append(replace(u, **kw))
             except (TypeError, ValueError) as exc:

@@ -201,7 +201,7 @@ class Twin:
             if bad.any():
                 i = int(np.argmax(bad))
                 raise ValueError(
-                    f"values[{name!r}][{i}] = {a[i]!r} is outside the prior "
+                    f"values[{name!r}][{i}] = {float(a[i])!r} is outside the prior "
                     f"[{u.low:g}, {u.high:g}] (twin.prior.{name})"
                 )
             self.with_values({name: float(a.min())})  # the elements' own limits (intervals)

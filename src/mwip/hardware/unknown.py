@@ -19,7 +19,8 @@ class Unknown:
     """A value the book does not print: ``name`` (dotted path of the twin file, e.g.
     ``"drive.gear_ratio"``), a continuous uniform range ``[low, high]`` (``low == high``
     fixes it), its ``unit``, the ``source`` of the range, the twin ``element`` it acts
-    through and the default twin's value ``default`` (inside the range)."""
+    through and the default twin's value ``default`` (informative; the declared prior has it
+    inside, a narrowed one need not: a twin's own values are checked by :meth:`check`)."""
 
     name: str
     low: float
@@ -30,6 +31,11 @@ class Unknown:
     default: float
 
     def __post_init__(self) -> None:
+        for key in ("unit", "source", "element"):
+            if not isinstance(getattr(self, key), str):
+                raise ValueError(
+                    f"twin.prior.{self.name}: {key!r} must be a string, got {getattr(self, key)!r}"
+                )
         for key in ("low", "high", "default"):
             v = getattr(self, key)
             if isinstance(v, bool) or not isinstance(v, int | float | np.floating):
@@ -41,9 +47,13 @@ class Unknown:
             raise ValueError(
                 f"twin.prior.{self.name}: low ({self.low:g}) must be <= high ({self.high:g})"
             )
-        if not (self.low <= self.default <= self.high):
+
+    def check(self, value: float) -> None:
+        """A twin's ``value`` must lie in the range: else a one-line ``ValueError`` naming
+        ``twin.prior.<name>``."""
+        if not (np.isfinite(value) and self.low <= value <= self.high):
             raise ValueError(
-                f"twin.prior.{self.name}: the twin's value {self.default:g} is outside "
+                f"twin.prior.{self.name}: the twin's value {value!r} is outside "
                 f"[{self.low:g}, {self.high:g}]"
             )
 
