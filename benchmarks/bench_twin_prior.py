@@ -38,9 +38,9 @@ def values(n: int, seed: int = 0) -> dict[str, np.ndarray]:
 def main(sizes: list[int]) -> None:
     cfg = dict(study_settings("exp-hodosmc-speed")[0])
     q0 = (0.0, cfg["theta0"], 0.0)
-    # warm-up (Numba kernels, imports)
+    # warm-up (Numba kernels, imports; the first full-length run pays more: BENCHMARKS.md)
     run_on_twin(exp_hodosmc.make_controller("smc", cfg, cfg["speed"]), 1, twin=Twin(),
-                values=values(4), rows=[NO_FUSION] * 4, duration=0.2, q0=q0)  # fmt: skip
+                values=values(4), rows=[NO_FUSION] * 4, duration=10.0, q0=q0)  # fmt: skip
     for n in sizes:
         ctrl = exp_hodosmc.make_controller("smc", cfg, cfg["speed"])
         v = values(n)
@@ -50,8 +50,8 @@ def main(sizes: list[int]) -> None:
         wall = time.perf_counter() - t0
         ok = int(np.sum(res.status == "ok"))
         plant_s = float(np.sum(res.t_end))
-        print(f"N={n:5d}: {wall:7.2f} s wall, {ok}/{n} stood 10 s, "
-              f"{plant_s / wall:8.1f} plant-s/s ({n * 10.0 / wall:8.1f} at full length)")  # fmt: skip
+        rate = plant_s / wall
+        print(f"N={n:5d}: {wall:7.2f} s wall, {ok}/{n} stood 10 s, {rate:8.1f} plant-s/s")
 
 
 if __name__ == "__main__":
