@@ -242,9 +242,9 @@ class Params:
     def with_payload(
         self,
         mass: float = 0.5,
-        height: float = 0.1,
+        height: float | NDArray[np.float64] = 0.1,
         body_height: float | None = None,
-        pan_radius: float = 0.08,
+        pan_radius: float | NDArray[np.float64] = 0.08,
     ) -> Params:
         """The robot with a payload on top (Chapter 6, Case 2; SPEC.md section 5).
 
@@ -261,12 +261,13 @@ class Params:
           about the new centre of mass; a disc about a diameter has ``m R^2 / 4``)
         - ``Ibz' = Ibz + m_p R^2 / 2``  (disc about its axis, on the yaw axis)
 
-        The wheels and damping are unchanged.
+        The wheels and damping are unchanged. ``height`` and ``pan_radius`` may be (N,) arrays
+        (a batch of payloads; the result then has fields of shape (N,)).
         """
         for name, value, lo in (("mass", mass, 0.0), ("height", height, 0.0)):
-            if not (np.isfinite(value) and value >= lo):
+            if not (np.all(np.isfinite(value)) and np.all(np.asarray(value) >= lo)):
                 raise ValueError(f"payload {name!r} must be finite and in [0, inf), got {value!r}")
-        if not (np.isfinite(pan_radius) and pan_radius >= 0):
+        if not (np.all(np.isfinite(pan_radius)) and np.all(np.asarray(pan_radius) >= 0)):
             raise ValueError(
                 f"payload 'pan_radius' must be finite and in [0, inf), got {pan_radius!r}"
             )

@@ -5,7 +5,8 @@
 - :mod:`mwip.hardware.encoder`: quadrature encoders on the motor shafts;
 - :mod:`mwip.hardware.motor`: MAXON RE25 (Table 2.1) and the H-bridge PWM driver;
 - :mod:`mwip.hardware.drivetrain`: reflected rotor inertia, gearbox friction and backlash;
-- :mod:`mwip.hardware.obstacle`: the Case 3 stick;
+- :mod:`mwip.hardware.obstacle`: the Case 3 stick; :mod:`mwip.hardware.payload`: the Case 2 pan;
+- :mod:`mwip.hardware.prior`: the unknown values and their prior (each module's ``UNKNOWNS``);
 - :mod:`mwip.hardware.elements`: the switchable physical elements (one registry);
 - :mod:`mwip.hardware.twin`: the composition and :func:`run_on_twin`;
 - :mod:`mwip.hardware.twin_config`: the twin as ``[twin]`` TOML tables (``mwip twin show``);
@@ -22,7 +23,8 @@ from mwip.lazy import exports
 __all__ = [
     "EncoderSpec", "FusionSpec", "ImuNoise", "RE25", "MotorData", "DriveSpec", "DriveActuator",
     "GearboxSpec", "TwinPlant", "ELEMENTS", "StickObstacle", "Twin", "TwinSensor",
-    "TwinActuator", "CASES", "case_plant", "run_on_twin",
+    "TwinActuator", "CASES", "case_plant", "run_on_twin", "PayloadSpec", "StickSpec", "Unknown",
+    "Prior", "PRIOR",
 ]  # fmt: skip
 
 __getattr__, __dir__ = exports(
@@ -39,6 +41,11 @@ __getattr__, __dir__ = exports(
         "DriveSpec": "mwip.hardware.motor",
         "MotorData": "mwip.hardware.motor",
         "StickObstacle": "mwip.hardware.obstacle",
+        "StickSpec": "mwip.hardware.obstacle",
+        "PayloadSpec": "mwip.hardware.payload",
+        "Unknown": "mwip.hardware.prior",
+        "Prior": "mwip.hardware.prior",
+        "PRIOR": "mwip.hardware.prior",
         "CASES": "mwip.hardware.twin",
         "Twin": "mwip.hardware.twin",
         "TwinActuator": "mwip.hardware.twin",
@@ -54,5 +61,7 @@ if TYPE_CHECKING:
     from mwip.hardware.encoder import EncoderSpec
     from mwip.hardware.imu import FusionSpec, ImuNoise
     from mwip.hardware.motor import RE25, DriveActuator, DriveSpec, MotorData
-    from mwip.hardware.obstacle import StickObstacle
+    from mwip.hardware.obstacle import StickObstacle, StickSpec
+    from mwip.hardware.payload import PayloadSpec
+    from mwip.hardware.prior import PRIOR, Prior, Unknown
     from mwip.hardware.twin import CASES, Twin, TwinActuator, TwinSensor, case_plant, run_on_twin

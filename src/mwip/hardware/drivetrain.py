@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mwip.hardware.unknown import Unknown
 from mwip.params import Params
 
 __all__ = [
@@ -52,6 +53,7 @@ __all__ = [
     "relative_mobility",
     "coulomb_torque",
     "Backlash",
+    "UNKNOWNS",
 ]
 
 
@@ -117,10 +119,12 @@ class TwinPlant(Params):
         )
 
 
-def reflected_inertia(gear_ratio: float, rotor_inertia: float) -> dict[str, float]:
+def reflected_inertia(gear_ratio: ArrayLike, rotor_inertia: float) -> dict[str, Any]:
     """Mass-matrix increments of two rotors behind ``gear_ratio`` (module docstring):
-    ``{"Iwa": N^2 J, "Iby": 2 (N-1)^2 J, "m12_offset": 2 N (N-1) J}``."""
-    n, j = float(gear_ratio), float(rotor_inertia)
+    ``{"Iwa": N^2 J, "Iby": 2 (N-1)^2 J, "m12_offset": 2 N (N-1) J}`` (floats, or arrays of
+    ``gear_ratio``'s shape for per-row ratios)."""
+    n: Any = float(gear_ratio) if np.ndim(gear_ratio) == 0 else np.asarray(gear_ratio, float)  # type: ignore[arg-type]
+    j = float(rotor_inertia)
     return {
         "Iwa": n * n * j,
         "Iby": 2.0 * (n - 1.0) ** 2 * j,
@@ -133,12 +137,13 @@ def derive_plant(
     *,
     inertia: ArrayLike = False,
     extra_db: ArrayLike = 0.0,
-    gear_ratio: float = 23.0,
+    gear_ratio: ArrayLike = 23.0,
     rotor_inertia: float = 10.8e-7,
 ) -> Params:
     """The plant the twin integrates: ``base`` plus the reflected rotor inertia where
     ``inertia`` (bool, per row) and ``extra_db`` (N m s/rad, per row: back-EMF and gearbox
-    viscous friction) on ``Db``. Returns ``base`` itself when nothing is added."""
+    viscous friction) on ``Db``; ``gear_ratio`` a float or per row. Returns ``base`` itself
+    when nothing is added."""
     on = np.asarray(inertia, dtype=bool)
     db = np.asarray(extra_db, dtype=float)
     if not on.any() and not np.any(db != 0):
@@ -202,9 +207,11 @@ class Backlash:
     passes from the instant it closes the gap: the held torque is ``tau (Ts - t_c) / Ts``.
     """
 
-    def __init__(self, width: ArrayLike, inertia: float, Ts: float) -> None:
+    def __init__(self, width: ArrayLike, inertia: ArrayLike, Ts: float) -> None:
         self.width = np.asarray(width, dtype=float)
-        self.inertia = float(inertia)
+        # a float, or (N,) per row (the twins' own N^2 J)
+        self.inertia: Any = (float(inertia) if np.ndim(inertia) == 0  # type: ignore[arg-type]
+                             else np.asarray(inertia, dtype=float))  # fmt: skip
         self.Ts = float(Ts)
         self.g = np.zeros((0, 2))
         self.v = np.zeros((0, 2))
@@ -224,7 +231,10 @@ class Backlash:
         s = np.sign(tau)
         wall = np.where(s != 0, s * half, np.where(v >= 0, half, -half))
         contact = (half <= 0) | ((s != 0) & (np.abs(g - wall) <= 1e-15))
-        a = tau / self.inertia
+        inertia = self.inertia
+        if np.ndim(inertia) != 0:
+            inertia = np.broadcast_to(inertia, (n,))[:, None]
+        a = tau / inertia
         # time to the wall: g + v t + a t^2 / 2 = wall (first root in [0, Ts])
         d = wall - g
         t_c = np.full_like(g, np.inf)
@@ -244,3 +254,14 @@ class Backlash:
         self.g = np.where(contact | closes, wall, g_new)
         self.v = np.where(contact | closes, 0.0, v_new)
         return out
+
+
+#: The gearbox's unknowns (docs/twin_model.md, "The prior").
+UNKNOWNS: tuple[Unknown, ...] = (
+    Unknown("gearbox.coulomb", 0.0, 0.06, "N m", "per wheel; 0 to ~1.8x the 23:1 value from "
+            "Table 2.1's 85 % efficiency (0.034)", "friction", 0.034),
+    Unknown("gearbox.viscous", 0.0, 0.005, "N m s/rad", "per wheel, beyond the book's Db",
+            "friction", 0.0),
+    Unknown("gearbox.backlash", 0.0, 0.0175, "rad", "at the wheel, 0-1 deg; GP 32 A catalogue "
+            "<= 0.7-1.0 deg", "backlash", float(np.deg2rad(0.7))),
+)  # fmt: skip

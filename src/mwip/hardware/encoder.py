@@ -16,6 +16,7 @@ turn behind the 23:1 gearbox (docs/twin_model.md; 2000 with 500 lines is the sen
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -45,14 +46,21 @@ class EncoderSpec:
         return 2.0 * np.pi / (self.cpr * self.gear_ratio)
 
 
-def count(rel_angle: ArrayLike, spec: EncoderSpec) -> NDArray[np.int64]:
-    """Counter value for a wheel-relative-to-body angle (rad): ``floor(angle / resolution)``."""
-    return np.floor(np.asarray(rel_angle, dtype=float) / spec.resolution).astype(np.int64)
+def count(
+    rel_angle: ArrayLike, spec: EncoderSpec, resolution: ArrayLike | None = None
+) -> NDArray[np.int64]:
+    """Counter value for a wheel-relative-to-body angle (rad): ``floor(angle / resolution)``
+    (``resolution``: the spec's, or given, e.g. per row as an (N, 1) column)."""
+    res = spec.resolution if resolution is None else resolution
+    return np.floor(np.asarray(rel_angle, dtype=float) / res).astype(np.int64)
 
 
-def counts_to_angle(counts: ArrayLike, spec: EncoderSpec) -> NDArray[np.float64]:
+def counts_to_angle(
+    counts: ArrayLike, spec: EncoderSpec, resolution: ArrayLike | None = None
+) -> NDArray[np.float64]:
     """Wheel-relative angle of a counter value (rad); error in ``[0, resolution)``."""
-    return np.asarray(counts, dtype=float) * spec.resolution
+    res: Any = spec.resolution if resolution is None else resolution
+    return np.asarray(counts, dtype=float) * res
 
 
 def difference_rate(angle_now: ArrayLike, angle_prev: ArrayLike, Ts: float) -> NDArray[np.float64]:

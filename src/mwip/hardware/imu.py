@@ -24,10 +24,12 @@ Noise levels (:class:`ImuNoise`) default to a consumer MEMS IMU of the robot's c
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from mwip.hardware.unknown import Unknown
 
 __all__ = [
     "ImuNoise",
@@ -40,6 +42,7 @@ __all__ = [
     "kalman_step",
     "Imu",
     "TiltFilter",
+    "UNKNOWNS",
 ]
 
 G = 9.81
@@ -120,7 +123,7 @@ def specific_force(
     theta_dot: ArrayLike,
     theta_ddot: ArrayLike,
     x_ddot: ArrayLike,
-    height: float,
+    height: ArrayLike,
     g: float = G,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Body-axis accelerometer readings ``(a_x, a_y)`` at ``height`` above the axle.
@@ -157,14 +160,15 @@ def gyro_integrate(angle: ArrayLike, omega: ArrayLike, Ts: float) -> NDArray[np.
 
 
 def complementary_step(
-    angle: ArrayLike, omega: ArrayLike, angle_acc: ArrayLike, Ts: float, tau: float
+    angle: ArrayLike, omega: ArrayLike, angle_acc: ArrayLike, Ts: float, tau: ArrayLike
 ) -> NDArray[np.float64]:
     """Complementary filter: ``a (angle + omega Ts) + (1 - a) angle_acc``, ``a = tau/(tau+Ts)``.
 
     The gyro path is the integration (2.40); the accelerometer tilt (2.39) corrects its drift
     below ``1 / tau`` rad/s. A constant gyro bias ``b`` leaves a steady error ``b tau``.
     """
-    a = tau / (tau + Ts)
+    t: Any = tau
+    a = t / (t + Ts)
     return a * gyro_integrate(angle, omega, Ts) + (1.0 - a) * np.asarray(angle_acc, dtype=float)
 
 
@@ -208,13 +212,22 @@ class Imu:
     def __init__(self, noise: ImuNoise = ImuNoise(), *, common: bool = False) -> None:
         self.noise = noise
         self.common = common
+        # per-row values (floats, or (N,) arrays set by the twin for a batch of twins)
+        self.accel_sigma: Any = noise.accel_sigma
+        self.accel_bias: Any = noise.accel_bias
+        self.gyro_sigma: Any = noise.gyro_sigma
+        self.gyro_bias: Any = noise.gyro_bias
+        self.height: Any = noise.height
         self.bias = np.zeros(0)
         self._rng = np.random.default_rng(0)
 
     def reset(self, n: int, seed: int | None = None) -> None:
         """New noise stream; the zero drift starts at ``gyro_bias``."""
         self._rng = np.random.default_rng(seed)
-        self.bias = np.full(n, self.noise.gyro_bias)
+        if np.ndim(self.gyro_bias) == 0:
+            self.bias = np.full(n, self.gyro_bias)
+        else:
+            self.bias = np.broadcast_to(np.asarray(self.gyro_bias, dtype=float), (n,)).copy()
 
     def _normal(self, n: int) -> NDArray[np.float64]:
         if self.common:
@@ -246,11 +259,11 @@ class Imu:
         if dt > 0:
             self.bias = self.bias + nz.gyro_bias_walk * np.sqrt(dt) * walk
         ax, ay = specific_force(theta, on_m * theta_dot, on_m * theta_ddot, on_m * x_ddot,
-                                nz.height)  # fmt: skip
-        ax = ax + on_n * nz.accel_sigma * self._normal(n)
-        ay = ay + on_n * nz.accel_sigma * self._normal(n)
-        ax = ax + on_b * nz.accel_bias
-        omega = theta_dot + on_b * self.bias + on_n * nz.gyro_sigma * self._normal(n)
+                                self.height)  # fmt: skip
+        ax = ax + on_n * self.accel_sigma * self._normal(n)
+        ay = ay + on_n * self.accel_sigma * self._normal(n)
+        ax = ax + on_b * self.accel_bias
+        omega = theta_dot + on_b * self.bias + on_n * self.gyro_sigma * self._normal(n)
         return ax, ay, omega
 
 
@@ -259,6 +272,7 @@ class TiltFilter:
 
     def __init__(self, spec: FusionSpec = FusionSpec()) -> None:
         self.spec = spec
+        self.tau: Any = spec.tau  # a float, or (N,) per row (a batch of twins)
         self.x = np.zeros((0, 2))
         self.P = np.eye(2)
 
@@ -272,7 +286,22 @@ class TiltFilter:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Advance one sample; returns ``(theta, theta')`` estimates."""
         if self.spec.kind == "complementary":
-            self.x[:, 0] = complementary_step(self.x[:, 0], omega, angle_acc, Ts, self.spec.tau)
+            self.x[:, 0] = complementary_step(self.x[:, 0], omega, angle_acc, Ts, self.tau)
             return self.x[:, 0].copy(), np.asarray(omega, dtype=float).copy()
         self.x, self.P = kalman_step(self.x, self.P, omega, angle_acc, Ts, self.spec)
         return self.x[:, 0].copy(), np.asarray(omega, dtype=float) - self.x[:, 1]
+
+
+_MEMS = "MEMS class, the book names no part"
+
+#: The IMU's and the fusion's unknowns (docs/twin_model.md, "The prior").
+UNKNOWNS: tuple[Unknown, ...] = (
+    Unknown("imu.gyro_bias", -0.02, 0.02, "rad/s", _MEMS, "imu_bias", 0.01),
+    Unknown("imu.accel_bias", -0.05, 0.05, "m/s^2", _MEMS, "imu_bias", 0.02),
+    Unknown("imu.accel_sigma", 0.01, 0.1, "m/s^2", _MEMS, "imu_noise", 0.05),
+    Unknown("imu.gyro_sigma", 0.0005, 0.005, "rad/s", _MEMS, "imu_noise", 0.002),
+    Unknown("imu.height", 0.0, 0.13, "m", "board on the body, axle to top of body 2l = 0.12 m",
+            "accel_motion", 0.1),
+    Unknown("fusion.tau", 0.1, 2.0, "s", "complementary filter time constant, not printed",
+            "fusion", 0.5),
+)  # fmt: skip

@@ -33,10 +33,12 @@ held over the sample is the one produced by the *mean* current.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from mwip.hardware.unknown import Unknown
 
 __all__ = [
     "MotorData",
@@ -49,6 +51,7 @@ __all__ = [
     "simulate_motor",
     "apply_deadband",
     "DriveActuator",
+    "UNKNOWNS",
 ]
 
 RPM = 2.0 * np.pi / 60.0
@@ -147,9 +150,13 @@ class DriveSpec:
     mode : ``"voltage"`` (default, the book's PWM speed regulation: duty proportional to the
         commanded torque, ``V* = R tau / (N eta k_t)``, back-EMF acting on the motor) or
         ``"torque"`` (a current-controlled driver: ``V* = R i* + k_e omega_m``).
-    emf_feedforward : voltage mode only: the firmware adds the back-EMF of the wheel speed at
-        the sample instant, ``V* = R i* + k_e omega_m`` (default off: the book's "the control
-        signal modulates a pulse signal of a certain width", Sec. 6.1).
+    emf_compensation : voltage mode only: the fraction ``c`` in [0, 1] of the back-EMF of the
+        wheel speed at the sample instant that the firmware adds, ``V* = R i* + c k_e omega_m``
+        (default 0: the book's "the control signal modulates a pulse signal of a certain
+        width", Sec. 6.1; 1: full feed-forward, as a current-mode driver). The plant's
+        back-EMF damping stays whole whatever ``c``. ``mode="torque"`` means ``c = 1``.
+    emf_feedforward : deprecated alias: ``True`` / ``False`` set ``emf_compensation`` to 1 / 0
+        (then read back as ``None``).
     """
 
     gear_ratio: float = 23.0
@@ -160,9 +167,21 @@ class DriveSpec:
     mode: Literal["torque", "voltage"] = "voltage"
     deadband: float = 0.01
     supply_resistance: float = 0.2
-    emf_feedforward: bool = False
+    emf_compensation: float = 0.0
+    emf_feedforward: bool | None = None
 
     def __post_init__(self) -> None:
+        if self.emf_feedforward is not None:
+            if not isinstance(self.emf_feedforward, bool | np.bool_):
+                raise ValueError(
+                    f"'emf_feedforward' must be true or false, got {self.emf_feedforward!r}"
+                )
+            object.__setattr__(self, "emf_compensation", 1.0 if self.emf_feedforward else 0.0)
+            object.__setattr__(self, "emf_feedforward", None)
+        c = self.emf_compensation
+        if isinstance(c, bool) or not (np.isfinite(c) and 0.0 <= c <= 1.0):
+            raise ValueError(f"'emf_compensation' must be finite and in [0, 1], got {c!r}")
+        object.__setattr__(self, "emf_compensation", float(c))
         _check("gear_ratio", self.gear_ratio, 0.0, 1000.0)
         _check("gear_efficiency", self.gear_efficiency, 0.0, 1.0)
         _check("supply_voltage", self.supply_voltage, 0.0, 1000.0)
@@ -180,6 +199,12 @@ class DriveSpec:
                 f"'supply_resistance' must be finite and in [0, 100], "
                 f"got {self.supply_resistance!r}"
             )
+
+    @property
+    def compensation(self) -> float:
+        """The back-EMF fraction the driver adds: 1 for ``mode="torque"``, else
+        ``emf_compensation``."""
+        return 1.0 if self.mode == "torque" else self.emf_compensation
 
     def wheel_torque_limit(self, motor: MotorData = RE25) -> float:
         """Largest wheel torque at standstill (N m): current limit or supply, whichever binds."""
@@ -314,6 +339,11 @@ class DriveActuator:
         self.pwm = np.asarray(pwm, dtype=bool)
         self.sag = np.asarray(sag, dtype=bool)
         self.emf_in_plant = bool(emf_in_plant)
+        # per-row values (scalars, or (N,) arrays set by the twin for a batch of twins)
+        self.gear_ratio: Any = drive.gear_ratio
+        self.compensation: Any = drive.compensation
+        self.deadband: Any = drive.deadband
+        self.current_limit: Any = drive.current_limit
         self.i = np.zeros((0, 2))
         self.i_bat = np.zeros(0)
         self.last: dict[str, NDArray[np.float64]] = {}
@@ -329,7 +359,7 @@ class DriveActuator:
         pd, td, ad = state[:, 3], state[:, 4], state[:, 5]
         wr = pd + self.b_over_r * ad - td
         wl = pd - self.b_over_r * ad - td
-        return self.drive.gear_ratio * np.column_stack([wr, wl])
+        return _col(self.gear_ratio) * np.column_stack([wr, wl])
 
     def __call__(
         self, t: float, u_cmd: NDArray[np.float64], state: NDArray[np.float64]
@@ -343,24 +373,28 @@ class DriveActuator:
             self.reset(n)
         m, d = self.motor, self.drive
         R = m.resistance
-        gain = d.gear_ratio * d.gear_efficiency * m.k_t
+        gain = _col(self.gear_ratio) * d.gear_efficiency * m.k_t
         om = self.motor_speed(state)
         emf = m.k_e * om
-        ff = d.mode == "torque" or d.emf_feedforward
-        v_ref = R * np.nan_to_num(u_cmd) / gain + (emf if ff else 0.0)
+        c = self.compensation
+        if np.ndim(c) == 0:
+            ff: Any = emf if c == 1.0 else (0.0 if c == 0.0 else c * emf)
+        else:
+            ff = _col(c) * emf
+        v_ref = R * np.nan_to_num(u_cmd) / gain + ff
         duty_ref = v_ref / d.supply_voltage
         duty = np.clip(duty_ref, -1.0, 1.0)
         shaped = duty
         if d.pwm_levels > 0:
             shaped = np.round(shaped * d.pwm_levels) / d.pwm_levels
-        shaped = apply_deadband(shaped, d.deadband)
+        shaped = apply_deadband(shaped, _col(self.deadband))
         pwm = np.broadcast_to(self.pwm, (n,))[:, None]
         duty = np.where(pwm, shaped, duty)
         sag = np.broadcast_to(self.sag, (n,))
         vs = d.supply_voltage - np.where(sag, d.supply_resistance * self.i_bat, 0.0)
         vs = np.maximum(vs, 0.0)[:, None]
         v = duty * vs
-        band = R * d.current_limit
+        band = R * _col(self.current_limit)
         v_lim = np.clip(np.clip(v, emf - band, emf + band), -vs, vs)
         limited = (np.abs(duty_ref) > 1.0) | (np.abs(v_lim - v) > 1e-12)
         self.i, i_mean = current_step(self.i, v_lim, om, m, self.Ts)
@@ -373,3 +407,23 @@ class DriveActuator:
                      "supply": vs[:, 0], "torque": torque,
                      "limited": limited.astype(float)}  # fmt: skip
         return u
+
+
+def _col(x: Any) -> Any:
+    """A per-row value as a column against (N, 2) wheel arrays (a scalar as it is)."""
+    return x if np.ndim(x) == 0 else np.asarray(x, dtype=float)[:, None]
+
+
+#: The drive's unknowns (docs/twin_model.md, "The prior"); Table 2.1's motor data, the 24 V
+#: battery and the encoder lines are fixed by the data sheet.
+UNKNOWNS: tuple[Unknown, ...] = (
+    Unknown("drive.gear_ratio", 3.7, 51.0, "", "MAXON GP 32 A planetary ratios offered with "
+            "the RE25, 1-3 stages; the book names no gearbox", "inertia", 23.0),
+    Unknown("drive.emf_compensation", 0.0, 1.0, "", "fraction of k_e omega_m the firmware/"
+            "driver adds: 0 = open-loop PWM as Sec. 6.1's words read, 1 = full feed-forward / "
+            "current-mode driver", "motor", 0.0),
+    Unknown("drive.deadband", 0.0, 0.05, "duty", "H-bridge dead time / minimum pulse, "
+            "0-2.5 us at 20 kHz", "pwm", 0.01),
+    Unknown("drive.current_limit", 1.0, 10.0, "A", "RE25 continuous current to its stall "
+            "current at 24 V, Table 2.1", "motor", 4.0),
+)  # fmt: skip

@@ -15,12 +15,29 @@ only, so nothing is applied directly to ``theta``: the body is disturbed through
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["StickObstacle"]
+from mwip.hardware.unknown import Unknown
+
+__all__ = ["StickObstacle", "StickSpec", "StickRows", "UNKNOWNS"]
+
+
+@dataclass(frozen=True)
+class StickSpec:
+    """The Case 3 stick of the twin: ``height`` (m), "a small stick" (Sec. 6.2.3), below the
+    wheel radius."""
+
+    height: float = 0.01
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.height) and 0 < self.height < 0.04):
+            raise ValueError(
+                f"'height' must be finite and in (0, 0.04) (below r), got {self.height!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -74,3 +91,30 @@ class StickObstacle:
         out = np.zeros((*tt.shape, 3))
         out[..., 0] = against * climb - against * down
         return out
+
+
+class StickRows:
+    """One :class:`StickObstacle` per row of a batch, as a disturbance ``(K, N, 3)``: the
+    pulses of all rows evaluated at once (the same arithmetic as each stick's own call)."""
+
+    def __init__(self, sticks: Sequence[StickObstacle]) -> None:
+        self.sticks = list(sticks)
+        self.start = np.array([s.start for s in self.sticks])
+        self.duration = np.array([s.duration for s in self.sticks])
+        self.against = np.array([-np.sign(s.speed) * s.torque for s in self.sticks])
+
+    def __call__(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        tt = np.asarray(t, dtype=float)[..., None]
+        d, start, against = self.duration, self.start, self.against
+        climb = (tt >= start) & (tt < start + d)
+        down = (tt >= start + d) & (tt < start + 2 * d)
+        out = np.zeros((*tt.shape[:-1], len(self.sticks), 3))
+        out[..., 0] = against * climb - against * down
+        return out
+
+
+#: The stick's unknown (docs/twin_model.md, "The prior").
+UNKNOWNS: tuple[Unknown, ...] = (
+    Unknown("stick.height", 0.005, 0.02, "m", 'Case 3 stick, "a small stick", below r = 4 cm',
+            "case 3", 0.01),
+)  # fmt: skip

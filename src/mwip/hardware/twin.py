@@ -23,8 +23,11 @@ cases (:data:`CASES`):
 - case 3: case 2 crossing a stick at about 6 s (:class:`mwip.hardware.obstacle.StickObstacle`).
 
 With ``rows`` it runs one controller on a batch of twins that differ only in their elements
-(the ablation of :mod:`mwip.hardware.ablation`); with ``common_noise`` (the default there)
-every row sees the IMU noise of a single run with the same seed.
+(the ablation of :mod:`mwip.hardware.ablation`); with ``values`` on a batch of twins that
+differ in their unknown values (:mod:`mwip.hardware.prior`: row ``i`` is
+``twin.with_values({k: values[k][i]})``, every element taking its parameters per row); with
+``common_noise`` (the default for both) every row sees the IMU noise of a single run with the
+same seed.
 
 The accelerometer needs the body's acceleration: the sensor takes the mean acceleration over
 the last sample from the true velocities, ``(q'_k - q'_{k-1}) / Ts`` (what the IMU's
@@ -35,8 +38,8 @@ instantaneous acceleration.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -60,21 +63,38 @@ from mwip.hardware.elements import (
 from mwip.hardware.encoder import EncoderSpec, count, counts_to_angle
 from mwip.hardware.imu import FusionSpec, Imu, ImuNoise, TiltFilter, tilt_arctan
 from mwip.hardware.motor import RE25, DriveActuator, DriveSpec, MotorData
-from mwip.hardware.obstacle import StickObstacle
+from mwip.hardware.obstacle import StickObstacle, StickRows, StickSpec
+from mwip.hardware.payload import PayloadSpec
+from mwip.hardware.unknown import Unknown
 from mwip.params import REAL, Params
 from mwip.sim.disturbance import Disturbance, Sum
 from mwip.sim.engine import simulate
 from mwip.sim.result import SimResult
 
+if TYPE_CHECKING:
+    from mwip.hardware.prior import Prior
+
 __all__ = [
     "Twin", "TwinSensor", "TwinActuator", "DriveActuator", "case_plant", "run_on_twin",
-    "CASES", "stick_for",
+    "CASES", "stick_for", "UNKNOWNS",
 ]  # fmt: skip
 
 CASES = {1: "real robot (Table 6.1)", 2: "with payload (0.5 kg on 0.1 m rods)",
          3: "with payload, crossing a stick at ~6 s"}  # fmt: skip
 
 _IDX = {e: i for i, e in enumerate(ELEMENTS)}
+
+#: The twin's own unknown (docs/twin_model.md, "The prior").
+UNKNOWNS: tuple[Unknown, ...] = (
+    Unknown("delay", 0.0, 1.0, "Ts", "fraction of Ts: 0-5 ms of computation on the 50 MHz "
+            "Cortex-M3", "delay", 0.2),
+)  # fmt: skip
+
+
+def _declared_prior() -> Prior:
+    from mwip.hardware.prior import PRIOR
+
+    return PRIOR
 
 
 @dataclass(frozen=True)
@@ -85,7 +105,9 @@ class Twin:
     all by default); ``ideal_sensors`` / ``ideal_actuator`` switch off all sensor / all
     drive-train elements (the twin then reproduces the plain simulation exactly).
     ``delay`` is the computation and actuation delay as a fraction of ``Ts`` in [0, 1]
-    (assumed 0.2: 1 ms of a 5 ms loop on the 50 MHz Cortex-M3 without FPU).
+    (assumed 0.2: 1 ms of a 5 ms loop on the 50 MHz Cortex-M3 without FPU). ``payload`` is
+    the Case 2/3 pan, ``stick`` the Case 3 stick; ``prior`` the ranges of the unknown values
+    (:mod:`mwip.hardware.prior`; :meth:`values`, :meth:`with_values`).
     """
 
     imu: ImuNoise = field(default_factory=ImuNoise)
@@ -100,6 +122,9 @@ class Twin:
     gearbox: GearboxSpec = field(default_factory=GearboxSpec)
     delay: float = 0.2
     elements: frozenset[str] = frozenset(ELEMENTS)
+    payload: PayloadSpec = field(default_factory=PayloadSpec)
+    stick: StickSpec = field(default_factory=StickSpec)
+    prior: Prior = field(default_factory=_declared_prior)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "elements", check_elements(self.elements))
@@ -114,6 +139,77 @@ class Twin:
             raise ValueError(f"'dt' must be finite and in (0, Ts], got {self.dt!r}")
         if not (np.isfinite(self.delay) and 0.0 <= self.delay <= 1.0):
             raise ValueError(f"'delay' must be finite and in [0, 1] (of Ts), got {self.delay!r}")
+
+    def values(self) -> dict[str, float]:
+        """The twin's value of every unknown of :attr:`prior` (dotted names)."""
+        return {name: _get(self, name) for name in self.prior.names}
+
+    def with_values(self, mapping: Mapping[str, float]) -> Twin:
+        """This twin with the unknowns ``mapping`` (dotted names) replaced; an unknown name or
+        a value outside :attr:`prior` is a one-line ``ValueError`` naming it
+        (``drive.gear_ratio`` also sets the encoder's)."""
+        by_table: dict[str, dict[str, float]] = {}
+        top: dict[str, float] = {}
+        for name, raw in mapping.items():
+            u = self.prior[name] if name in self.prior.names else None
+            if u is None:
+                raise ValueError(
+                    f"with_values: unknown name {name!r}; allowed: {', '.join(self.prior.names)}"
+                )
+            v = float(raw)
+            if not (np.isfinite(v) and u.low <= v <= u.high):
+                raise ValueError(
+                    f"with_values: {name!r} = {v!r} is outside the prior [{u.low:g}, {u.high:g}]"
+                    f" (twin.prior.{name})"
+                )
+            if "." in name:
+                table, key = name.split(".", 1)
+                by_table.setdefault(table, {})[key] = v
+            else:
+                top[name] = v
+        kw: dict[str, Any] = dict(top)
+        try:
+            for table, sub in by_table.items():
+                kw[table] = replace(getattr(self, table), **sub)
+            if "gear_ratio" in by_table.get("drive", {}):
+                kw["encoder"] = replace(self.encoder, gear_ratio=by_table["drive"]["gear_ratio"])
+            return replace(self, **kw)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"with_values: {exc}") from None
+
+    def row_values(self, values: Mapping[str, ArrayLike]) -> tuple[dict[str, Any], int]:
+        """Validated per-row values of a batch of twins: ``({name: value}, N)`` with every
+        unknown of :attr:`prior`: a float (this twin's) or, for those in ``values``, an (N,)
+        array (one-line ``ValueError`` naming the key for a wrong shape, a name not in the
+        prior or a value outside it)."""
+        out: dict[str, Any] = self.values()
+        n: int | None = None
+        for name, raw in values.items():
+            if name not in self.prior.names:
+                raise ValueError(
+                    f"values: unknown name {name!r}; allowed: {', '.join(self.prior.names)}"
+                )
+            a = np.asarray(raw, dtype=float)
+            if a.ndim != 1 or a.size == 0:
+                raise ValueError(f"values[{name!r}] must be a 1-D array, got shape {a.shape}")
+            if n is None:
+                n = a.size
+            elif a.size != n:
+                raise ValueError(f"values[{name!r}] has {a.size} rows, the others {n}")
+            u = self.prior[name]
+            bad = ~(np.isfinite(a) & (a >= u.low) & (a <= u.high))
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise ValueError(
+                    f"values[{name!r}][{i}] = {float(a[i])!r} is outside the prior "
+                    f"[{u.low:g}, {u.high:g}] (twin.prior.{name})"
+                )
+            self.with_values({name: float(a.min())})  # the elements' own limits (intervals)
+            self.with_values({name: float(a.max())})
+            out[name] = a.copy()
+        if n is None:
+            raise ValueError("values: give at least one unknown")
+        return out, n
 
     @classmethod
     def ideal(cls, **kw: Any) -> Twin:
@@ -138,30 +234,60 @@ class Twin:
             return element_mask([self.active])
         return element_mask([check_elements(r, "rows") & self.active for r in rows])
 
-    def plant(self, base: Params, rows: Iterable[Iterable[str]] | None = None) -> Params:
+    def plant(
+        self, base: Params, rows: Iterable[Iterable[str]] | None = None,
+        values: Mapping[str, Any] | None = None,
+    ) -> Params:  # fmt: skip
         """The plant the twin integrates for the case plant ``base``: the reflected rotor
         inertia (``inertia``), the back-EMF damping of a voltage drive (``motor``) and the
         gearbox's viscous friction (``friction``) on ``Db`` (:mod:`mwip.hardware.drivetrain`).
-        One row per entry of ``rows`` (a batch), else ``base``'s own shape."""
+        One row per entry of ``rows`` (a batch), else ``base``'s own shape; ``values``: the
+        per-row unknowns of :meth:`row_values` (gear ratio and viscous friction per row)."""
         m = self.masks(rows)
         col = (lambda e: m[:, _IDX[e]]) if rows is not None else (lambda e: m[0, _IDX[e]])
-        emf = self.drive.emf_damping(self.motor) if self.drive.mode == "voltage" else 0.0
-        extra = col("motor") * emf + col("friction") * self.gearbox.viscous
-        return derive_plant(base, inertia=col("inertia"), extra_db=extra,
-                            gear_ratio=self.drive.gear_ratio,
+        v = self.values() if values is None else values
+        n = v["drive.gear_ratio"]
+        emf = _emf_damping(self.drive, self.motor, n) if self.drive.mode == "voltage" else 0.0
+        extra = col("motor") * emf + col("friction") * v["gearbox.viscous"]
+        return derive_plant(base, inertia=col("inertia"), extra_db=extra, gear_ratio=n,
                             rotor_inertia=self.motor.rotor_inertia)  # fmt: skip
 
     def sensor(
         self, plant: Params, rows: Iterable[Iterable[str]] | None = None, *,
-        common_noise: bool = False,
+        common_noise: bool = False, values: Mapping[str, Any] | None = None,
     ) -> TwinSensor:  # fmt: skip
-        """A fresh sensor for ``plant`` (it needs the plant's wheel geometry)."""
-        return TwinSensor(plant, self, masks=self.masks(rows), common_noise=common_noise)
+        """A fresh sensor for ``plant`` (it needs the plant's wheel geometry); ``values``: the
+        per-row unknowns of :meth:`row_values`."""
+        return TwinSensor(plant, self, masks=self.masks(rows), common_noise=common_noise,
+                          values=values)  # fmt: skip
 
-    def actuator(self, plant: Params, rows: Iterable[Iterable[str]] | None = None) -> TwinActuator:
-        """A fresh drive for ``plant``."""
+    def actuator(
+        self, plant: Params, rows: Iterable[Iterable[str]] | None = None,
+        values: Mapping[str, Any] | None = None,
+    ) -> TwinActuator:  # fmt: skip
+        """A fresh drive for ``plant``; ``values``: the per-row unknowns of
+        :meth:`row_values`."""
         return TwinActuator(self, plant_b_over_r=float(np.mean(plant.b / plant.r)),
-                            masks=self.masks(rows), mobility=relative_mobility(plant))  # fmt: skip
+                            masks=self.masks(rows), mobility=relative_mobility(plant),
+                            values=values)  # fmt: skip
+
+
+def _get(twin: Twin, name: str) -> float:
+    obj: Any = twin
+    for part in name.split("."):
+        obj = getattr(obj, part)
+    return float(obj)
+
+
+def _emf_damping(drive: DriveSpec, motor: MotorData, n: Any) -> Any:
+    """:meth:`DriveSpec.emf_damping` for a gear ratio ``n`` (float or per row), the same
+    arithmetic."""
+    return drive.gear_efficiency * n * n * motor.k_t * motor.k_e / motor.resistance
+
+
+def _c(x: Any) -> Any:
+    """A per-row value as a column against (N, 2) wheel arrays (a float as it is)."""
+    return x if np.ndim(x) == 0 else np.asarray(x, dtype=float)[:, None]
 
 
 def _col(masks: NDArray[np.bool_], name: str) -> NDArray[np.bool_]:
@@ -195,8 +321,11 @@ class TwinActuator:
         plant_b_over_r: float,
         masks: NDArray[np.bool_] | None = None,
         mobility: ArrayLike = 1.0 / 2e-3,
+        values: Mapping[str, Any] | None = None,
     ) -> None:
         self.twin = twin
+        v = twin.values() if values is None else values
+        self.values = v
         self.mobility = np.asarray(mobility, dtype=float)
         self.masks = twin.masks() if masks is None else np.asarray(masks, dtype=bool)
         m = self.masks
@@ -205,8 +334,17 @@ class TwinActuator:
             twin.motor, twin.drive, plant_b_over_r=self.b_over_r, Ts=twin.Ts,
             pwm=_col(m, "pwm"), sag=_col(m, "sag"), emf_in_plant=True,
         )  # fmt: skip
-        n2j = twin.drive.gear_ratio**2 * twin.motor.rotor_inertia
-        self.backlash = Backlash(_col(m, "backlash") * twin.gearbox.backlash, n2j, twin.Ts)
+        gr = v["drive.gear_ratio"]
+        self.drive.gear_ratio = gr
+        self.drive.compensation = (1.0 if twin.drive.mode == "torque"
+                                   else v["drive.emf_compensation"])  # fmt: skip
+        self.drive.deadband = v["drive.deadband"]
+        self.drive.current_limit = v["drive.current_limit"]
+        self.gear_ratio = gr
+        self.delay = _c(v["delay"])
+        self.coulomb = _c(v["gearbox.coulomb"])
+        n2j = gr * gr * twin.motor.rotor_inertia
+        self.backlash = Backlash(_col(m, "backlash") * v["gearbox.backlash"], n2j, twin.Ts)
         idx = [_IDX[e] for e in sorted(DRIVE_ELEMENTS)]
         self.any = bool(np.any(m[:, idx]))
         self.u_prev = np.zeros((0, 2))
@@ -232,7 +370,7 @@ class TwinActuator:
         n = u_cmd.shape[0]
         if self.u_prev.shape != u_cmd.shape:
             self.reset(n)
-        d = self.twin.delay * self._rows("delay", n)
+        d = self.delay * self._rows("delay", n)
         u = d * self.u_prev + (1.0 - d) * u_cmd
         self.u_prev = u_cmd.copy()
         motor = self._rows("motor", n)
@@ -243,8 +381,8 @@ class TwinActuator:
             last = {"limited": np.zeros_like(u)}
         fric = np.zeros_like(u)
         if self._rows("friction", n).any():
-            w = self.drive.motor_speed(state) / self.twin.drive.gear_ratio
-            fc = self.twin.gearbox.coulomb * self._rows("friction", n)
+            w = self.drive.motor_speed(state) / _c(self.gear_ratio)
+            fc = self.coulomb * self._rows("friction", n)
             mob = np.broadcast_to(self.mobility, (n,))[:, None]
             fric = coulomb_torque(w, u, fc, mob, self.twin.Ts)
             u = u + fric
@@ -265,13 +403,23 @@ class TwinSensor:
     def __init__(
         self, plant: Params = REAL, twin: Twin | None = None, *,
         masks: NDArray[np.bool_] | None = None, common_noise: bool = False,
+        values: Mapping[str, Any] | None = None,
     ) -> None:  # fmt: skip
         self.twin = twin if twin is not None else Twin()
+        v = self.twin.values() if values is None else values
         self.masks = self.twin.masks() if masks is None else np.asarray(masks, dtype=bool)
         self.r = float(np.mean(plant.r))
         self.b_over_r = float(np.mean(plant.b / plant.r))
         self.imu = Imu(self.twin.imu, common=common_noise)
+        for key in ("accel_sigma", "accel_bias", "gyro_sigma", "gyro_bias", "height"):
+            setattr(self.imu, key, v[f"imu.{key}"])
         self.filter = TiltFilter(self.twin.fusion)
+        self.filter.tau = v["fusion.tau"]
+        gr = v["drive.gear_ratio"]
+        # encoder resolution per row (None: the spec's, the same arithmetic)
+        self._res: Any = None
+        if np.ndim(gr) != 0:
+            self._res = 2.0 * np.pi / (self.twin.encoder.cpr * np.asarray(gr)[:, None])
         idx = [_IDX[e] for e in sorted(SENSOR_ELEMENTS)]
         self.any = bool(self.masks[:, idx].any())
         self._prev: NDArray[np.float64] | None = None
@@ -321,12 +469,13 @@ class TwinSensor:
         thd_hat = np.where(fusion, thd_hat, state[:, 4])
         if first:
             self._theta0 = th_hat.copy()
-            self._c0 = count(self._relative(state), self.twin.encoder)
+            self._c0 = count(self._relative(state), self.twin.encoder, self._res)
             self._rel_prev = np.zeros((n, 2))
             self._origin = state[:, [0, 2, 6, 7]].copy()
             self._pos = state[:, 6:8].copy()
-        rel = counts_to_angle(count(self._relative(state), self.twin.encoder) - self._c0,
-                              self.twin.encoder)  # fmt: skip
+        enc_spec = self.twin.encoder
+        rel = counts_to_angle(count(self._relative(state), enc_spec, self._res) - self._c0,
+                              enc_spec, self._res)  # fmt: skip
         rel_rate = (rel - self._rel_prev) / Ts if not first else np.zeros((n, 2))
         self._rel_prev = rel
         psi = self._origin[:, 0] + rel.mean(axis=1) + th_hat - self._theta0
@@ -378,11 +527,25 @@ class _Logged:
         return out
 
 
-def case_plant(case: int, base: Params = REAL) -> Params:
-    """The plant of a Chapter 6 case: 1 the robot, 2 and 3 with the payload."""
+def case_plant(
+    case: int, base: Params = REAL, twin: Twin | None = None,
+    values: Mapping[str, Any] | None = None,
+) -> Params:  # fmt: skip
+    """The plant of a Chapter 6 case: 1 the robot, 2 and 3 with the payload of ``twin``
+    (default: the default twin's, :class:`~mwip.hardware.payload.PayloadSpec`), or with the
+    per-row ``payload.height`` / ``payload.radius`` of ``values`` (:meth:`Twin.row_values`;
+    the plant then has one row per twin)."""
     if case not in CASES:
         raise ValueError(f"'case' must be one of {sorted(CASES)}, got {case!r}")
-    return base if case == 1 else base.with_payload()
+    if case == 1:
+        return base
+    pay = twin.payload if twin is not None else PayloadSpec()
+    height: Any = pay.height
+    radius: Any = pay.radius
+    if values is not None:
+        height = values.get("payload.height", height)
+        radius = values.get("payload.radius", radius)
+    return base.with_payload(pay.mass, height, pan_radius=radius)
 
 
 def stick_for(
@@ -408,19 +571,27 @@ def run_on_twin(
     disturbance: Disturbance | None = None,
     stick_speed: float = -7.0,
     stick_start: float = 6.0,
-    stick_height: float = 0.01,
+    stick_height: float | None = None,
     rows: Iterable[Iterable[str]] | None = None,
     common_noise: bool | None = None,
     progress: Callable[[int], None] | None = None,
+    values: Mapping[str, ArrayLike] | None = None,
+    base: Params | None = None,
 ) -> SimResult:
     """Run ``controller`` (any mwip controller, unchanged) on the twin for a Chapter 6 case.
 
     Records every ``record_every`` samples (2 x 5 ms = the book's 10 ms records for (6.3)).
     ``plant`` overrides the case's plant (before the twin adds its drive train,
-    :meth:`Twin.plant`); case 3 adds the stick (``stick_height``, timed for ``stick_speed``) to
+    :meth:`Twin.plant`), which is otherwise ``base`` (default: Table 6.1's robot) with the
+    twin's payload for cases 2 and 3 (:func:`case_plant`); case 3 adds the stick (height
+    ``stick_height`` if given, else the twin's ``stick.height``; timed for ``stick_speed``) to
     ``disturbance``. ``rows``: a batch of twins with these element sets (one controller
-    instance drives them all, so it must be batch-capable); ``common_noise`` (default: true
-    with ``rows``) gives every row the IMU noise of a single run. The logs carry the
+    instance drives them all, so it must be batch-capable). ``values``: a batch of N twins
+    that differ in their unknowns (``{dotted name: (N,) array}``, :mod:`mwip.hardware.prior`),
+    row ``i`` being ``twin.with_values({k: values[k][i]})``; with ``rows`` too, ``rows`` must
+    have N entries (row ``i`` both). ``common_noise`` (default: true with ``rows`` or
+    ``values``) gives every row the IMU noise of a single run with the same seed, scaled by
+    its own sigmas, so row ``i`` equals that single run. The logs carry the
     measurement (``y_meas``), the drive's ``duty``, ``current``, ``voltage``, ``supply``,
     ``torque`` (whole motor torque), ``limited``, ``friction`` and the IMU's raw tilt and gyro
     beside the controller's own logs and the applied torque ``u_applied`` (the held part: a
@@ -428,23 +599,66 @@ def run_on_twin(
     samples complete (as :func:`mwip.sim.engine.simulate`).
     """
     tw = twin if twin is not None else Twin()
-    base = plant if plant is not None else case_plant(case)
     rows = None if rows is None else [list(r) for r in rows]
+    vals: dict[str, Any] | None = None
+    n_batch = None if rows is None else len(rows)
+    if values is not None:
+        vals, n_vals = tw.row_values(values)
+        if n_batch is not None and n_batch != n_vals:
+            raise ValueError(f"rows has {n_batch} entries, values {n_vals} rows: give equal")
+        n_batch = n_vals
+        pay = sorted(k for k in values if k.startswith("payload."))
+        if pay and plant is not None:
+            raise ValueError(
+                f"values[{pay[0]!r}] sets the case plant's payload: pass base= (the robot "
+                f"before the case), not plant="
+            )
+        if "stick.height" in values and stick_height is not None:
+            raise ValueError("values['stick.height'] and stick_height both given: give one")
+    if plant is not None:
+        cp = plant
+    else:
+        cp = case_plant(case, REAL if base is None else base, tw, vals)
     dist = disturbance
     if case == 3:
-        stick = stick_for(base, stick_speed, stick_start, stick_height)
+        heights: Any = tw.stick.height if stick_height is None else stick_height
+        if vals is not None and stick_height is None:
+            heights = vals["stick.height"]
+        if np.ndim(heights) == 0 and cp.batch_shape == ():
+            stick: Disturbance = stick_for(cp, stick_speed, stick_start, float(heights))
+        else:
+            stick = _sticks(cp, stick_speed, stick_start, heights, n_batch)
         dist = stick if dist is None else Sum((dist, stick))
-    p = tw.plant(base, rows)
-    if rows is not None and p is base:  # nothing derived: broadcast to the batch
-        p = _batched(base, len(rows))
-    common = rows is not None if common_noise is None else common_noise
-    sensor = tw.sensor(p, rows, common_noise=common)
-    actuator = tw.actuator(p, rows)
+    p = tw.plant(cp, rows, vals)
+    if n_batch is not None and p.batch_shape == ():  # nothing per row: broadcast to the batch
+        p = _batched(p, n_batch)
+    batch = rows is not None or values is not None
+    common = batch if common_noise is None else common_noise
+    sensor = tw.sensor(p, rows, common_noise=common, values=vals)
+    actuator = tw.actuator(p, rows, vals)
     return simulate(
         _Logged(controller, sensor, actuator), p, q0=q0, qdot0=qdot0, duration=duration,
         Ts=tw.Ts, dt=tw.dt, disturbance=dist, sensor=sensor, actuator=actuator,
         record_every=record_every, seed=seed, progress=progress,
     )  # fmt: skip
+
+
+def _sticks(plant: Params, speed: float, start: float, heights: Any, n: int | None) -> StickRows:
+    """One stick per row (per-row heights, or a batched plant): :func:`stick_for`'s numbers
+    for each row."""
+    shape = np.broadcast_shapes(plant.batch_shape, np.shape(heights))
+    k = shape[0] if shape else (n or 1)
+    mass = np.broadcast_to(np.asarray(plant.mb + 2.0 * plant.mw, dtype=float), (k,))
+    r = np.broadcast_to(np.asarray(plant.r, dtype=float), (k,))
+    h = np.broadcast_to(np.asarray(heights, dtype=float), (k,))
+    return StickRows(
+        [
+            StickObstacle(
+                height=float(h[i]), start=start, speed=speed, mass=float(mass[i]), r=float(r[i])
+            )
+            for i in range(k)
+        ]
+    )
 
 
 def _batched(p: Params, n: int) -> Params:

@@ -9,6 +9,15 @@ A twin file (``mwip twin show`` prints the default one)::
     [twin.imu]        accelerometer/gyro noise, bias, drift, mounting height
     [twin.fusion]     complementary or Kalman filter
     [twin.encoder]    counts per motor turn (the gear ratio is the drive's)
+    [twin.payload]    the Case 2/3 pan: mass, height above the body's top, radius
+    [twin.stick]      the Case 3 stick's height
+    [twin.prior]      the unknowns' ranges, one inline table each (mwip.hardware.prior):
+                      "drive.gear_ratio" = { low = 3.7, high = 51.0, unit = "", source = "..." }
+
+Values printed by the book or a data sheet are marked "fixed: data sheet"; the unknowns
+"unknown" with their range in ``[twin.prior]`` (a user may narrow a range, or fix an unknown
+with ``low = high``; the twin's value must lie inside). ``drive.emf_feedforward = true/false``
+is read as the deprecated alias of ``drive.emf_compensation = 1/0``.
 
 Missing keys keep their defaults; an unknown key or a value out of range is a one-line
 ``ValueError`` naming ``twin.<table>.<key>``. The ``[twin]`` tables may sit in a larger TOML
@@ -27,6 +36,9 @@ from mwip.hardware.elements import ELEMENTS
 from mwip.hardware.encoder import EncoderSpec
 from mwip.hardware.imu import FusionSpec, ImuNoise
 from mwip.hardware.motor import DriveSpec, MotorData
+from mwip.hardware.obstacle import StickSpec
+from mwip.hardware.payload import PayloadSpec
+from mwip.hardware.prior import PRIOR, Prior
 from mwip.hardware.twin import Twin
 from mwip.io import read_toml, write_text_atomic
 
@@ -40,6 +52,8 @@ _TABLES: dict[str, tuple[str, type]] = {
     "imu": ("imu", ImuNoise),
     "fusion": ("fusion", FusionSpec),
     "encoder": ("encoder", EncoderSpec),
+    "payload": ("payload", PayloadSpec),
+    "stick": ("stick", StickSpec),
 }
 _TOP = ("Ts", "dt", "delay", "elements")
 
@@ -68,7 +82,8 @@ SOURCES: dict[str, str] = {
     "drive.mode": "'voltage': PWM duty from the control signal (Sec. 6.1), or 'torque'",
     "drive.deadband": "duty; ASSUMED 0.5 us dead time / minimum pulse at 20 kHz",
     "drive.supply_resistance": "Ohm; ASSUMED battery + wiring resistance (voltage sag)",
-    "drive.emf_feedforward": "voltage mode: firmware adds k_e omega_m; off (Sec. 6.1's words)",
+    "drive.emf_compensation": "fraction of k_e omega_m the firmware adds: 0 open-loop PWM "
+    "(Sec. 6.1's words), 1 full feed-forward",
     "gearbox.coulomb": "N m per wheel; N k_t I_0, I_0 from Table 2.1's 85 % efficiency",
     "gearbox.viscous": "N m s/rad per wheel beyond the book's Db (which is the drive's)",
     "gearbox.backlash": "rad at the wheel; MAXON GP 32 A catalogue (0.7 deg)",
@@ -85,7 +100,28 @@ SOURCES: dict[str, str] = {
     "fusion.r_angle": "Kalman variance of the accelerometer tilt",
     "encoder.cpr": "counts per motor turn; HEDS-5540 code C = 100 lines, x4 quadrature",
     "encoder.gear_ratio": "must equal drive.gear_ratio (the encoder is on the motor shaft)",
+    "payload.mass": "kg; fixed: Sec. 6.2.2 (0.5 kg)",
+    "payload.height": "m, pan centre above the body's top (2l, fixed)",
+    "payload.radius": "m, pan radius (inertia m R^2/4)",
+    "stick.height": "m, Case 3 stick ('a small stick', below r)",
 }
+#: Values a data sheet (or the book) prints: marked "fixed: data sheet"; the prior's unknowns
+#: are marked "unknown" (their range in [twin.prior]).
+_FIXED = (
+    "Ts",
+    "motor.rated_power",
+    "motor.rated_voltage",
+    "motor.rated_speed_rpm",
+    "motor.no_load_speed_rpm",
+    "motor.stall_torque",
+    "motor.continuous_torque",
+    "motor.max_efficiency",
+    "motor.rotor_inertia",
+    "drive.supply_voltage",
+    "encoder.cpr",
+)
+SOURCES.update({k: "fixed: data sheet; " + SOURCES[k] for k in _FIXED})
+SOURCES.update({k: "unknown (twin.prior); " + SOURCES[k] for k in PRIOR.names})
 
 
 def _build(cls: type, data: Mapping[str, Any], table: str, base: Any) -> Any:
@@ -104,7 +140,7 @@ def twin_from_dict(data: Mapping[str, Any], base: Twin | None = None) -> Twin:
     default the default twin). ``encoder.gear_ratio`` follows ``drive.gear_ratio`` unless
     given."""
     tw = Twin() if base is None else base
-    allowed = set(_TOP) | set(_TABLES)
+    allowed = set(_TOP) | set(_TABLES) | {"prior"}
     unknown = sorted(set(data) - allowed)
     if unknown:
         raise ValueError(f"twin: unknown key {unknown[0]!r}; allowed: {', '.join(sorted(allowed))}")
@@ -122,9 +158,12 @@ def twin_from_dict(data: Mapping[str, Any], base: Twin | None = None) -> Twin:
     if "elements" in kw and not isinstance(kw["elements"], list | tuple):
         raise ValueError(f"twin.elements must be a list of names, got {kw['elements']!r}")
     try:
-        return replace(tw, **kw)
+        out = replace(tw, **kw)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"twin: {exc}") from None
+    prior = Prior.from_dict(data.get("prior", {}), base=tw.prior)
+    prior.check(out.values())
+    return replace(out, prior=prior)
 
 
 def load_twin(path: str | os.PathLike[str], base: Twin | None = None) -> Twin:
@@ -139,7 +178,7 @@ def _value(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
-        return f'"{v}"'
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(v, int):
         return str(v)
     if isinstance(v, float):
@@ -167,7 +206,14 @@ def twin_to_toml(twin: Twin | None = None) -> str:
         lines += ["", f"[twin.{table}]"]
         obj = getattr(tw, attr)
         for f in fields(cls):
+            if getattr(obj, f.name) is None:  # a deprecated alias, read back as None
+                continue
             put(f.name, getattr(obj, f.name), f"{table}.{f.name}")
+    lines += ["", "# the unknowns: uniform ranges (low = high fixes one); the values above "
+              "lie inside", "[twin.prior]"]  # fmt: skip
+    for name, e in tw.prior.to_dict().items():
+        body = ", ".join(f"{k} = {_value(e[k])}" for k in ("low", "high", "unit", "source"))
+        lines.append(f'"{name}" = {{ {body} }}')
     return "\n".join(lines) + "\n"
 
 
