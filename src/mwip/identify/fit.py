@@ -390,8 +390,8 @@ def fit(
     values = {n: fixed.get(n, centre(n)) for n in NAMES}
     status = {n: ("fixed" if n in fixed else "prior") for n in NAMES}
     stderr: dict[str, float | None] = {n: None for n in NAMES}
-    for n in want:
-        if n not in informed:
+    for n in NAMES:
+        if n not in informed and n not in fixed:
             status[n] = "not informed"
     residuals: dict[str, dict[str, float]] = {}
     trace: dict[str, NDArray[np.float64]] = {}
