@@ -125,7 +125,9 @@ def _floats(path: str, name: str, values: list[str] | NDArray) -> NDArray[np.flo
 
 
 def _missing(path: str, name: str, header: list[str]) -> LogError:
-    close = difflib.get_close_matches(name, header, n=1, cutoff=0.6)
+    known = {*REQUIRED, *OPTIONAL, *INPUTS[0], *INPUTS[1]}
+    close = difflib.get_close_matches(name, [h for h in header if h not in known], n=1,
+                                      cutoff=0.6)  # fmt: skip
     hint = f" (found {close[0]!r}: rename it to {name!r}?)" if close else ""
     return _err(path, name, f"is missing{hint}; required: {', '.join(REQUIRED)} and "
                 "u_r, u_l or duty_r, duty_l")  # fmt: skip
