@@ -47,5 +47,6 @@ def schedule(
     shift = nstep // 2
     right = np.concatenate([left[:ns], np.roll(left[ns:], shift)])
     mode = np.array(["static"] * ns + ["wheels-off-ground"] * (len(left) - ns))
-    t = np.arange(len(left)) * Ts
-    return t, np.column_stack([right, left]), mode
+    t = np.arange(len(left), dtype=float) * Ts
+    duty = np.column_stack([right, left]).astype(float)
+    return t, duty, mode.astype(np.str_)

@@ -21,9 +21,10 @@ Experiments (the ``mode`` column) and what they inform (docs/twin_fit.md):
   (``imu.height`` and the rigid-body terms are reported as not informed).
 
 Statistics: standard errors ``sigma^2 (J^T J)^-1`` (``sigma^2`` from the residuals, the
-nuisances included in ``J``; the encoder's quantisation error is not white, so ``sigma^2`` is
-inflated by the residuals' Bartlett-weighted autocorrelation sum, :func:`_inflation`), the correlation matrix (pairs above ``|0.9|`` flagged), the
-condition number of the scaled information matrix, residual RMS per signal and whiteness
+nuisances included in ``J``; the encoder's quantisation error is not white, so ``sigma^2``
+is inflated by the residuals' Bartlett-weighted autocorrelation sum, :func:`_inflation`),
+the correlation matrix (pairs above ``|0.9|`` flagged), the condition number of the scaled
+information matrix, residual RMS per signal and whiteness
 (the fraction of residual autocorrelations at lags 1..20 within ``+-1.96/sqrt(n)``).
 """
 
@@ -228,8 +229,9 @@ class _Problem:
         return A.tocsr()
 
 
-def _fit_stand(seg: Segments, known: Known, free: Sequence[str], values: Mapping[str, float],
-               search: bool) -> tuple[dict[str, float], NDArray, Any, NDArray, _Problem]:  # fmt: skip
+def _fit_stand(
+    seg: Segments, known: Known, free: Sequence[str], values: Mapping[str, float], search: bool
+) -> tuple[dict[str, float], NDArray, Any, NDArray, _Problem]:
     from dataclasses import replace
 
     from scipy.optimize import least_squares

@@ -186,7 +186,8 @@ def read_log(path: str | Path) -> Log:
     t = cols["t"]
     dt = np.diff(t)
     if np.any(dt == 0):
-        raise _err(p, "t", f"row {int(np.argmax(dt == 0)) + 3} repeats the time {t[1:][dt == 0][0]!r}")
+        i = int(np.argmax(dt == 0))
+        raise _err(p, "t", f"row {i + 3} repeats the time {t[i + 1]!r}")
     if np.any(dt < 0):
         raise _err(p, "t", f"is not increasing (row {int(np.argmax(dt < 0)) + 3} goes back)")
     med = float(np.median(dt))

@@ -20,6 +20,7 @@ import csv
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,7 +40,7 @@ def draw_truth(seed: int, inner: float = 0.1) -> dict[str, float]:
     return out
 
 
-def twin_for(truth: Mapping[str, float], base: object | None = None) -> object:
+def twin_for(truth: Mapping[str, float], base: object | None = None) -> Any:
     """The twin with ``truth``'s values (backlash off; ``emf_feedforward = c >= 0.5``)."""
     from mwip.hardware.elements import ELEMENTS
     from mwip.hardware.twin import Twin
@@ -79,21 +80,21 @@ def stand_log(
     from mwip.params import REAL
 
     tw = twin_for(truth, base)
-    m, d, Ts = tw.motor, tw.drive, tw.Ts  # type: ignore[attr-defined]
+    m, d, Ts = tw.motor, tw.drive, tw.Ts
     c = float(truth["drive.emf_compensation"])
     N = d.gear_ratio
     gain = N * d.gear_efficiency * m.k_t
     J = float(REAL.Iwa) + N * N * m.rotor_inertia
-    D = d.emf_damping(m) + tw.gearbox.viscous + float(REAL.Db)  # type: ignore[attr-defined]
+    D = d.emf_damping(m) + tw.gearbox.viscous + float(REAL.Db)
     a = np.exp(-D * Ts / J)
     tw_ff = replace(tw, drive=replace(d, emf_feedforward=False))
     br = float(REAL.b / REAL.r)
-    act = TwinActuator(tw_ff, plant_b_over_r=br, mobility=1.0 / J)  # type: ignore[arg-type]
+    act = TwinActuator(tw_ff, plant_b_over_r=br, mobility=1.0 / J)
     act.reset(1)
-    imu = Imu(tw.imu)  # type: ignore[attr-defined]
+    imu = Imu(tw.imu)
     imu.reset(1, seed)
-    filt = TiltFilter(tw.fusion)  # type: ignore[attr-defined]
-    enc_spec = EncoderSpec(tw.encoder.cpr, N)  # type: ignore[attr-defined]
+    filt = TiltFilter(tw.fusion)
+    enc_spec = EncoderSpec(tw.encoder.cpr, N)
     n = duty.shape[0]
     rng = np.random.default_rng(seed + 10_000)
     phi = rng.uniform(-1.0, 1.0, 2)
@@ -143,19 +144,21 @@ def balancing_log(
     from mwip.hardware.twin import run_on_twin
 
     tw = twin_for(truth, base)
-    ctrl = build(controller, Ts=tw.Ts)  # type: ignore[attr-defined]
-    res = run_on_twin(ctrl, twin=tw, q0=(0.0, 0.05, 0.0), duration=duration,  # type: ignore[arg-type]
+    ctrl = build(controller, Ts=tw.Ts)
+    res = run_on_twin(ctrl, twin=tw, q0=(0.0, 0.05, 0.0), duration=duration,
                       record_every=1, seed=seed)  # fmt: skip
     y = np.asarray(res.logs["y_meas"])[:, 0]
     gyro = np.asarray(res.logs["imu_gyro"])[:, 0]
     u = np.asarray(res.u)[:, 0] if np.asarray(res.u).ndim == 3 else np.asarray(res.u)
-    br = float(np.mean(tw.plant(__import__("mwip.params", fromlist=["REAL"]).REAL).b
-                       / tw.plant(__import__("mwip.params", fromlist=["REAL"]).REAL).r))  # type: ignore[attr-defined]
+    from mwip.params import REAL
+
+    plant = tw.plant(REAL)
+    br = float(np.mean(plant.b / plant.r))
     rel = y[:, 0] - y[:, 1] - (y[0, 0] - y[0, 1])
     half = br * (y[:, 2] - y[0, 2])
     n = min(len(y), len(u))
     return {
-        "t": np.arange(n) * tw.Ts,  # type: ignore[attr-defined]
+        "t": np.arange(n) * tw.Ts,
         "theta": y[:n, 1], "theta_rate": gyro[:n],
         "enc_r": (rel + half)[:n], "enc_l": (rel - half)[:n],
         "u_r": u[:n, 0], "u_l": u[:n, 1], "mode": np.full(n, "balancing"),
