@@ -130,3 +130,21 @@ def test_fit_cli_writes_three_files(tmp_path: Path) -> None:
     out2 = tmp_path / "fit2"
     assert main(["twin", "fit", str(p), "--out", str(out2), "--fix", "delay=0.5"]) == 0
     assert (out2 / "twin.toml").read_text() == text
+
+
+def test_balancing_logs_from_two_controllers_read_and_leave_drive_not_informed(
+    tmp_path: Path,
+) -> None:
+    from mwip.identify import synth
+    from mwip.identify.fit import fit
+    from mwip.identify.logs import read_log
+
+    truth = synth.draw_truth(3)
+    logs = []
+    for name in ("lqr", "dlqr"):
+        p = synth.write_csv(tmp_path / f"{name}.csv", synth.balancing_log(truth, name, 0.6))
+        logs.append(read_log(p))
+    res = fit(logs)
+    assert res.free == []
+    assert res.status["drive.gear_ratio"] == "not informed"
+    assert any(f.startswith("drive.gear_ratio") for f in res.flags)

@@ -147,9 +147,10 @@ def balancing_log(
     ctrl = build(controller, Ts=tw.Ts)
     res = run_on_twin(ctrl, twin=tw, q0=(0.0, 0.05, 0.0), duration=duration,
                       record_every=1, seed=seed)  # fmt: skip
-    y = np.asarray(res.logs["y_meas"])[:, 0]
-    gyro = np.asarray(res.logs["imu_gyro"])[:, 0]
-    u = np.asarray(res.u)[:, 0] if np.asarray(res.u).ndim == 3 else np.asarray(res.u)
+    y = np.asarray(res.logs["y_meas"])[0]
+    gyro = np.asarray(res.logs["imu_gyro"])[0]
+    u = np.asarray(res.u)
+    u = u[0] if u.ndim == 3 else u
     from mwip.params import REAL
 
     plant = tw.plant(REAL)
