@@ -3,7 +3,10 @@
 - ``mwip twin show [--twin FILE]``: the twin file (default twin, or FILE's after validation),
   every value commented with its source;
 - ``mwip twin sensitivity [--twin FILE] [--json]``: the Case 2 payload / Case 3 stick
-  assumptions and the gear ratio, varied (:mod:`mwip.hardware.sensitivity`).
+  assumptions and the gear ratio, varied (:mod:`mwip.hardware.sensitivity`);
+- ``mwip twin fit LOG... --out DIR``: the twin identified from robot logs
+  (:mod:`mwip.identify`, docs/twin_fit.md);
+- ``mwip twin excite --out FILE``: the excitation schedule to record those logs.
 
 Registered on the main CLI by :mod:`mwip.cli`; hardware modules are imported per command.
 """
@@ -63,3 +66,79 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
         click.echo(json.dumps(tables, indent=1))
     else:
         click.echo(tables_markdown(tables))
+
+
+@twin.command("fit")
+@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--out", "out", required=True, type=click.Path(path_type=Path),
+              help="Output folder (twin.toml, fit.json, fit.png); new, empty or mwip's own.")
+@TWIN_OPTION
+@click.option("--free", "free", default=None,
+              help="Comma-separated parameters to fit (default: those the logs inform).")
+@click.option("--fix", "fix", multiple=True, metavar="NAME=VALUE",
+              help="Hold a parameter at a value (repeatable).")
+@click.option("--validate", "validate", type=click.Path(path_type=Path), default=None,
+              help="A held-out log: prediction error of the fit against the prior centre's.")
+@click.option("--segment", default=40, show_default=True, type=int,
+              help="Samples per multiple-shooting segment.")
+@click.option("--force", is_flag=True, help="Write into a non-empty folder that is not mwip's.")
+def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: str | None,
+             fix: tuple[str, ...], validate: Path | None, segment: int,
+             force: bool) -> None:  # fmt: skip
+    """Identify the twin from robot logs (docs/twin_fit.md)."""
+    from mwip import outdir
+    from mwip.identify.bounds import centre
+    from mwip.identify.fit import fit, predict_error
+    from mwip.identify.logs import read_log
+    from mwip.identify.report import write_outputs
+
+    target = outdir.check(out, force)
+    base = load_twin_option(twin_file)
+    fixed: dict[str, float] = {}
+    for item in fix:
+        name, sep, val = item.partition("=")
+        if not sep:
+            raise click.BadParameter(f"{item!r} is not NAME=VALUE", param_hint="--fix")
+        try:
+            fixed[name.strip()] = float(val)
+        except ValueError:
+            raise click.BadParameter(f"{item!r}: {val!r} is not a number",
+                                     param_hint="--fix") from None  # fmt: skip
+    names = None if free is None else [n.strip() for n in free.split(",") if n.strip()]
+    read = [read_log(p) for p in logs]
+    held = read_log(validate) if validate is not None else None
+    result = fit(read, base, free=names, fixed=fixed, segment=segment)
+    if held is not None:
+        from mwip.identify.model import Known
+
+        prior = {n: centre(n) for n in result.estimates}
+        prior.update(result.fixed)
+        known = Known.from_twin(base, held.Ts)
+        fitted = predict_error(held, result.estimates, known, segment)
+        at_prior = predict_error(held, prior, known, segment)
+        result.validation = {"log": str(validate), "sha256": held.sha256,
+                             "fitted": fitted, "prior_centre": at_prior}  # fmt: skip
+    outdir.claim(target)
+    files = write_outputs(target, result, read, base)
+    click.echo(f"wrote {', '.join(str(f) for f in files)}")
+    for flag in result.flags:
+        click.echo(f"note: {flag}")
+
+
+@twin.command("excite")
+@click.option("--out", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="CSV file of the schedule (t, duty_r, duty_l, mode).")
+@click.option("--ts", "Ts", default=0.005, show_default=True, type=float, help="Sample period (s).")
+@click.option("--static", default=2.0, show_default=True, type=float, help="Static hold (s).")
+@click.option("--step", default=0.25, show_default=True, type=float, help="Each duty step (s).")
+@click.option("--chirp", default=4.0, show_default=True, type=float, help="Chirp length (s).")
+def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float) -> None:
+    """Write the excitation schedule to run on the robot (docs/twin_fit.md)."""
+    from mwip.identify.excite import schedule
+    from mwip.io import write_text_atomic
+
+    t, duty, mode = schedule(Ts, static, step, chirp)
+    lines = ["t,duty_r,duty_l,mode"]
+    lines += [f"{t[i]:.6f},{duty[i, 0]:.6f},{duty[i, 1]:.6f},{mode[i]}" for i in range(t.size)]
+    write_text_atomic(out, "\n".join(lines) + "\n")
+    click.echo(f"wrote {out} ({t.size} samples, {t[-1] + Ts:g} s)")

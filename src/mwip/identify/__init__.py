@@ -1,0 +1,10 @@
+"""Identification of a user's robot twin from logs (``mwip twin fit``, docs/twin_fit.md).
+
+- :mod:`mwip.identify.bounds`: the fitted parameters, their bounds and prior centre;
+- :mod:`mwip.identify.logs`: reading and validating logs (:class:`~mwip.identify.logs.LogError`);
+- :mod:`mwip.identify.model`: the batched prediction models (wheels-off-ground drive model);
+- :mod:`mwip.identify.fit`: multiple-shooting prediction-error fit and its statistics;
+- :mod:`mwip.identify.report`: ``twin.toml``, ``fit.json``, ``fit.png``;
+- :mod:`mwip.identify.excite`: the excitation schedule (``mwip twin excite``);
+- :mod:`mwip.identify.synth`: synthetic logs from the twin's own elements (tests, benchmark).
+"""

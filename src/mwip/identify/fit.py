@@ -1,0 +1,500 @@
+"""Prediction-error fit of the twin's parameters over short segments (multiple shooting).
+
+The plant is open-loop unstable and a wheel on a stand integrates its speed, so nothing is
+replayed open-loop over a whole log: each log is cut into segments of ``segment`` samples;
+every segment starts from its own state (the wheel speeds are nuisance parameters, the angle
+offsets are projected out) and all segments are integrated in one batch
+(:func:`mwip.identify.model.stand_rollout`). The global parameters and the nuisances are fitted
+together by bounded :func:`scipy.optimize.least_squares` (sparse Jacobian by finite
+differences, parameters scaled to their bounds), after a coarse search over the gear ratio.
+
+Experiments (the ``mode`` column) and what they inform (docs/twin_fit.md):
+
+- ``wheels-off-ground``: the drive model's :data:`~mwip.identify.model.STAND_PARAMS` from the
+  encoders;
+- ``static`` and ``wheels-off-ground`` (the body held level and still): ``imu.gyro_bias`` (the
+  gyro's mean; its standard error includes the declared bias random walk) and, with
+  ``accel_x``, ``imu.accel_bias`` (the mean of ``accel_x``);
+- any log with ``accel_x, accel_y``: ``fusion.tau`` from the board's complementary filter,
+  ``theta_k = a (theta_{k-1} + omega_k Ts) + (1 - a) atan2(a_x, a_y)`` (linear in ``a``);
+- ``balancing``: read and validated, but no parameter is fitted from it in this version
+  (``imu.height`` and the rigid-body terms are reported as not informed).
+
+Statistics: standard errors ``sigma^2 (J^T J)^-1`` (``sigma^2`` from the residuals, the
+nuisances included in ``J``; the encoder's quantisation error is not white, so ``sigma^2``
+is inflated by the residuals' Bartlett-weighted autocorrelation sum, :func:`_inflation`),
+the correlation matrix (pairs above ``|0.9|`` flagged), the condition number of the scaled
+information matrix, residual RMS per signal and whiteness
+(the fraction of residual autocorrelations at lags 1..20 within ``+-1.96/sqrt(n)``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mwip.identify.bounds import BOUNDS, NAMES, centre
+from mwip.identify.logs import Log, LogError
+from mwip.identify.model import STAND_PARAMS, Known, stand_rollout
+
+__all__ = ["FitResult", "Segments", "fit", "stand_segments", "predict_error", "whiteness"]
+
+#: Encoder residual scale (rad) the least-squares problem is written in.
+_RES = 1e-3
+_MAX_LAG = 20
+#: Relative finite-difference step (of the scaled variables).
+_STEP = 1e-4
+
+
+@dataclass
+class Segments:
+    """Wheels-off-ground segments in one batch."""
+
+    cmd: NDArray[np.float64]  # (S, L + 1, 2)
+    enc: NDArray[np.float64]  # (S, L, 2), relative to the segment's first sample
+    is_duty: NDArray[np.bool_]  # (S,)
+    w0: NDArray[np.float64]  # (S, 2), first guess of the wheel speeds
+    t: NDArray[np.float64]  # (S, L)
+    log: NDArray[np.int64]  # (S,)
+
+    @property
+    def n(self) -> int:
+        return int(self.cmd.shape[0])
+
+
+def stand_segments(logs: Sequence[Log], L: int) -> Segments | None:
+    """Cut the wheels-off-ground rows of ``logs`` into segments of ``L`` samples."""
+    cmds, encs, duty, w0s, ts, ids = [], [], [], [], [], []
+    for li, lg in enumerate(logs):
+        on = lg.mode == "wheels-off-ground"
+        cmd, enc, t = lg.command, lg.enc, lg.columns["t"]
+        Ts = lg.Ts
+        k = 0
+        n = lg.n
+        while k < n:
+            if not on[k]:
+                k += 1
+                continue
+            end = k
+            while end < n and on[end]:
+                end += 1
+            for k0 in range(k, end - L + 1, L):
+                prev = cmd[k0 - 1] if k0 > 0 else np.zeros(2)
+                cmds.append(np.concatenate([prev[None], cmd[k0:k0 + L]]))
+                e = enc[k0:k0 + L]
+                encs.append(e - e[0])
+                duty.append(lg.inputs == "duty")
+                w0s.append((e[min(3, L - 1)] - e[0]) / (min(3, L - 1) * Ts))
+                ts.append(t[k0:k0 + L])
+                ids.append(li)
+            k = end
+    if not cmds:
+        return None
+    return Segments(np.array(cmds), np.array(encs), np.array(duty), np.array(w0s),
+                    np.array(ts), np.array(ids))  # fmt: skip
+
+
+def whiteness(r: NDArray[np.float64], max_lag: int = _MAX_LAG) -> float:
+    """Fraction of the autocorrelations at lags 1..max_lag within ``+-1.96/sqrt(n)``."""
+    r = np.asarray(r, dtype=float).ravel()
+    r = r - r.mean()
+    n = r.size
+    if n < max_lag + 2 or not np.any(r):
+        return float("nan")
+    c0 = float(r @ r)
+    acf = np.array([float(r[:-k] @ r[k:]) / c0 for k in range(1, max_lag + 1)])
+    return float(np.mean(np.abs(acf) <= 1.96 / np.sqrt(n)))
+
+
+def _inflation(series: NDArray[np.float64], max_lag: int = _MAX_LAG) -> float:
+    """Variance inflation for autocorrelated residuals, ``1 + 2 sum_k (1 - k/(K+1)) rho_k``
+    (Bartlett weights, lags 1..K, pooled over the segment series (..., L)), at least 1."""
+    x = series.reshape(-1, series.shape[-1])
+    x = x - x.mean(axis=1, keepdims=True)
+    c0 = float(np.sum(x * x))
+    if c0 <= 0:
+        return 1.0
+    K = min(max_lag, x.shape[1] - 2)
+    rho = [float(np.sum(x[:, :-k] * x[:, k:])) / c0 for k in range(1, K + 1)]
+    return max(1.0, 1.0 + 2.0 * sum((1.0 - k / (K + 1)) * r for k, r in enumerate(rho, 1)))
+
+
+@dataclass
+class FitResult:
+    """Estimates and statistics of :func:`fit` (``to_json`` for ``fit.json``)."""
+
+    estimates: dict[str, float]
+    stderr: dict[str, float | None]
+    status: dict[str, str]  # "fitted", "fixed", "not informed", "prior"
+    free: list[str]
+    fixed: dict[str, float]
+    correlation: dict[str, Any]
+    flags: list[str]
+    condition: float | None
+    residuals: dict[str, dict[str, float]]
+    Ts: float
+    segment: int
+    experiments: dict[str, int]
+    validation: dict[str, Any] | None = None
+    trace: dict[str, NDArray[np.float64]] = field(default_factory=dict, repr=False)
+    known: Known | None = field(default=None, repr=False)
+
+    def to_json(self) -> dict[str, Any]:
+        def num(x: Any) -> Any:
+            if x is None:
+                return None
+            x = float(x)
+            return x if np.isfinite(x) else None
+
+        return {
+            "estimates": {k: num(v) for k, v in self.estimates.items()},
+            "stderr": {k: num(v) for k, v in self.stderr.items()},
+            "status": dict(self.status),
+            "bounds": {k: list(v) for k, v in BOUNDS.items()},
+            "free": list(self.free),
+            "fixed": {k: num(v) for k, v in self.fixed.items()},
+            "correlation": self.correlation,
+            "flags": list(self.flags),
+            "condition_number": num(self.condition),
+            "residuals": {k: {kk: num(vv) for kk, vv in v.items()}
+                          for k, v in self.residuals.items()},  # fmt: skip
+            "Ts": self.Ts,
+            "segment": self.segment,
+            "experiments": dict(self.experiments),
+            "validation": self.validation,
+        }
+
+
+def _informed(logs: Sequence[Log]) -> dict[str, str]:
+    """name -> experiment that informs it (absent: none)."""
+    modes = set().union(*(set(lg.mode.tolist()) for lg in logs))
+    out: dict[str, str] = {}
+    if "wheels-off-ground" in modes:
+        for n in STAND_PARAMS:
+            out[n] = "wheels-off-ground"
+    if modes & {"static", "wheels-off-ground"}:
+        out["imu.gyro_bias"] = "static"
+        if any(lg.has("accel_x") and np.any(lg.mode != "balancing") for lg in logs):
+            out["imu.accel_bias"] = "static"
+    if any(lg.has("accel_x") for lg in logs):
+        out["fusion.tau"] = "any log with accel_x, accel_y"
+    return out
+
+
+class _Problem:
+    """The stand least-squares problem in scaled variables: globals in [0, 1] of their
+    bounds, then the nuisance speeds / 10 rad/s."""
+
+    def __init__(self, seg: Segments, known: Known, free: Sequence[str],
+                 values: Mapping[str, float]) -> None:  # fmt: skip
+        self.seg, self.known, self.free = seg, known, list(free)
+        self.values = dict(values)
+        self.lo = np.array([BOUNDS[n][0] for n in self.free])
+        self.span = np.array([BOUNDS[n][1] - BOUNDS[n][0] for n in self.free])
+        self.S = seg.n
+        self.L = seg.enc.shape[1]
+
+    def params(self, x: NDArray[np.float64]) -> dict[str, float]:
+        p = dict(self.values)
+        for i, n in enumerate(self.free):
+            p[n] = float(self.lo[i] + self.span[i] * x[i])
+        return p
+
+    def split(self, x: NDArray[np.float64]) -> tuple[dict[str, float], NDArray[np.float64]]:
+        g = len(self.free)
+        return self.params(x), 10.0 * x[g:].reshape(self.S, 2)
+
+    def residual_arr(self, p: Mapping[str, float], w0: NDArray[np.float64]) -> NDArray:
+        phi, _ = stand_rollout(p, self.seg.cmd, self.seg.is_duty, w0, self.known)
+        r = self.seg.enc - phi
+        return r - r.mean(axis=1, keepdims=True)
+
+    def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        p, w0 = self.split(x)
+        return (self.residual_arr(p, w0) / _RES).ravel()
+
+    def sparsity(self) -> Any:
+        from scipy.sparse import lil_matrix
+
+        g = len(self.free)
+        m = self.S * self.L * 2
+        A = lil_matrix((m, g + 2 * self.S), dtype=int)
+        A[:, :g] = 1
+        for s in range(self.S):
+            A[s * self.L * 2:(s + 1) * self.L * 2, g + 2 * s:g + 2 * s + 2] = 1
+        return A.tocsr()
+
+
+def _fit_stand(
+    seg: Segments, known: Known, free: Sequence[str], values: Mapping[str, float], search: bool
+) -> tuple[dict[str, float], NDArray, Any, NDArray, _Problem]:
+    from dataclasses import replace
+
+    from scipy.optimize import least_squares
+
+    prob = _Problem(seg, replace(known, pwm_levels=0), free, values)
+    g = len(free)
+    x0 = np.concatenate([np.clip((np.array([values[n] for n in free]) - prob.lo) / prob.span,
+                                 0.0, 1.0), seg.w0.ravel() / 10.0])  # fmt: skip
+    if search and "drive.gear_ratio" in free:
+        i = free.index("drive.gear_ratio")
+        j = free.index("drive.emf_compensation") if "drive.emf_compensation" in free else None
+        best = (np.inf, x0.copy())
+        for N in (4.5, 6.0, 8.0, 11.0, 15.0, 20.0, 27.0, 36.0, 45.0, 50.0):
+            for c in ((0.15, 0.5, 0.85) if j is not None else (0.0,)):
+                x = x0.copy()
+                x[i] = (N - prob.lo[i]) / prob.span[i]
+                if j is not None:
+                    x[j] = c
+                cost = float(np.sum(prob(x) ** 2))
+                if cost < best[0]:
+                    best = (cost, x)
+        x0 = best[1]
+    lb = np.concatenate([np.zeros(g), np.full(2 * seg.n, -np.inf)])
+    ub = np.concatenate([np.ones(g), np.full(2 * seg.n, np.inf)])
+    # stage 1: without the PWM quantisation (smooth); stage 2: the twin's quantised duty
+    stages = [(replace(known, pwm_levels=0), 1e-8, "2-point", 200)]
+    if known.pwm_levels > 0:
+        stages.append((known, _STEP, "3-point", 40))
+    res = None
+    for kn, step, scheme, nfev in stages:
+        prob = _Problem(seg, kn, free, values)
+        res = least_squares(prob, x0, bounds=(lb, ub), jac_sparsity=prob.sparsity(),
+                            method="trf", tr_solver="lsmr", x_scale=1.0, jac=scheme,
+                            diff_step=step, xtol=1e-10, ftol=1e-10, gtol=1e-10,
+                            max_nfev=nfev)  # fmt: skip
+        x0 = res.x
+    assert res is not None
+    p, w0 = prob.split(res.x)
+    # the statistics' Jacobian: the smooth model (no quantisation steps) at the optimum
+    smooth = _Problem(seg, replace(known, pwm_levels=0), free, values)
+    return p, res.x, _jacobian(smooth, res.x), res.fun, prob
+
+
+def _jacobian(prob: _Problem, x: NDArray[np.float64], h: float = 1e-7) -> NDArray[np.float64]:
+    """Forward-difference Jacobian, the nuisances two colours at a time (each segment's
+    rows depend on its own speeds only); dense (m, g + 2 S)."""
+    g, S, L = len(prob.free), prob.S, prob.L
+    f0 = prob(x)
+    J = np.zeros((f0.size, g + 2 * S))
+    for i in range(g):
+        xi = x.copy()
+        step = h if x[i] + h <= 1.0 else -h
+        xi[i] += step
+        J[:, i] = (prob(xi) - f0) / step
+    rows = np.arange(f0.size).reshape(S, L * 2)
+    for wheel in range(2):
+        xi = x.copy()
+        xi[g + wheel::2] += h
+        d = ((prob(xi) - f0) / h).reshape(S, L * 2)
+        cols = g + 2 * np.arange(S) + wheel
+        J[rows, cols[:, None]] = d
+    return J
+
+
+def _rest_rows(logs: Sequence[Log]) -> list[tuple[Log, NDArray[np.bool_]]]:
+    return [(lg, np.isin(lg.mode, ("static", "wheels-off-ground"))) for lg in logs]
+
+
+def _gyro_bias(logs: Sequence[Log], walk: float) -> tuple[float, float, NDArray]:
+    vals, var_walk, n_all = [], 0.0, 0
+    for lg, on in _rest_rows(logs):
+        if not on.any():
+            continue
+        w = lg.columns["theta_rate"][on]
+        t = np.sort(lg.columns["t"][on] - lg.columns["t"][0])
+        k = np.arange(t.size)
+        var_walk += float(np.sum(t * (2 * (t.size - 1 - k) + 1)))
+        vals.append(w)
+        n_all += w.size
+    x = np.concatenate(vals)
+    est = float(x.mean())
+    se = float(np.sqrt(x.var(ddof=1) / x.size + walk**2 * var_walk / n_all**2))
+    return est, se, x - est
+
+
+def _accel_bias(logs: Sequence[Log]) -> tuple[float, float, NDArray]:
+    x = np.concatenate([lg.columns["accel_x"][on] for lg, on in _rest_rows(logs)
+                        if lg.has("accel_x") and on.any()])  # fmt: skip
+    est = float(x.mean())
+    return est, float(x.std(ddof=1) / np.sqrt(x.size)), x - est
+
+
+def _fusion_tau(logs: Sequence[Log]) -> tuple[float, float, NDArray]:
+    xs, ys = [], []
+    for lg in logs:
+        if not lg.has("accel_x"):
+            continue
+        c = lg.columns
+        tilt = np.arctan2(c["accel_x"], c["accel_y"])
+        th = c["theta"]
+        xs.append(th[:-1] + c["theta_rate"][1:] * lg.Ts - tilt[1:])
+        ys.append(th[1:] - tilt[1:])
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    a = float(x @ y / (x @ x))
+    r = y - a * x
+    s2 = float(r @ r) / max(x.size - 1, 1)
+    se_a = max(float(np.sqrt(s2 / float(x @ x))), 1e-9 * (1.0 - a))  # float precision
+    Ts = logs[0].Ts
+    a = min(a, 1.0 - 1e-12)
+    tau = a * Ts / (1.0 - a)
+    return tau, float(se_a * Ts / (1.0 - a) ** 2), r
+
+
+def fit(
+    logs: Sequence[Log],
+    twin: object | None = None,
+    *,
+    free: Iterable[str] | None = None,
+    fixed: Mapping[str, float] | None = None,
+    segment: int = 40,
+    search: bool = True,
+) -> FitResult:
+    """Fit the twin's parameters (:data:`mwip.identify.bounds.BOUNDS`) to ``logs``.
+
+    ``free``: the names to fit (default: every name an experiment present informs);
+    ``fixed``: name -> value held (and not fitted). A free name no segment informs keeps its
+    prior centre and is reported ``not informed``.
+    """
+    from mwip.hardware.twin import Twin
+
+    if not logs:
+        raise ValueError("no logs given")
+    tw = Twin() if twin is None else twin
+    Ts = logs[0].Ts
+    for lg in logs[1:]:
+        if abs(lg.Ts - Ts) > 0.01 * Ts:
+            raise LogError(f"log {lg.path!r}, column 't': sample period {lg.Ts:g} s differs "
+                           f"from the first log's {Ts:g} s")  # fmt: skip
+    if not (5 <= segment <= 400):
+        raise ValueError(f"'segment' must be in [5, 400] samples, got {segment!r}")
+    fixed = dict(fixed or {})
+    for n, v in fixed.items():
+        if n not in BOUNDS:
+            raise ValueError(f"--fix: unknown parameter {n!r}; allowed: {', '.join(NAMES)}")
+        lo, hi = BOUNDS[n]
+        if not (np.isfinite(v) and lo <= v <= hi):
+            raise ValueError(f"--fix {n}: {v!r} is outside its bounds [{lo:g}, {hi:g}]")
+    informed = _informed(logs)
+    if free is None:
+        want = [n for n in NAMES if n in informed and n not in fixed]
+    else:
+        want = list(dict.fromkeys(free))
+        for n in want:
+            if n not in BOUNDS:
+                raise ValueError(f"--free: unknown parameter {n!r}; allowed: {', '.join(NAMES)}")
+            if n in fixed:
+                raise ValueError(f"parameter {n!r} is both --free and --fix")
+    values = {n: fixed.get(n, centre(n)) for n in NAMES}
+    status = {n: ("fixed" if n in fixed else "prior") for n in NAMES}
+    stderr: dict[str, float | None] = {n: None for n in NAMES}
+    for n in NAMES:
+        if n not in informed and n not in fixed:
+            status[n] = "not informed"
+    residuals: dict[str, dict[str, float]] = {}
+    trace: dict[str, NDArray[np.float64]] = {}
+    known = Known.from_twin(tw, Ts)
+    seg = stand_segments(logs, segment)
+    corr: dict[str, Any] = {"names": [], "matrix": []}
+    flags: list[str] = []
+    cond: float | None = None
+    stand_free = [n for n in STAND_PARAMS if n in want and n in informed]
+    if seg is not None and stand_free:
+        p, x, J, r, prob = _fit_stand(seg, known, stand_free, values, search)
+        g = len(stand_free)
+        Jd = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
+        norms = np.linalg.norm(Jd[:, :g], axis=0)
+        ok = norms > 1e-6 * max(float(norms.max()), 1e-300)
+        dof = r.size - Jd.shape[1] - 2 * seg.n
+        s2 = float(r @ r) / max(dof, 1) * _RES**2
+        kappa = _inflation(r.reshape(seg.n, -1, 2).transpose(0, 2, 1))
+        s2 *= kappa
+        keep = np.concatenate([ok, np.ones(Jd.shape[1] - g, dtype=bool)])
+        Jk = Jd[:, keep] * _RES
+        info = Jk.T @ Jk
+        cov_all = np.linalg.pinv(info) * s2
+        names_ok = [n for n, o in zip(stand_free, ok, strict=True) if o]
+        ng = len(names_ok)
+        cov = cov_all[:ng, :ng]
+        span = np.array([BOUNDS[n][1] - BOUNDS[n][0] for n in names_ok])
+        se = np.sqrt(np.maximum(np.diag(cov), 0.0)) * span
+        for n, o in zip(stand_free, ok, strict=True):
+            if o:
+                values[n] = p[n]
+                status[n] = "fitted"
+            else:
+                status[n] = "not informed"
+        for n, s in zip(names_ok, se, strict=True):
+            stderr[n] = float(s)
+        d = np.sqrt(np.maximum(np.diag(cov), 1e-300))
+        R = cov / np.outer(d, d)
+        corr = {"names": names_ok, "matrix": np.round(R, 4).tolist()}
+        for i in range(ng):
+            for j in range(i + 1, ng):
+                if abs(R[i, j]) > 0.9:
+                    flags.append(f"{names_ok[i]} and {names_ok[j]} are not separately "
+                                 f"identified (correlation {R[i, j]:+.3f})")  # fmt: skip
+        try:
+            cond = float(np.linalg.cond(np.linalg.inv(cov / s2)))
+        except np.linalg.LinAlgError:
+            cond = float("inf")
+        res_arr = r.reshape(seg.n, -1, 2) * _RES
+        residuals["enc"] = {"rms": float(np.sqrt(np.mean(res_arr**2))),
+                            "whiteness": whiteness(res_arr.transpose(0, 2, 1).ravel()),
+                            "n": float(res_arr.size)}  # fmt: skip
+        _, w0 = prob.split(x)
+        phi, _ = stand_rollout(values, seg.cmd, seg.is_duty, w0, known)
+        trace = {"t": seg.t, "enc": seg.enc, "pred": phi + (seg.enc - phi).mean(1, keepdims=True)}
+    walk = float(getattr(getattr(tw, "imu", None), "gyro_bias_walk", 0.0))
+    for n, fn in (("imu.gyro_bias", lambda: _gyro_bias(logs, walk)),
+                  ("imu.accel_bias", lambda: _accel_bias(logs)),
+                  ("fusion.tau", lambda: _fusion_tau(logs))):  # fmt: skip
+        if n in want and n in informed:
+            est, se_n, rr = fn()
+            lo, hi = BOUNDS[n]
+            values[n] = float(np.clip(est, lo, hi))
+            stderr[n] = se_n
+            status[n] = "fitted"
+            sig = {"imu.gyro_bias": "theta_rate", "imu.accel_bias": "accel_x",
+                   "fusion.tau": "theta"}[n]  # fmt: skip
+            residuals[sig] = {"rms": float(np.sqrt(np.mean(rr**2))), "whiteness": whiteness(rr),
+                              "n": float(rr.size)}  # fmt: skip
+    for n in NAMES:
+        if status[n] == "not informed":
+            flags.append(f"{n}: no segment informs it; left at its prior value {values[n]:g}")
+    experiments = {m: int(sum(int(np.sum(lg.mode == m)) for lg in logs))
+                   for m in ("balancing", "wheels-off-ground", "static")}  # fmt: skip
+    return FitResult(
+        estimates=values, stderr=stderr, status=status,
+        free=[n for n in want if status[n] == "fitted"], fixed=fixed, correlation=corr,
+        flags=flags, condition=cond, residuals=residuals, Ts=Ts, segment=segment,
+        experiments=experiments, trace=trace, known=known,
+    )  # fmt: skip
+
+
+def predict_error(log: Log, values: Mapping[str, float], known: Known,
+                  segment: int = 40) -> dict[str, float]:  # fmt: skip
+    """Prediction error of ``values`` on a held-out log: the wheels-off-ground encoder RMS
+    (segment speeds refitted with the parameters held) and the rest rows' gyro RMS about
+    ``imu.gyro_bias``."""
+    from scipy.optimize import least_squares
+
+    out: dict[str, float] = {}
+    seg = stand_segments([log], segment)
+    if seg is not None:
+        prob = _Problem(seg, known, [], values)
+        res = least_squares(prob, seg.w0.ravel() / 10.0, jac_sparsity=prob.sparsity(),
+                            method="trf", tr_solver="lsmr", max_nfev=50)  # fmt: skip
+        out["enc_rms"] = float(np.sqrt(np.mean(res.fun**2))) * _RES
+    on = np.isin(log.mode, ("static", "wheels-off-ground"))
+    if on.any():
+        g = log.columns["theta_rate"][on] - values["imu.gyro_bias"]
+        out["theta_rate_rms"] = float(np.sqrt(np.mean(g**2)))
+    if log.has("accel_x") and on.any():
+        a = log.columns["accel_x"][on] - values["imu.accel_bias"]
+        out["accel_x_rms"] = float(np.sqrt(np.mean(a**2)))
+    return out

@@ -1,0 +1,173 @@
+"""Prediction models of the fit: pure functions over arrays, leading batch axis = segments.
+
+Wheels-off-ground (the robot on a stand: body fixed, each wheel free) per wheel and sample
+``k`` (docs/twin_fit.md), the twin's drive physics (:mod:`mwip.hardware.motor`,
+:class:`mwip.hardware.twin.TwinActuator`) written batch-first:
+
+1. duty command ``d_k`` (logged, or ``R u_k / (N eta k_t V_0)`` from a torque command) plus
+   the firmware's back-EMF compensation ``c k_e omega_m / V_0`` (``omega_m = N w``);
+2. delay: ``D d'_{k-1} + (1 - D) d'_k``; clipped to [-1, 1]; the dead-band
+   ``sign(d) max(|d| - db, 0)`` (smooth: ``sp(d - db) - sp(-d - db)``, ``sp`` the softplus of
+   width :data:`DEADBAND_WIDTH`);
+3. the battery ``V_s = V_0 - R_s I_bat`` (previous sample), the current limit
+   ``|V - k_e omega_m| <= R I_max`` and the supply ``|V| <= V_s``;
+4. the current integrated exactly over the sample (inductance), the torque of the mean
+   current ``eta N k_t i_mean`` plus the held part of the back-EMF ``eta N k_t k_e omega_m / R``;
+5. Coulomb friction in the discrete stick-slip form of
+   :func:`mwip.hardware.drivetrain.coulomb_torque` (the sliding ``sign`` smoothed by
+   ``tanh(x / COULOMB_WIDTH)``), mobility ``1 / J``, ``J = I_wa + N^2 J_rotor``;
+6. ``J w' = T - (c_emf + b_v + D_b) w`` integrated exactly over the sample
+   (``c_emf = eta N^2 k_t k_e / R``, the back-EMF's continuous viscous torque).
+
+PWM quantisation (``pwm_levels`` of the base twin) is applied as the twin does (``round``);
+the finite-difference Jacobian uses central differences of a step large enough to see
+through its steps.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["Known", "STAND_PARAMS", "DEADBAND_WIDTH", "COULOMB_WIDTH", "stand_rollout"]
+
+#: Softplus width of the smooth dead-band (duty).
+DEADBAND_WIDTH = 1e-4
+#: tanh width of the smooth Coulomb sign (rad/s of wheel speed).
+COULOMB_WIDTH = 1e-3
+
+#: The parameters the wheels-off-ground model depends on.
+STAND_PARAMS: tuple[str, ...] = (
+    "drive.gear_ratio", "drive.emf_compensation", "drive.deadband", "drive.current_limit",
+    "gearbox.coulomb", "gearbox.viscous", "delay",
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Known:
+    """The constants the fit takes from the base twin (motor data, battery, wheel)."""
+
+    Ts: float
+    R: float
+    tau_e: float
+    ke: float
+    eta: float
+    Vs: float
+    Rs: float
+    Iwa: float
+    Jr: float
+    Db: float
+    pwm_levels: int = 0
+
+    @classmethod
+    def from_twin(cls, twin: object, Ts: float) -> Known:
+        from mwip.params import REAL
+
+        m = twin.motor  # type: ignore[attr-defined]
+        d = twin.drive  # type: ignore[attr-defined]
+        sag = "sag" in twin.active  # type: ignore[attr-defined]
+        return cls(Ts=float(Ts), R=m.resistance, tau_e=m.tau_e, ke=m.k_e,
+                   eta=d.gear_efficiency, Vs=d.supply_voltage,
+                   Rs=d.supply_resistance if sag else 0.0, Iwa=float(REAL.Iwa),
+                   Jr=m.rotor_inertia, Db=float(REAL.Db),
+                   pwm_levels=int(d.pwm_levels) if "pwm" in twin.active else 0)  # type: ignore[attr-defined]  # fmt: skip
+
+
+def _softplus(x: NDArray[np.float64], w: float) -> NDArray[np.float64]:
+    return w * np.logaddexp(0.0, x / w)
+
+
+def deadband(d: NDArray[np.float64], db: float, width: float) -> NDArray[np.float64]:
+    """Smooth ``sign(d) max(|d| - db, 0)`` (exact for ``width = 0``)."""
+    if width <= 0:
+        return np.sign(d) * np.maximum(np.abs(d) - db, 0.0)
+    return _softplus(d - db, width) - _softplus(-d - db, width)
+
+
+def karnopp(w: NDArray[np.float64], drive: NDArray[np.float64], fc: float, mob: float,
+            Ts: float, width: float) -> NDArray[np.float64]:  # fmt: skip
+    """Coulomb friction held over the sample (stick-slip form, smooth sliding sign)."""
+    need = -w / (Ts * mob) - drive
+    x = w + Ts * mob * drive
+    sgn = np.tanh(x / width) if width > 0 else np.sign(x)
+    return np.where(np.abs(need) <= fc, need, -fc * sgn)
+
+
+def stand_rollout(
+    p: Mapping[str, float],
+    cmd: NDArray[np.float64],
+    is_duty: NDArray[np.bool_],
+    w0: NDArray[np.float64],
+    k: Known,
+    widths: tuple[float, float] = (DEADBAND_WIDTH, COULOMB_WIDTH),
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Wheel angles (relative to the start) and speeds over segments, both (S, L, 2).
+
+    ``cmd`` (S, L + 1, 2): the command of the sample before each segment (0 at a log's start),
+    then the segment's: duties where ``is_duty`` (S,) else wheel torques (N m); ``w0`` (S, 2)
+    the wheel speeds at the segments' first samples (taken for the sample before, too: the
+    back-EMF compensation of the delayed command, the current and battery load before).
+    """
+    N = float(p["drive.gear_ratio"])
+    c = float(p["drive.emf_compensation"])
+    db = float(p["drive.deadband"])
+    imax = float(p["drive.current_limit"])
+    fc = float(p["gearbox.coulomb"])
+    bv = float(p["gearbox.viscous"])
+    dl = float(p["delay"])
+    S, L1, _ = cmd.shape
+    L = L1 - 1
+    gain = N * k.eta * k.ke
+    J = k.Iwa + N * N * k.Jr
+    D = k.eta * N * N * k.ke * k.ke / k.R + bv + k.Db
+    a = np.exp(-D * k.Ts / J)
+    mob = 1.0 / J
+    e_el = np.exp(-k.Ts / k.tau_e)
+    f_el = (k.tau_e / k.Ts) * (1.0 - e_el)
+    scale = np.where(is_duty, 1.0, k.R / (gain * k.Vs))[:, None, None]
+    duty_cmd = cmd * scale
+    band = k.R * imax
+
+    def voltage(dmix: NDArray[np.float64], emf: NDArray[np.float64],
+                vs: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
+        d = np.clip(dmix, -1.0, 1.0)
+        if k.pwm_levels > 0:
+            d = np.round(d * k.pwm_levels) / k.pwm_levels
+        d = deadband(d, db, widths[0])
+        v = d * vs
+        return np.clip(np.clip(v, emf - band, emf + band), -vs, vs)
+
+    w = np.array(w0, dtype=float)
+    emf = k.ke * N * w
+    dprev = duty_cmd[:, 0] + c * emf / k.Vs
+    vs0 = np.full((S, 1), k.Vs)
+    v = voltage(dprev, emf, vs0)
+    i = (v - emf) / k.R
+    ibat = np.sum(v / vs0 * i, axis=1, keepdims=True)
+    phi = np.zeros((S, 2))
+    out_phi = np.zeros((S, L, 2))
+    out_w = np.zeros((S, L, 2))
+    out_w[:, 0] = w
+    for j in range(L - 1):
+        emf = k.ke * N * w
+        dj = duty_cmd[:, j + 1] + c * emf / k.Vs
+        dmix = dl * dprev + (1.0 - dl) * dj
+        dprev = dj
+        vs = np.maximum(k.Vs - k.Rs * ibat, 0.0)
+        v = voltage(dmix, emf, vs)
+        iss = (v - emf) / k.R
+        i_mean = iss + (i - iss) * f_el
+        i = iss + (i - iss) * e_el
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ibat = np.sum(np.where(vs > 0, v / vs, 0.0) * i_mean, axis=1, keepdims=True)
+        torque = gain * i_mean + gain * emf / k.R
+        T = torque + karnopp(w, torque, fc, mob, k.Ts, widths[1])
+        wss = T / D
+        phi = phi + wss * k.Ts + (w - wss) * (J / D) * (1.0 - a)
+        w = wss + (w - wss) * a
+        out_phi[:, j + 1] = phi
+        out_w[:, j + 1] = w
+    return out_phi, out_w

@@ -1,0 +1,179 @@
+"""Synthetic logs from the twin's own elements (the generator of the identification tests).
+
+Wheels-off-ground and static logs: the body held level (``theta = 0``), each wheel driven by
+the twin's actuator (:class:`mwip.hardware.twin.TwinActuator`: delay, RE25 + PWM driver with
+quantisation, dead-band, sag and current limit, Coulomb stick-slip friction) and integrated
+exactly (``J w' = T - D w``, ``J = I_wa + N^2 J_r``, ``D`` the twin plant's ``Db`` with the
+back-EMF damping and the gearbox viscous friction), read by the twin's encoders
+(:func:`mwip.hardware.encoder.count`) and IMU (:class:`mwip.hardware.imu.Imu` with its noise,
+bias and drift, :class:`mwip.hardware.imu.TiltFilter`). The fractional back-EMF compensation
+``c`` (not in today's twin) is the torque command's share ``c eta N k_t k_e omega_m / R``.
+Backlash is switched off (it is not identified).
+
+Balancing logs: :func:`mwip.hardware.twin.run_on_twin` with a controller of
+:mod:`mwip.control.registry` (``emf_feedforward = c >= 0.5``).
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mwip.identify.bounds import BOUNDS
+
+__all__ = ["draw_truth", "twin_for", "stand_log", "balancing_log", "write_csv"]
+
+
+def draw_truth(seed: int, inner: float = 0.1) -> dict[str, float]:
+    """Hidden parameters drawn uniformly from the central ``1 - 2 inner`` of the bounds."""
+    rng = np.random.default_rng(seed)
+    out = {}
+    for name, (lo, hi) in BOUNDS.items():
+        w = hi - lo
+        out[name] = float(rng.uniform(lo + inner * w, hi - inner * w))
+    return out
+
+
+def twin_for(truth: Mapping[str, float], base: object | None = None) -> Any:
+    """The twin with ``truth``'s values (backlash off; ``emf_feedforward = c >= 0.5``)."""
+    from mwip.hardware.elements import ELEMENTS
+    from mwip.hardware.twin import Twin
+
+    tw: Twin = Twin() if base is None else base  # type: ignore[assignment]
+    n = truth["drive.gear_ratio"]
+    return replace(
+        tw,
+        drive=replace(tw.drive, gear_ratio=n, deadband=truth["drive.deadband"],
+                      current_limit=truth["drive.current_limit"],
+                      emf_feedforward=truth["drive.emf_compensation"] >= 0.5),
+        encoder=replace(tw.encoder, gear_ratio=n),
+        gearbox=replace(tw.gearbox, coulomb=truth["gearbox.coulomb"],
+                        viscous=truth["gearbox.viscous"]),
+        imu=replace(tw.imu, gyro_bias=truth["imu.gyro_bias"], accel_bias=truth["imu.accel_bias"],
+                    height=truth["imu.height"]),
+        fusion=replace(tw.fusion, tau=truth["fusion.tau"]),
+        delay=truth["delay"],
+        elements=frozenset(e for e in ELEMENTS if e != "backlash"),
+    )  # fmt: skip
+
+
+def stand_log(
+    truth: Mapping[str, float],
+    duty: NDArray[np.float64],
+    mode: NDArray[np.str_] | None = None,
+    *,
+    seed: int = 0,
+    torque: bool = False,
+    base: object | None = None,
+) -> dict[str, NDArray]:
+    """A wheels-off-ground / static log for the schedule ``duty`` (n, 2): columns of the
+    log schema (``u_r, u_l`` instead of duties with ``torque``)."""
+    from mwip.hardware.encoder import EncoderSpec, count, counts_to_angle
+    from mwip.hardware.imu import Imu, TiltFilter, tilt_arctan
+    from mwip.hardware.twin import TwinActuator
+    from mwip.params import REAL
+
+    tw = twin_for(truth, base)
+    m, d, Ts = tw.motor, tw.drive, tw.Ts
+    c = float(truth["drive.emf_compensation"])
+    N = d.gear_ratio
+    gain = N * d.gear_efficiency * m.k_t
+    J = float(REAL.Iwa) + N * N * m.rotor_inertia
+    D = d.emf_damping(m) + tw.gearbox.viscous + float(REAL.Db)
+    a = np.exp(-D * Ts / J)
+    tw_ff = replace(tw, drive=replace(d, emf_feedforward=False))
+    br = float(REAL.b / REAL.r)
+    act = TwinActuator(tw_ff, plant_b_over_r=br, mobility=1.0 / J)
+    act.reset(1)
+    imu = Imu(tw.imu)
+    imu.reset(1, seed)
+    filt = TiltFilter(tw.fusion)
+    enc_spec = EncoderSpec(tw.encoder.cpr, N)
+    n = duty.shape[0]
+    rng = np.random.default_rng(seed + 10_000)
+    phi = rng.uniform(-1.0, 1.0, 2)
+    w = np.zeros(2)
+    c0 = count(phi, enc_spec)
+    cols: dict[str, list[float]] = {k: [] for k in (
+        "t", "theta", "theta_rate", "enc_r", "enc_l", "accel_x", "accel_y")}  # fmt: skip
+    cmd_out = np.zeros((n, 2))
+    zero = np.zeros(1)
+    for k in range(n):
+        ax, ay, om = imu.read(zero, zero, zero, zero, 0.0 if k == 0 else Ts)
+        th_acc = tilt_arctan(ax, ay)
+        if k == 0:
+            filt.reset(th_acc)
+            th = th_acc
+        else:
+            th, _ = filt.update(om, th_acc, Ts)
+        enc = counts_to_angle(count(phi, enc_spec) - c0, enc_spec)
+        for key, val in (("t", k * Ts), ("theta", th[0]), ("theta_rate", om[0]),
+                         ("enc_r", enc[0]), ("enc_l", enc[1]), ("accel_x", ax[0]),
+                         ("accel_y", ay[0])):  # fmt: skip
+            cols[key].append(float(val))
+        u = duty[k] * d.supply_voltage * gain / m.resistance
+        cmd_out[k] = u if torque else duty[k]
+        emf = m.k_e * N * w
+        u_ff = u + c * gain * emf / m.resistance
+        psi, alpha = 0.5 * (phi[0] + phi[1]), (phi[0] - phi[1]) / (2.0 * br)
+        state = np.array([[psi, 0.0, alpha, 0.5 * (w[0] + w[1]), 0.0,
+                           (w[0] - w[1]) / (2.0 * br), 0.0, 0.0]])  # fmt: skip
+        T = act(k * Ts, u_ff[None, :], state)[0]
+        wss = T / D
+        phi = phi + wss * Ts + (w - wss) * (J / D) * (1.0 - a)
+        w = wss + (w - wss) * a
+    out: dict[str, NDArray] = {key: np.asarray(v) for key, v in cols.items()}
+    names = ("u_r", "u_l") if torque else ("duty_r", "duty_l")
+    out[names[0]], out[names[1]] = cmd_out[:, 0], cmd_out[:, 1]
+    out["mode"] = np.asarray(mode if mode is not None else np.full(n, "wheels-off-ground"))
+    return out
+
+
+def balancing_log(
+    truth: Mapping[str, float], controller: str = "lqr", duration: float = 5.0, seed: int = 0,
+    base: object | None = None,
+) -> dict[str, NDArray]:
+    """A balancing log: ``controller`` (registry name) on the twin with ``truth``."""
+    from mwip.control.registry import build
+    from mwip.hardware.twin import run_on_twin
+
+    tw = twin_for(truth, base)
+    ctrl = build(controller, Ts=tw.Ts)
+    res = run_on_twin(ctrl, twin=tw, q0=(0.0, 0.05, 0.0), duration=duration,
+                      record_every=1, seed=seed)  # fmt: skip
+    y = np.asarray(res.logs["y_meas"])[0]
+    gyro = np.asarray(res.logs["imu_gyro"])[0]
+    u = np.asarray(res.u)
+    u = u[0] if u.ndim == 3 else u
+    from mwip.params import REAL
+
+    plant = tw.plant(REAL)
+    br = float(np.mean(plant.b / plant.r))
+    rel = y[:, 0] - y[:, 1] - (y[0, 0] - y[0, 1])
+    half = br * (y[:, 2] - y[0, 2])
+    n = min(len(y), len(u))
+    return {
+        "t": np.arange(n) * tw.Ts,
+        "theta": y[:n, 1], "theta_rate": gyro[:n],
+        "enc_r": (rel + half)[:n], "enc_l": (rel - half)[:n],
+        "u_r": u[:n, 0], "u_l": u[:n, 1], "mode": np.full(n, "balancing"),
+    }  # fmt: skip
+
+
+def write_csv(path: str | Path, cols: Mapping[str, NDArray]) -> Path:
+    """Write log columns as CSV (floats with ``repr`` precision)."""
+    names = list(cols)
+    n = len(next(iter(cols.values())))
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(names)
+        for i in range(n):
+            w.writerow([cols[k][i] if isinstance(cols[k][i], str) else repr(float(cols[k][i]))
+                        for k in names])  # fmt: skip
+    return Path(path)
