@@ -216,7 +216,7 @@ def report_text(doc: dict[str, Any]) -> str:
     for nm in doc["numbers"]:
         rng = (f"{nm['low']:.4g} - {nm['median']:.4g} - {nm['high']:.4g}" if "median" in nm
                else "n/a")  # fmt: skip
-        ins = {True: "yes", False: "no"}.get(nm.get("inside"), "n/a")  # type: ignore[arg-type]
+        ins = {True: "yes", False: "no"}.get(nm.get("inside"), "n/a")
         d = nm.get("default_twin")
         out.append(f"| {nm['key']} | {nm['role']} | {nm['book']:g} | {rng} | {ins} | "
                    f"{'n/a' if d is None or not np.isfinite(d) else format(d, '.4g')} |")

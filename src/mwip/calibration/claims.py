@@ -59,7 +59,8 @@ def _ordered(*vals: NDArray[np.float64]) -> NDArray[np.bool_]:
 
 
 def _order3(study: str, case: str, q: str) -> Callable[[Cols], NDArray[np.bool_]]:
-    return lambda c: _ordered(*(_col(c, study, f"{k}.{case}", q) for k in ("do4smc", "do1smc", "smc")))
+    kinds = ("do4smc", "do1smc", "smc")
+    return lambda c: _ordered(*(_col(c, study, f"{k}.{case}", q) for k in kinds))
 
 
 def _track(study: str, case: str, target: float, tol: float) -> Callable[[Cols], NDArray[np.bool_]]:
@@ -91,7 +92,8 @@ def _fuzzy(e: int) -> Callable[[Cols], NDArray[np.bool_]]:
         keys = [k for k in c if k.startswith(prefix) and f".exp{e}." in k]
         for i in range(n):
             m = {k[len(prefix):]: float(c[k][i]) for k in keys}
-            out[i] = exp_it2.fails(m, f"t1.exp{e}") and exp_it2.stable_and_accurate(m, f"it2.exp{e}")
+            t1 = exp_it2.fails(m, f"t1.exp{e}")
+            out[i] = t1 and exp_it2.stable_and_accurate(m, f"it2.exp{e}")
         return out
 
     return test

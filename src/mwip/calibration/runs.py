@@ -145,7 +145,9 @@ def _settling_rows(t: NDArray[np.float64], psi_dot: NDArray[np.float64], start: 
     return np.array([obstacle_settling_time(t, row, start, band) for row in psi_dot])
 
 
-def _metrics(run: Run, res: SimResult, cfg: Mapping[str, Any], nominal: Params) -> dict[str, NDArray]:
+def _metrics(
+    run: Run, res: SimResult, cfg: Mapping[str, Any], nominal: Params
+) -> dict[str, NDArray]:
     """Per-row metrics of one batched run (measured signals; ``nan`` where a row fell)."""
     t = res.t
     ok = res.status == "ok"

@@ -19,7 +19,9 @@ from mwip.campaign.sampling import sample_rng
 __all__ = ["draw", "run_block", "calibration_campaign"]
 
 
-def draw(seed: int, indices: range | list[int], prior: Any = None) -> dict[str, NDArray[np.float64]]:
+def draw(
+    seed: int, indices: range | list[int], prior: Any = None
+) -> dict[str, NDArray[np.float64]]:
     """The unknowns of draws ``indices`` (name -> array), uniform on the prior's ranges."""
     from mwip.hardware.prior import PRIOR
 
@@ -51,8 +53,9 @@ def calibration_campaign(samples: int, seed: int, block: int, duration: float = 
     """The campaign of the book calibration (``duration`` > 0 caps every run: a smoke test)."""
     from mwip.campaign.spec import parse_campaign
 
-    camp: dict[str, Any] = {"kind": "calibration", "title": "The book's robot: prior draws of the twin",
-                            "samples": samples, "seed": seed, "block": block}  # fmt: skip
+    camp: dict[str, Any] = {"kind": "calibration", "samples": samples, "seed": seed,
+                            "block": block,
+                            "title": "The book's robot: prior draws of the twin"}  # fmt: skip
     if duration > 0:
         camp["duration"] = duration
     return parse_campaign({"campaign": camp})

@@ -69,7 +69,7 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
 
 
 @twin.command("fit")
-@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("logs", nargs=-1, required=False, type=click.Path(path_type=Path))
 @click.option("--out", "out", required=True, type=click.Path(path_type=Path),
               help="Output folder (twin.toml, fit.json, fit.png); new, empty or mwip's own.")
 @TWIN_OPTION
@@ -82,11 +82,33 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
 @click.option("--segment", default=40, show_default=True, type=int,
               help="Samples per multiple-shooting segment.")
 @click.option("--force", is_flag=True, help="Write into a non-empty folder that is not mwip's.")
+@click.option("--evidence", type=click.Choice(["book"]), default=None,
+              help="Instead of logs: condition the book's robot on the book's Chapter 6 "
+              "evidence (prior draws on Dask, resumable; docs/twin_fit.md).")
+@click.option("--samples", type=click.IntRange(1, 100_000), default=None,
+              help="--evidence: prior draws (default: the declaration's, 2000).")
+@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=None,
+              help="--evidence: seed of the prior draws (default: the declaration's).")
+@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
+              help="--evidence: worker processes (Dask when > 1).")
+@click.option("--duration", type=click.FloatRange(0.0, 15.0), default=0.0,
+              help="--evidence: cap every run at this many seconds (a smoke test; 0: the "
+              "studies' own durations).")
 def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: str | None,
              fix: tuple[str, ...], validate: Path | None, segment: int,
-             force: bool) -> None:  # fmt: skip
-    """Identify the twin from robot logs (docs/twin_fit.md)."""
+             force: bool, evidence: str | None, samples: int | None, seed: int | None,
+             jobs: int, duration: float) -> None:  # fmt: skip
+    """Identify the twin from robot logs (docs/twin_fit.md), or with --evidence book the
+    book's robot from the book's evidence."""
     from mwip import outdir
+
+    if evidence is not None:
+        if logs:
+            raise click.UsageError("give LOG files or --evidence book, not both")
+        _fit_book(out, force, samples, seed, jobs, duration)
+        return
+    if not logs:
+        raise click.UsageError("missing LOG files (or --evidence book)")
     from mwip.identify.bounds import centre
     from mwip.identify.fit import fit, predict_error
     from mwip.identify.logs import read_log
@@ -123,6 +145,25 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
     click.echo(f"wrote {', '.join(str(f) for f in files)}")
     for flag in result.flags:
         click.echo(f"note: {flag}")
+
+
+def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, jobs: int,
+              duration: float) -> None:  # fmt: skip
+    """``twin fit --evidence book``: :func:`mwip.calibration.book.calibrate_book` into ``out``
+    (a folder of mwip's own: a rerun resumes the prior draws)."""
+    from mwip import outdir
+    from mwip.calibration.book import calibrate_book
+
+    target = outdir.check(out, force)
+    outdir.claim(target)
+    res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration)
+    p, c = res.doc["posterior"], res.doc["claim_counts"]
+    click.echo(f"prior draws {p['n_prior']}, consistent with the calibration evidence {p['size']}"
+               + (f" (conditioned on {len(p['used'])} facts; dropped: {len(p['dropped'])})"
+                  if p["dropped"] else ""))  # fmt: skip
+    click.echo(f"held-out claims: {c['holds']} hold, {c['fails']} fail, {c['undecided']} "
+               "undecided")  # fmt: skip
+    click.echo(f"wrote {target / 'posterior.md'}, posterior.json, twin.toml, marginals.png")
 
 
 @twin.command("excite")

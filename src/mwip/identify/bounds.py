@@ -1,30 +1,31 @@
 """The parameters ``mwip twin fit`` identifies: dotted twin-file paths, bounds, prior centre.
 
-The table is this package's until the twin's declared prior (``mwip.hardware.prior.PRIOR``)
-lands; the fit reads it only through :data:`BOUNDS`, :func:`centre` and :data:`UNITS`.
-``drive.emf_compensation`` is the fraction of the back-EMF ``k_e omega_m`` the firmware adds
-to the voltage (0: open-loop PWM); today's twin file has the boolean
-``drive.emf_feedforward`` instead (written as ``c >= 0.5``).
+The bounds are the twin's declared prior (``mwip.hardware.prior.PRIOR``); the fit reads them
+only through :data:`BOUNDS`, :func:`centre` and :data:`UNITS`. ``drive.emf_compensation`` is
+the fraction of the back-EMF ``k_e omega_m`` the firmware adds to the voltage (0: open-loop
+PWM).
 """
 
 from __future__ import annotations
 
 __all__ = ["BOUNDS", "UNITS", "NAMES", "centre"]
 
-#: name -> (lower, upper) bound
-BOUNDS: dict[str, tuple[float, float]] = {
-    "drive.gear_ratio": (3.7, 51.0),
-    "drive.emf_compensation": (0.0, 1.0),
-    "drive.deadband": (0.0, 0.05),
-    "drive.current_limit": (1.0, 10.0),
-    "gearbox.coulomb": (0.0, 0.06),
-    "gearbox.viscous": (0.0, 0.005),
-    "delay": (0.0, 1.0),
-    "imu.gyro_bias": (-0.02, 0.02),
-    "imu.accel_bias": (-0.05, 0.05),
-    "imu.height": (0.0, 0.13),
-    "fusion.tau": (0.1, 2.0),
-}
+def _bounds() -> dict[str, tuple[float, float]]:
+    from mwip.hardware.prior import PRIOR
+
+    return {n: (float(lo), float(hi)) for n, (lo, hi) in zip(PRIOR.names, PRIOR.bounds, strict=True)
+            if n in _FITTED}  # fmt: skip
+
+
+#: what the fit can identify, in this order
+_FITTED = (
+    "drive.gear_ratio", "drive.emf_compensation", "drive.deadband", "drive.current_limit",
+    "gearbox.coulomb", "gearbox.viscous", "delay", "imu.gyro_bias", "imu.accel_bias",
+    "imu.height", "fusion.tau",
+)  # fmt: skip
+
+#: name -> (lower, upper) bound: the twin's declared prior (mwip.hardware.prior.PRIOR)
+BOUNDS: dict[str, tuple[float, float]] = {n: _bounds()[n] for n in _FITTED}
 
 UNITS: dict[str, str] = {
     "drive.gear_ratio": "motor turns per wheel turn",

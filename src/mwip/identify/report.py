@@ -3,14 +3,13 @@
 ``twin.toml`` is the base twin with the fitted values (:mod:`mwip.hardware.twin_config`),
 preceded by a date-free provenance comment block (the logs' SHA-256, the free and fixed
 lists), so the same logs give the same file. ``drive.emf_compensation`` is written as
-``emf_feedforward = (c >= 0.5)`` until the twin has the fraction; ``fit.json`` has the fraction.
+``drive.emf_compensation`` is the fitted fraction (``fit.json`` has it too).
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -29,27 +28,7 @@ def fitted_twin(result: FitResult, base: object | None = None) -> Any:
     tw: Twin = Twin() if base is None else base  # type: ignore[assignment]
     use = {n: v for n, v in result.estimates.items() if result.status[n] in ("fitted", "fixed")}
 
-    def get(name: str, cur: float) -> float:
-        return float(use.get(name, cur))
-
-    n = get("drive.gear_ratio", tw.drive.gear_ratio)
-    ff = tw.drive.emf_feedforward
-    if "drive.emf_compensation" in use:
-        ff = use["drive.emf_compensation"] >= 0.5
-    return replace(
-        tw,
-        drive=replace(tw.drive, gear_ratio=n, emf_feedforward=bool(ff),
-                      deadband=get("drive.deadband", tw.drive.deadband),
-                      current_limit=get("drive.current_limit", tw.drive.current_limit)),
-        encoder=replace(tw.encoder, gear_ratio=n),
-        gearbox=replace(tw.gearbox, coulomb=get("gearbox.coulomb", tw.gearbox.coulomb),
-                        viscous=get("gearbox.viscous", tw.gearbox.viscous)),
-        imu=replace(tw.imu, gyro_bias=get("imu.gyro_bias", tw.imu.gyro_bias),
-                    accel_bias=get("imu.accel_bias", tw.imu.accel_bias),
-                    height=get("imu.height", tw.imu.height)),
-        fusion=replace(tw.fusion, tau=get("fusion.tau", tw.fusion.tau)),
-        delay=get("delay", tw.delay),
-    )  # fmt: skip
+    return tw.with_values(use)
 
 
 def twin_text(result: FitResult, logs: Sequence[Log], base: object | None = None) -> str:
@@ -64,9 +43,6 @@ def twin_text(result: FitResult, logs: Sequence[Log], base: object | None = None
     lines.append(f"# fixed: {fx or '(none)'}")
     ni = [n for n, s in result.status.items() if s == "not informed"]
     lines.append(f"# not informed (prior kept): {', '.join(ni) or '(none)'}")
-    c = result.estimates["drive.emf_compensation"]
-    if result.status["drive.emf_compensation"] in ("fitted", "fixed"):
-        lines.append(f"# drive.emf_compensation = {c:.6g} (written as emf_feedforward = c >= 0.5)")
     lines.append("")
     return "\n".join(lines) + "\n" + twin_to_toml(fitted_twin(result, base))
 

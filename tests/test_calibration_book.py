@@ -1,0 +1,74 @@
+"""The book calibration end to end, on a few short prior draws: deterministic, resumable, the
+studies' own runs, the CLI (`mwip twin fit --evidence book`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from mwip.calibration.book import calibrate_book
+from mwip.calibration.runs import RUNS, run_batch
+from mwip.hardware.twin import Twin
+
+SMALL = {"samples": 4, "block": 2, "duration": 0.6, "jobs": 1, "progress": None}
+
+
+def test_one_draw_at_the_default_values_is_the_studys_run():
+    from mwip.studies import exp_hodosmc
+    from mwip.studies.twin_settings import study_settings
+
+    tw = Twin()
+    values = {k: np.array([v]) for k, v in tw.values().items()}
+    run = RUNS[0]
+    assert run.name == "exp-hodosmc-balance/smc.case1"
+    cols = run_batch(values, runs=(run,), duration=1.0)
+    cfg = dict(study_settings(run.study, None, tw)[0])
+    single = exp_hodosmc.run_one("smc", 1, 0.0, cfg, duration=1.0, twin=tw)
+    assert cols[f"{run.name}.t_end"][0] == pytest.approx(float(single.t_end[0]), abs=1e-12)
+    assert cols[f"{run.name}.stands"][0] == float(single.status[0] == "ok")
+
+
+def test_deterministic_and_resumable(tmp_path: Path):
+    a = calibrate_book(tmp_path / "a", **SMALL)
+    b = calibrate_book(tmp_path / "b", **SMALL)
+    da = json.loads((tmp_path / "a" / "posterior.json").read_text())
+    db = json.loads((tmp_path / "b" / "posterior.json").read_text())
+    assert da == db and a.doc["posterior"]["n_prior"] == 4
+    table = pd.read_parquet(tmp_path / "a" / "prior-draws" / "results.parquet")
+    assert list(table["sample"]) == [0, 1, 2, 3]
+    # resume: lose a chunk and the assembled table, run again -> the same table
+    chunks = sorted((tmp_path / "b" / "prior-draws" / "chunks").iterdir())
+    chunks[-1].unlink()
+    (tmp_path / "b" / "prior-draws" / "results.parquet").unlink()
+    calibrate_book(tmp_path / "b", **SMALL)
+    again = pd.read_parquet(tmp_path / "b" / "prior-draws" / "results.parquet")
+    pd.testing.assert_frame_equal(table, again)
+    for name in ("posterior.md", "marginals.png"):
+        assert (tmp_path / "a" / name).stat().st_size > 0
+    doc = da
+    assert set(doc["claim_counts"]) == {"holds", "fails", "undecided", "no posterior"}
+    assert sum(doc["claim_counts"].values()) == len(doc["claims"])
+    # the draws are the prior's: every unknown inside its range
+    for name, (lo, hi) in zip(doc["prior"]["names"], doc["prior"]["bounds"], strict=True):
+        x = table[f"param.{name}"].to_numpy()
+        assert np.all((x >= lo) & (x <= hi))
+
+
+def test_cli_evidence_book(tmp_path: Path):
+    from mwip.cli import cli
+
+    out = tmp_path / "cal"
+    r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out", str(out),
+                                 "--samples", "2", "--duration", "0.4"])
+    assert r.exit_code == 0, r.output
+    assert "prior draws 2" in r.output and (out / "posterior.json").is_file()
+    r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out",
+                                 str(tmp_path / "x"), "somelog.csv"])
+    assert r.exit_code == 2 and not (tmp_path / "x").exists()
+    r = CliRunner().invoke(cli, ["twin", "fit", "--out", str(tmp_path / "y")])
+    assert r.exit_code == 2 and not (tmp_path / "y").exists()
