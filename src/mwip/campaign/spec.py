@@ -1,6 +1,6 @@
 """The campaign file: what to run, as data (TOML), validated into a frozen :class:`Campaign`.
 
-Two kinds. ``kind = "robustness"`` (default)::
+Three kinds (``calibration``: the book calibration's prior draws, :mod:`mwip.calibration.sample`). ``kind = "robustness"`` (default)::
 
     [campaign]
     title = "..."
