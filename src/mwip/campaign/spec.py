@@ -1,6 +1,7 @@
 """The campaign file: what to run, as data (TOML), validated into a frozen :class:`Campaign`.
 
-Three kinds (``calibration``: the book calibration's prior draws, :mod:`mwip.calibration.sample`). ``kind = "robustness"`` (default)::
+Three kinds (the third, ``calibration``, holds the book calibration's prior draws,
+:mod:`mwip.calibration.sample`). ``kind = "robustness"`` (default)::
 
     [campaign]
     title = "..."
