@@ -35,7 +35,7 @@ def test_one_draw_at_the_default_values_is_the_studys_run():
 
 def test_deterministic_and_resumable(tmp_path: Path):
     a = calibrate_book(tmp_path / "a", **SMALL)
-    b = calibrate_book(tmp_path / "b", **SMALL)
+    calibrate_book(tmp_path / "b", **SMALL)
     da = json.loads((tmp_path / "a" / "posterior.json").read_text())
     db = json.loads((tmp_path / "b" / "posterior.json").read_text())
     assert da == db and a.doc["posterior"]["n_prior"] == 4
