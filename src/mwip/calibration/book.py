@@ -198,7 +198,7 @@ def report_text(doc: dict[str, Any]) -> str:
     out += ["", "## Held-out claims", "",
             f"{c['holds']} hold, {c['fails']} fail, {c['undecided']} undecided "
             f"(of {len(doc['claims'])}).", "",
-            "| claim | holds in (95 % CI) | verdict | default twin | decided by |",
+            "| claim | holds in (95 % CI) | verdict | most probable twin | decided by |",
             "|---|---|---|---|---|"]  # fmt: skip
     for cl in doc["claims"]:
         ci = ("n/a" if cl["fraction"] is None else
@@ -207,11 +207,11 @@ def report_text(doc: dict[str, Any]) -> str:
         by = cl.get("decided_by")
         bytext = (f"{by['parameter']} (holds when {by['holds_when']}; AUC {by['auc']:.2f})"
                   if by else "")  # fmt: skip
-        dflt = {True: "holds", False: "fails", None: "n/a"}[cl["default_twin"]]
+        dflt = {True: "holds", False: "fails", None: "n/a"}[cl["default_twin"]]  # MAP member
         out.append(f"| {cl['study']}/{cl['id']}: {cl['text']} | {ci} | {cl['verdict']} | "
                    f"{dflt} | {bytext} |")  # fmt: skip
     out += ["", "## Numbers of Tables 6.4-6.8 (measured signals)", "",
-            "| number | role | book | posterior 2.5-50-97.5 % | inside | default twin |",
+            "| number | role | book | posterior 2.5-50-97.5 % | inside | most probable twin |",
             "|---|---|---|---|---|---|"]  # fmt: skip
     for nm in doc["numbers"]:
         rng = (f"{nm['low']:.4g} - {nm['median']:.4g} - {nm['high']:.4g}" if "median" in nm
@@ -244,14 +244,16 @@ def _figure(table: Any, doc: dict[str, Any], path: Path) -> None:
         if ok.any():
             ax.hist(x[ok], bins=bins, color="tab:blue", label="consistent")
         if post["map_index"] >= 0:
-            ax.axvline(doc["map_values"][name], color="tab:red", lw=1.2, label="default twin")
+            ax.axvline(doc["map_values"][name], color="tab:red", lw=1.2, label="most probable")
         ax.set_title(name, fontsize=9)
         ax.tick_params(labelsize=7)
     for ax in axes[len(names):]:
         ax.set_visible(False)
     axes[0].legend(fontsize=7)
+    what = "the book's calibration evidence" if not post["dropped"] else (
+        f"the largest consistent subset of it ({len(post['used'])} facts)")
     fig.suptitle(f"Twin unknowns: prior ({post['n_prior']} draws) and the {post['size']} "
-                 "consistent with the book's calibration evidence", fontsize=10)  # fmt: skip
+                 f"consistent with {what}", fontsize=10)  # fmt: skip
     write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=90))
 
 
