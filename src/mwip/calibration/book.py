@@ -16,7 +16,6 @@ Outputs in ``OUT``: ``posterior.json`` (everything), ``posterior.md`` (the same 
 from __future__ import annotations
 
 import hashlib
-import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +36,7 @@ class BookCalibration:
 
     doc: dict[str, Any]
     twin: Any
+    accepted: np.ndarray  # (N,) the draws consistent with the facts conditioned on
 
 
 def _evidence_hash() -> str:
@@ -82,8 +82,7 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None) -> BookCalibration:
     if post.map_index >= 0:
         map_values = {n: float(params[n][post.map_index]) for n in pr.names}
         twin = Twin().with_values(map_values)
-    held = [c for c in claims]
-    counts = {v: sum(1 for c in held if c["verdict"] == v)
+    counts = {v: sum(1 for c in claims if c["verdict"] == v)
               for v in ("holds", "fails", "undecided", "no posterior")}  # fmt: skip
     doc = {
         "title": ev.title,
@@ -106,7 +105,7 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None) -> BookCalibration:
         "claim_counts": counts,
         "numbers": numbers,
     }
-    return BookCalibration(doc, twin)
+    return BookCalibration(doc, twin, post.accepted)
 
 
 def calibrate_book(
@@ -149,7 +148,7 @@ def calibrate_book(
         from mwip.hardware.twin_config import twin_to_toml
 
         write_text_atomic(out / "twin.toml", provenance(res.doc) + twin_to_toml(res.twin))
-    _figure(table, res.doc, out / "marginals.png")
+    _figure(table, res.doc, res.accepted, out / "marginals.png")
     return res
 
 
@@ -223,20 +222,18 @@ def report_text(doc: dict[str, Any]) -> str:
     return "\n".join(out) + "\n"
 
 
-def _figure(table: Any, doc: dict[str, Any], path: Path) -> None:
+def _figure(table: Any, doc: dict[str, Any], ok: np.ndarray, path: Path) -> None:
     """Prior vs posterior histograms of every unknown (``marginals.png``)."""
     from matplotlib.figure import Figure
 
     from mwip.io import write_atomic
 
     names = doc["prior"]["names"]
-    acc = np.asarray(doc["posterior_accepted"]) if "posterior_accepted" in doc else None
     post = doc["posterior"]
     cols = 4
     rows = (len(names) + cols - 1) // cols
     fig = Figure(figsize=(3.2 * cols, 2.4 * rows), layout="constrained")
     axes = fig.subplots(rows, cols, squeeze=False).ravel()
-    ok = _accepted_mask(table, doc) if acc is None else acc
     for ax, name, (lo, hi) in zip(axes, names, doc["prior"]["bounds"], strict=False):
         x = table[f"param.{name}"].to_numpy(dtype=float)
         bins = np.linspace(lo, hi, 21) if hi > lo else 5
@@ -255,21 +252,3 @@ def _figure(table: Any, doc: dict[str, Any], path: Path) -> None:
     fig.suptitle(f"Twin unknowns: prior ({post['n_prior']} draws) and the {post['size']} "
                  f"consistent with {what}", fontsize=10)  # fmt: skip
     write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=90))
-
-
-def _accepted_mask(table: Any, doc: dict[str, Any]) -> np.ndarray:
-    from mwip.calibration.posterior import facts
-    from mwip.calibration.runs import run_names
-
-    ev = load_evidence()
-    cols = {c: table[c].to_numpy(dtype=float) for c in table.columns
-            if c not in ("evidence", "sample")}  # fmt: skip
-    f = facts(cols, run_names(), ev)
-    used = set(doc["posterior"]["used"])
-    idx = [j for j, n in enumerate(f.names) if n in used]
-    return np.all(f.S[:, idx], axis=1)
-
-
-def load_posterior(path: Path) -> dict[str, Any]:
-    """Read a ``posterior.json``."""
-    return json.loads(Path(path).read_text(encoding="utf-8"))

@@ -39,7 +39,7 @@ from mwip.hardware.twin import Twin, run_on_twin
 from mwip.params import Params
 from mwip.sim.result import SimResult
 
-__all__ = ["Run", "RUNS", "run_names", "PUBLISHED", "run_batch", "metric_columns"]
+__all__ = ["Run", "RUNS", "run_names", "PUBLISHED", "run_batch"]
 
 HODO = ("smc", "do1smc", "do4smc")
 ASTA = ("asmc", "asta")
@@ -219,10 +219,9 @@ def run_batch(
         cfg = dict(_cfg(run.study, tw))
         if duration is not None:
             cfg["duration"] = min(float(cfg["duration"]), duration)
-            for key in ("rms_window",):
-                if key in cfg:
-                    lo, hi = cfg[key]
-                    cfg[key] = [min(lo, cfg["duration"] / 2), min(hi, cfg["duration"])]
+            if "rms_window" in cfg:
+                lo, hi = cfg["rms_window"]
+                cfg["rms_window"] = [min(lo, cfg["duration"] / 2), min(hi, cfg["duration"])]
             if "stick_start" in cfg:
                 cfg["stick_start"] = min(float(cfg["stick_start"]), cfg["duration"] * 0.6)
                 cfg["rms_start"] = min(float(cfg["rms_start"]), cfg["stick_start"] / 2)
@@ -243,21 +242,3 @@ def run_batch(
         if progress is not None:
             progress(run.name)
     return cols
-
-
-def metric_columns(runs: tuple[Run, ...] = RUNS) -> list[str]:
-    """The metric names per run, without running (``stands``, ``t_end`` and the study's)."""
-    per = {
-        "exp-hodosmc-balance": ("rms_theta", "rms_speed_err", "final_speed"),
-        "exp-hodosmc-speed": ("rms_theta", "rms_speed_err", "final_speed"),
-        "exp-hodosmc-obstacle": ("settling_time", "rms_speed_err"),
-        "exp-asta": ("rms_theta", "rms_s1"),
-    }
-    out = []
-    for r in runs:
-        extra = per.get(r.study)
-        if extra is None:
-            extra = ("osc_amp", "final_abs_theta") + (("final_pos_err",) if r.exp >= 2 else ()) \
-                + (("final_alpha_err",) if r.exp == 3 else ())
-        out += [f"{r.name}.{m}" for m in ("stands", "t_end", *extra)]
-    return out

@@ -211,10 +211,11 @@ class DriveSpec:
         i = min(self.current_limit, self.supply_voltage / motor.resistance)
         return self.gear_ratio * self.gear_efficiency * motor.k_t * i
 
-    def emf_damping(self, motor: MotorData = RE25) -> float:
+    def emf_damping(self, motor: MotorData = RE25, gear_ratio: Any = None) -> Any:
         """Back-EMF damping of a voltage drive at the wheel, ``eta N^2 k_t k_e / R``
-        (N m s/rad per wheel, on the wheel speed relative to the body)."""
-        n = self.gear_ratio
+        (N m s/rad per wheel, on the wheel speed relative to the body); ``gear_ratio``
+        replaces ``N`` (a float or one per row of a batch of twins)."""
+        n = self.gear_ratio if gear_ratio is None else gear_ratio
         return self.gear_efficiency * n * n * motor.k_t * motor.k_e / motor.resistance
 
 

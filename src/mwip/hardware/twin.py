@@ -247,7 +247,7 @@ class Twin:
         col = (lambda e: m[:, _IDX[e]]) if rows is not None else (lambda e: m[0, _IDX[e]])
         v = self.values() if values is None else values
         n = v["drive.gear_ratio"]
-        emf = _emf_damping(self.drive, self.motor, n) if self.drive.mode == "voltage" else 0.0
+        emf = self.drive.emf_damping(self.motor, n) if self.drive.mode == "voltage" else 0.0
         extra = col("motor") * emf + col("friction") * v["gearbox.viscous"]
         return derive_plant(base, inertia=col("inertia"), extra_db=extra, gear_ratio=n,
                             rotor_inertia=self.motor.rotor_inertia)  # fmt: skip
@@ -277,12 +277,6 @@ def _get(twin: Twin, name: str) -> float:
     for part in name.split("."):
         obj = getattr(obj, part)
     return float(obj)
-
-
-def _emf_damping(drive: DriveSpec, motor: MotorData, n: Any) -> Any:
-    """:meth:`DriveSpec.emf_damping` for a gear ratio ``n`` (float or per row), the same
-    arithmetic."""
-    return drive.gear_efficiency * n * n * motor.k_t * motor.k_e / motor.resistance
 
 
 def _c(x: Any) -> Any:
