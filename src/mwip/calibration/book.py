@@ -43,40 +43,55 @@ def _evidence_hash() -> str:
     return hashlib.sha256(EVIDENCE_FILE.read_bytes()).hexdigest()
 
 
-def analyse(table: Any, ev: Evidence, *, prior: Any = None) -> BookCalibration:
-    """Condition the prior draws ``table`` (the calibration campaign's results) on the
-    evidence ``ev`` and judge the held-out claims and numbers."""
+def _cols(table: Any) -> dict[str, np.ndarray]:
+    return {c: table[c].to_numpy(dtype=float) for c in table.columns
+            if c not in ("evidence", "sample")}  # fmt: skip
+
+
+def analyse(table: Any, ev: Evidence, *, prior: Any = None, pool: Any = None,
+            prior_draws: Any = None, history: list[dict[str, Any]] | None = None,
+            ) -> BookCalibration:  # fmt: skip
+    """Condition the draws ``table`` (the prior draws of the calibration campaign, or stage
+    2's final population with its ``weight`` column, :mod:`mwip.calibration.pmc`) on the
+    evidence ``ev`` and judge the held-out claims and numbers. ``pool``: every twin evaluated
+    (the facts' conflicts and the largest consistent subset are searched over it; default
+    ``table``); ``prior_draws``: the plain prior draws (each run's standing rate in the
+    prior; default ``table``); ``history``: stage 2's generations, recorded."""
     from mwip.calibration.claims import claim_rows, judge
-    from mwip.calibration.posterior import condition, facts
+    from mwip.calibration.posterior import condition, consistent_subset, facts, weighted_quantile
     from mwip.calibration.runs import PUBLISHED, run_names
     from mwip.hardware.prior import PRIOR
     from mwip.hardware.twin import Twin
 
     pr = PRIOR if prior is None else prior
-    cols = {c: table[c].to_numpy(dtype=float) for c in table.columns
-            if c not in ("evidence", "sample")}  # fmt: skip
+    cols = _cols(table)
     params = {n: cols[f"param.{n}"] for n in pr.names}
     bounds = {n: (float(lo), float(hi)) for n, (lo, hi) in zip(pr.names, pr.bounds, strict=True)}
     names = run_names()
     f = facts(cols, names, ev)
-    post = condition(f, params, bounds, ev)
+    subset = consistent_subset(facts(_cols(pool), names, ev)) if pool is not None else None
+    weights = cols.get("weight")
+    post = condition(f, params, bounds, ev, weights=weights, subset=subset)
     verdicts = claim_rows(cols)
-    claims = judge(verdicts, post.accepted, params, post.map_index, ev.decided)
+    claims = judge(verdicts, post.accepted, params, post.map_index, ev.decided,
+                   weights=post.weights)  # fmt: skip
     calib = {n.key for n in ev.numbers}
     numbers = []
     lo_q, hi_q = (1 - ev.interval) / 2, 1 - (1 - ev.interval) / 2
     for key, book in PUBLISHED.items():
         x = cols[key][post.accepted] if key in cols else np.zeros(0)
+        wx = post.weights[post.accepted][np.isfinite(x)] if key in cols else np.zeros(0)
         x = x[np.isfinite(x)]
         entry: dict[str, Any] = {"key": key, "book": book, "role": "calibration" if key in calib
                                  else "held-out", "n": int(x.size)}  # fmt: skip
         if x.size:
-            lo, med, hi = (float(v) for v in np.quantile(x, [lo_q, 0.5, hi_q]))
+            lo, med, hi = (float(v) for v in weighted_quantile(x, wx, [lo_q, 0.5, hi_q]))
             entry.update(low=lo, median=med, high=hi, inside=bool(lo <= book <= hi))
         if post.map_index >= 0 and key in cols:
             entry["default_twin"] = float(cols[key][post.map_index])
         numbers.append(entry)
-    standing = {r: float(np.mean(cols[f"{r}.stands"])) for r in names}
+    pcols = cols if prior_draws is None else _cols(prior_draws)
+    standing = {r: float(np.mean(pcols[f"{r}.stands"])) for r in names}
     map_values: dict[str, float] = {}
     twin = None
     if post.map_index >= 0:
@@ -104,6 +119,8 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None) -> BookCalibration:
         "claims": claims,
         "claim_counts": counts,
         "numbers": numbers,
+        "refine": history or [],
+        "evaluated": int(len(pool)) if pool is not None else int(len(table)),
     }
     return BookCalibration(doc, twin, post.accepted)
 
@@ -117,6 +134,8 @@ def calibrate_book(
     jobs: int | None = 1,
     duration: float = 0.0,
     progress: Callable[[int, int, float], None] | None = None,
+    refine: Any = True,
+    note: Callable[[str], None] | None = None,
 ) -> BookCalibration:
     """Run (or resume) the book calibration into ``out``; returns the result and writes
     ``posterior.json``, ``posterior.md``, ``twin.toml``, ``marginals.png`` (atomically).
@@ -138,7 +157,14 @@ def calibrate_book(
     if summary.status == "interrupted":
         raise KeyboardInterrupt
     table = pd.read_parquet(out / "prior-draws" / "results.parquet")
-    res = analyse(table, ev)
+    settings = ev.refine if refine is True else (refine or None)
+    if settings is None:
+        res = analyse(table, ev)
+    else:
+        pop, pool, history = refine_sample(table, ev, settings, out / "refine", seed=camp.seed,
+                                           jobs=jobs or 1, duration=duration,
+                                           note=note)  # fmt: skip
+        res = analyse(pop, ev, pool=pool, prior_draws=table, history=history)
     res.doc["samples"] = camp.samples
     res.doc["seed"] = camp.seed
     res.doc["duration_cap"] = duration or None
@@ -148,8 +174,51 @@ def calibrate_book(
         from mwip.hardware.twin_config import twin_to_toml
 
         write_text_atomic(out / "twin.toml", provenance(res.doc) + twin_to_toml(res.twin))
-    _figure(table, res.doc, res.accepted, out / "marginals.png")
+    post_tab = table if settings is None else pop
+    ok = res.accepted
+    w = post_tab["weight"].to_numpy(dtype=float) if "weight" in post_tab else np.ones(len(ok))
+    post = {n: post_tab[f"param.{n}"].to_numpy(dtype=float)[ok] for n in res.doc["prior"]["names"]}
+    _figure(table, res.doc, post, w[ok], out / "marginals.png")
     return res
+
+
+def refine_sample(table: Any, ev: Evidence, settings: Any, store: Path, *, seed: int,
+                  jobs: int = 1, duration: float = 0.0,
+                  note: Callable[[str], None] | None = None) -> tuple[Any, Any, list[Any]]:  # fmt: skip
+    """Stage 2 (:mod:`mwip.calibration.pmc`): phase A toward every calibration fact, then,
+    if some facts are met by no twin evaluated, phase B toward the largest consistent subset
+    of them. Returns the final population, every twin evaluated and the generations."""
+    import pandas as pd
+
+    from mwip.calibration.pmc import refine
+    from mwip.calibration.posterior import consistent_subset, facts
+    from mwip.calibration.runs import RUNS, _cfg, run_names
+    from mwip.calibration.sample import evaluate
+    from mwip.hardware.prior import PRIOR
+    from mwip.hardware.twin import Twin
+
+    names = run_names()
+    tw = Twin()
+    durations = {r.name: float(_cfg(r.study, tw)["duration"]) for r in RUNS}
+    if duration > 0:
+        durations = {k: min(v, duration) for k, v in durations.items()}
+
+    def run(values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return evaluate(values, jobs=jobs, block=ev.block, duration=duration)
+
+    kw: dict[str, Any] = dict(names=PRIOR.names, bounds=np.asarray(PRIOR.bounds, dtype=float),
+                              run_names=names, durations=durations, evaluate=run, seed=seed,
+                              store=store, progress=note)  # fmt: skip
+    pop, hist, pool = refine(table, ev, settings, phase="all", stream=0, **kw)
+    mask, _ = consistent_subset(facts(_cols(pool), names, ev))
+    fnames = [f"up:{r}" for r in names] + [f"num:{n.key}" for n in ev.numbers]
+    if not mask.all() or float(pop["distance"].max()) > 0:
+        use = frozenset(n for n, m in zip(fnames, mask, strict=True) if m)
+        pool = pool.drop(columns=["distance"])
+        pop, hist_b, pool = refine(pool, ev, settings, phase="subset", stream=100, use=use, **kw)
+        hist = hist + hist_b
+    pop = pop.drop(columns=["distance"])
+    return pop, pd.DataFrame(pool).drop(columns=["distance"], errors="ignore"), hist
 
 
 def provenance(doc: dict[str, Any]) -> str:
@@ -222,14 +291,16 @@ def report_text(doc: dict[str, Any]) -> str:
     return "\n".join(out) + "\n"
 
 
-def _figure(table: Any, doc: dict[str, Any], ok: np.ndarray, path: Path) -> None:
-    """Prior vs posterior histograms of every unknown (``marginals.png``)."""
+def _figure(table: Any, doc: dict[str, Any], post: dict[str, np.ndarray], weights: np.ndarray,
+            path: Path) -> None:  # fmt: skip
+    """Prior draws against the posterior (its members ``post``, importance ``weights``), a
+    density histogram per unknown (``marginals.png``)."""
     from matplotlib.figure import Figure
 
     from mwip.io import write_atomic
 
     names = doc["prior"]["names"]
-    post = doc["posterior"]
+    pd_ = doc["posterior"]
     cols = 4
     rows = (len(names) + cols - 1) // cols
     fig = Figure(figsize=(3.2 * cols, 2.4 * rows), layout="constrained")
@@ -237,18 +308,20 @@ def _figure(table: Any, doc: dict[str, Any], ok: np.ndarray, path: Path) -> None
     for ax, name, (lo, hi) in zip(axes, names, doc["prior"]["bounds"], strict=False):
         x = table[f"param.{name}"].to_numpy(dtype=float)
         bins = np.linspace(lo, hi, 21) if hi > lo else 5
-        ax.hist(x, bins=bins, color="0.8", label="prior draws")
-        if ok.any():
-            ax.hist(x[ok], bins=bins, color="tab:blue", label="consistent")
-        if post["map_index"] >= 0:
+        ax.hist(x, bins=bins, density=True, color="0.8", label="prior draws")
+        if weights.size:
+            ax.hist(post[name], bins=bins, weights=weights, density=True, color="tab:blue",
+                    alpha=0.7, label="posterior (weighted)")  # fmt: skip
+        if pd_["map_index"] >= 0:
             ax.axvline(doc["map_values"][name], color="tab:red", lw=1.2, label="most probable")
         ax.set_title(name, fontsize=9)
         ax.tick_params(labelsize=7)
     for ax in axes[len(names):]:
         ax.set_visible(False)
     axes[0].legend(fontsize=7)
-    what = "the book's calibration evidence" if not post["dropped"] else (
-        f"the largest consistent subset of it ({len(post['used'])} facts)")
-    fig.suptitle(f"Twin unknowns: prior ({post['n_prior']} draws) and the {post['size']} "
-                 f"consistent with {what}", fontsize=10)  # fmt: skip
+    what = "the book's calibration evidence" if not pd_["dropped"] else (
+        f"the largest consistent subset of it ({len(pd_['used'])} facts)")
+    fig.suptitle(f"Twin unknowns: prior ({pd_['n_prior']} draws) and the "
+                 f"{pd_['size']} twins consistent with {what}",
+                 fontsize=10)  # fmt: skip
     write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=90))

@@ -160,12 +160,18 @@ def judge(
     params: Mapping[str, NDArray[np.float64]],
     map_index: int,
     decided: float,
+    weights: NDArray[np.float64] | None = None,
 ) -> list[dict[str, Any]]:
-    """Each claim across the posterior (``accepted`` draws): fraction and Wilson 95 %
-    interval, verdict (holds / fails / undecided by ``decided``), the deciding unknown of an
-    undecided claim, and the verdict on the most probable member ``map_index``."""
+    """Each claim across the posterior (``accepted`` draws, importance ``weights`` against the
+    prior, default 1): its weighted fraction and the Wilson 95 % interval at Kish's
+    effective size ``n_eff = (sum w)^2 / sum w^2`` (rounded; ``k = fraction n_eff``), verdict
+    (holds / fails / undecided by ``decided``), the deciding unknown of an undecided claim, and
+    the verdict on the most probable member ``map_index``."""
     from mwip.campaign.stats import wilson
 
+    w_all = np.ones(len(accepted)) if weights is None else np.asarray(weights, dtype=float)
+    wa = w_all[accepted]
+    ess = int(round(wa.sum() ** 2 / np.sum(wa * wa))) if wa.size else 0
     out = []
     for c in CLAIMS:
         v = np.asarray(verdicts[c.key], dtype=bool)
@@ -173,12 +179,13 @@ def judge(
         n = int(va.size)
         k = int(va.sum())
         entry: dict[str, Any] = {"study": c.study, "id": c.id, "text": c.text, "n": n,
-                                 "holds_in": k}  # fmt: skip
+                                 "holds_in": k, "effective_n": ess}  # fmt: skip
         if n == 0:
             entry.update(verdict="no posterior", fraction=None, interval=None)
         else:
-            frac = k / n
-            lo, hi = wilson(k, n)
+            frac = float(np.sum(wa * va) / np.sum(wa))
+            ne = max(ess, 1)
+            lo, hi = wilson(min(ne, max(0, int(round(frac * ne)))), ne)
             entry.update(fraction=frac, interval=[float(lo), float(hi)])
             if frac >= decided:
                 entry["verdict"] = "holds"

@@ -42,6 +42,7 @@ class Evidence:
     seed: int
     block: int
     source: dict[str, Any]
+    refine: Any = None  # mwip.calibration.pmc.Refine, or None (no stage 2)
 
     @property
     def log_tolerance(self) -> float:
@@ -52,6 +53,15 @@ class Evidence:
     def kernel_scale(self) -> float:
         """``s = ln(tolerance) / 2`` of the ABC kernel."""
         return math.log(self.tolerance) / 2.0
+
+
+def _refine(entry: Any) -> Any:
+    from mwip.calibration.pmc import Refine
+
+    if entry is None:
+        return None
+    keys = ("keep", "propose", "generations", "min_acceptance")
+    return Refine(**{k: entry[k] for k in keys if k in entry})
 
 
 def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
@@ -77,6 +87,7 @@ def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
             seed=int(s["seed"]),
             block=int(s["block"]),
             source=data,
+            refine=_refine(data.get("refine")),
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"evidence file {str(path)!r}: missing or bad entry {exc}") from None

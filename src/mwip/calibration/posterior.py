@@ -30,7 +30,8 @@ from numpy.typing import NDArray
 
 from mwip.calibration.evidence import Evidence
 
-__all__ = ["Facts", "facts", "Posterior", "condition", "smallest_conflicts"]
+__all__ = ["Facts", "facts", "Posterior", "condition", "consistent_subset",
+           "smallest_conflicts", "weighted_quantile"]
 
 
 @dataclass(frozen=True)
@@ -41,6 +42,17 @@ class Facts:
     names: tuple[str, ...]
     S: NDArray[np.bool_]
     log_err: NDArray[np.float64]
+
+
+def weighted_quantile(x: NDArray[np.float64], w: NDArray[np.float64],
+                      q: Sequence[float]) -> NDArray[np.float64]:  # fmt: skip
+    """Quantiles of ``x`` under weights ``w``: the weighted empirical CDF with the midpoint
+    rule, ``F(x_(i)) = (sum_{j<=i} w_j - w_i / 2) / sum w``, interpolated linearly (equal
+    weights: NumPy's ``hazen`` quantiles)."""
+    order = np.argsort(x, kind="stable")
+    xs, ws = np.asarray(x, dtype=float)[order], np.asarray(w, dtype=float)[order]
+    c = (np.cumsum(ws) - 0.5 * ws) / ws.sum()
+    return np.asarray(np.interp(np.asarray(q, dtype=float), c, xs), dtype=float)
 
 
 def facts(cols: Mapping[str, NDArray[np.float64]], run_names: Sequence[str],
@@ -99,32 +111,51 @@ class Posterior:
     kernel: NDArray[np.float64]  # (N,) ABC kernel (0 outside the consistent draws)
     map_index: int  # the most probable member (-1: none)
     marginals: dict[str, dict[str, Any]]
+    weights: NDArray[np.float64]  # (N,) importance weights of the accepted draws (0 elsewhere)
 
     @property
     def size(self) -> int:
         return int(self.accepted.sum())
+
+    @property
+    def ess(self) -> float:
+        """Kish's effective sample size of the accepted draws, ``(sum w)^2 / sum w^2``."""
+        w = self.weights[self.accepted]
+        return float(w.sum() ** 2 / np.sum(w * w)) if w.size else 0.0
 
     def summary(self) -> dict[str, Any]:
         return {
             "n_prior": self.n_prior, "size": self.size, "used": list(self.used),
             "dropped": list(self.dropped), "conflicts": [list(c) for c in self.conflicts],
             "map_index": self.map_index, "marginals": self.marginals,
+            "effective_size": self.ess,
         }  # fmt: skip
 
 
+def consistent_subset(f: Facts) -> tuple[NDArray[np.bool_], list[list[str]]]:
+    """The facts to condition on (all when some draw meets them all, else the largest
+    consistent subset) and the smallest conflicting sets (empty when consistent)."""
+    S = f.S
+    if np.all(S, axis=1).any():
+        return np.ones(S.shape[1], dtype=bool), []
+    mask = _largest_consistent(S) if S.shape[0] else np.zeros(S.shape[1], dtype=bool)
+    return mask, smallest_conflicts(S, f.names)
+
+
 def condition(f: Facts, params: Mapping[str, NDArray[np.float64]],
-              bounds: Mapping[str, tuple[float, float]], ev: Evidence) -> Posterior:  # fmt: skip
+              bounds: Mapping[str, tuple[float, float]], ev: Evidence, *,
+              weights: NDArray[np.float64] | None = None,
+              subset: tuple[NDArray[np.bool_], list[list[str]]] | None = None,
+              ) -> Posterior:  # fmt: skip
     """Condition the draws (their unknowns ``params``: name -> (N,), prior ``bounds``) on the
-    facts ``f``; see the module docstring."""
+    facts ``f``; see the module docstring. ``weights`` are the draws' importance weights
+    against the prior (default 1: prior draws; :mod:`mwip.calibration.pmc`); ``subset`` the
+    facts to condition on and the conflicts, when found over a larger set of draws
+    (:func:`consistent_subset`)."""
     S = f.S
     n = S.shape[0]
-    all_ok = np.all(S, axis=1)
-    if all_ok.any():
-        mask = np.ones(S.shape[1], dtype=bool)
-        conflicts: list[list[str]] = []
-    else:
-        conflicts = smallest_conflicts(S, f.names)
-        mask = _largest_consistent(S) if n else np.zeros(S.shape[1], dtype=bool)
+    mask, conflicts = consistent_subset(f) if subset is None else subset
+    w_all = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
     accepted = np.all(S[:, mask], axis=1) if n else np.zeros(0, dtype=bool)
     num_used = np.array([mask[len(f.names) - f.log_err.shape[1] + k]
                          for k in range(f.log_err.shape[1])], dtype=bool)  # fmt: skip
@@ -135,11 +166,13 @@ def condition(f: Facts, params: Mapping[str, NDArray[np.float64]],
     for name, vals in params.items():
         lo, hi = bounds[name]
         v = np.asarray(vals, dtype=float)[accepted]
+        wv = w_all[accepted]
         width_prior = 0.9 * (hi - lo)
         entry: dict[str, Any] = {"prior": [lo, hi], "n": int(v.size)}
         if v.size:
-            q5, q50, q95 = (float(x) for x in np.quantile(v, [0.05, 0.5, 0.95]))
-            entry.update(q05=q5, median=q50, q95=q95, mean=float(v.mean()))
+            q5, q50, q95 = (float(x) for x in weighted_quantile(v, wv, [0.05, 0.5, 0.95]))
+            entry.update(q05=q5, median=q50, q95=q95,
+                         mean=float(np.sum(wv * v) / np.sum(wv)))  # fmt: skip
             ratio = (q95 - q5) / width_prior if width_prior > 0 else 0.0
             entry["width_ratio"] = float(ratio)
             entry["identified"] = bool(v.size >= 5 and ratio < ev.identified)
@@ -150,6 +183,6 @@ def condition(f: Facts, params: Mapping[str, NDArray[np.float64]],
         n_prior=n, used=tuple(nm for nm, m in zip(f.names, mask, strict=True) if m),
         dropped=tuple(nm for nm, m in zip(f.names, mask, strict=True) if not m),
         conflicts=tuple(tuple(c) for c in conflicts), accepted=accepted, kernel=kernel,
-        map_index=map_index, marginals=marg,
+        map_index=map_index, marginals=marg, weights=np.where(accepted, w_all, 0.0),
     )  # fmt: skip
 

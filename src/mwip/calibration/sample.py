@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from mwip.campaign.sampling import sample_rng
 
-__all__ = ["draw", "run_block", "calibration_campaign"]
+__all__ = ["draw", "run_block", "calibration_campaign", "evaluate"]
 
 
 def draw(
@@ -59,3 +59,47 @@ def calibration_campaign(samples: int, seed: int, block: int, duration: float = 
     if duration > 0:
         camp["duration"] = duration
     return parse_campaign({"campaign": camp})
+
+
+def _evaluate_chunk(args: tuple[dict[str, NDArray[np.float64]], float | None]) -> dict[str, Any]:
+    from mwip.calibration.runs import run_batch
+
+    values, cap = args
+    return run_batch(values, duration=cap)
+
+
+def evaluate(
+    values: dict[str, NDArray[np.float64]],
+    *,
+    jobs: int = 1,
+    block: int = 250,
+    duration: float = 0.0,
+    progress: Any = None,
+) -> dict[str, NDArray[np.float64]]:
+    """Every Chapter 6 run on the batch of twins ``values`` (name -> (N,)), in chunks of at
+    most ``block`` twins over ``jobs`` worker processes (each twin's runs are independent of
+    its chunk, so the columns do not depend on ``jobs`` or ``block``); ``duration`` > 0 caps
+    every run (a smoke test)."""
+    n = len(next(iter(values.values())))
+    cap = duration if duration > 0 else None
+    parts = max(jobs, -(-n // block))
+    edges = np.linspace(0, n, parts + 1).round().astype(int)
+    chunks = [({k: v[a:b] for k, v in values.items()}, cap)
+              for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]  # fmt: skip
+    if jobs <= 1 or len(chunks) == 1:
+        results = []
+        for c in chunks:
+            results.append(_evaluate_chunk(c))
+            if progress is not None:
+                progress(len(results), len(chunks))
+    else:
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn")) as ex:
+            results = []
+            for r in ex.map(_evaluate_chunk, chunks):
+                results.append(r)
+                if progress is not None:
+                    progress(len(results), len(chunks))
+    return {k: np.concatenate([r[k] for r in results]) for k in results[0]}

@@ -156,9 +156,11 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
 
     target = outdir.check(out, force)
     outdir.claim(target)
-    res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration)
+    res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration,
+                         note=lambda line: click.echo(line, err=True))  # fmt: skip
     p, c = res.doc["posterior"], res.doc["claim_counts"]
-    click.echo(f"prior draws {p['n_prior']}, consistent with the calibration evidence {p['size']}"
+    click.echo(f"twins evaluated {res.doc['evaluated']} (prior draws and stage 2), posterior "
+               f"{p['size']} (effective {p['effective_size']:.0f})"
                + (f" (conditioned on {len(p['used'])} facts; dropped: {len(p['dropped'])})"
                   if p["dropped"] else ""))  # fmt: skip
     click.echo(f"held-out claims: {c['holds']} hold, {c['fails']} fail, {c['undecided']} "
