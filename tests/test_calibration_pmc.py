@@ -66,6 +66,8 @@ def test_proposal_density_integrates_to_one_over_the_cube() -> None:
     uu = np.array(np.meshgrid(g, g, indexing="ij")).reshape(2, -1).T
     integral = proposal_density(uu, centres, w, sigma).mean()  # midpoint rule on [0, 1]^2
     assert integral == pytest.approx(1.0, abs=2e-4)
+    per_centre = rng.uniform(0.05, 0.4, size=(5, 2))  # one width per centre (local kernels)
+    assert proposal_density(uu, centres, w, per_centre).mean() == pytest.approx(1.0, abs=5e-4)
 
 
 def test_proposals_follow_the_proposal_density() -> None:
@@ -73,13 +75,17 @@ def test_proposals_follow_the_proposal_density() -> None:
     centres = np.array([[0.1, 0.5], [0.8, 0.5]])
     w = np.array([0.3, 0.7])
     sigma = np.array([0.2, 0.2])
+    sigma = np.array([[0.2, 0.2], [0.1, 0.3]])  # one width per centre
     u = propose(rng, centres, w, sigma, 20000)
     assert np.all((u >= 0) & (u <= 1))
     hist, edges = np.histogram(u[:, 0], bins=10, range=(0, 1), density=True)
-    mid = (edges[:-1] + edges[1:]) / 2
     g = (np.arange(200) + 0.5) / 200
-    marg = [proposal_density(np.column_stack([np.full(200, m), g]), centres, w, sigma).mean()
-            for m in mid]  # fmt: skip
+    # the bin average of the first coordinate's marginal density (midpoint rule, 20 x 200)
+    marg = []
+    for lo in edges[:-1]:
+        x1 = lo + (np.arange(20) + 0.5) / 200
+        uu = np.array(np.meshgrid(x1, g, indexing="ij")).reshape(2, -1).T
+        marg.append(proposal_density(uu, centres, w, sigma).mean())
     assert np.max(np.abs(hist - marg)) < 0.08  # sampling error of 2,000 per bin: ~0.03
 
 
@@ -92,12 +98,13 @@ def test_distance_is_zero_exactly_on_the_facts() -> None:
     assert list(only_b[:2]) == [0.0, 0.0] and only_b[2] > 0
 
 
-def test_weighted_population_recovers_the_uniform_posterior_on_a_small_region() -> None:
+@pytest.mark.parametrize("local", [0.0, 0.5])
+def test_weighted_population_recovers_the_uniform_posterior_on_a_small_region(local) -> None:
     table0 = _prior(300)
     n_in = int(np.sum((table0["s/a.case1.stands"] == 1) & (table0["s/b.case1.stands"] == 1)))
     assert n_in <= 15  # the region is 2 % of the prior box: 6 of 300 prior draws expected
     pop, hist, pool = _refine(table0, Refine(keep=300, propose=300, generations=12,
-                                             min_acceptance=0.0))  # fmt: skip
+                                             min_acceptance=0.0, local=local))  # fmt: skip
     assert hist[-1]["epsilon"] == 0.0  # every kept twin meets every fact
     x1, x2 = pop["param.x1"].to_numpy(), pop["param.x2"].to_numpy()
     w = pop["weight"].to_numpy()

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -249,11 +250,14 @@ def test_html_has_a_section_figure_and_tables_per_study(quick_reproduction):
     out, _, _ = quick_reproduction
     page = (out / "index.html").read_text()
     assert "http://" not in page and "https://" not in page and "<script" not in page
+    assert (out / "index.html").stat().st_size < 1_000_000  # issue 25: under 1 MB
     for res in load_results(out):
         start = page.index(f'<section class="study" id="{res.name}">')
         section = page[start : page.index("</section>", start)]
         poster = 1 if (res.folder / "poster").is_dir() else 0
-        assert section.count("data:image/png;base64,") == len(res.figures) + poster
+        assert section.count("<img ") == len(res.figures) + poster
+        for src in re.findall(r'<img [^>]*src="([^"]+)"', section):
+            assert (out / src).is_file(), src  # linked, not embedded (issue 25)
         assert len(res.figures) >= 1
         assert '<table class="claims">' in section
         published = json.loads((out / res.name / "metrics.json").read_text())["published"]

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from mwip.hardware.elements import ELEMENTS
+from mwip.hardware.identified import default_twin
 from mwip.hardware.motor import DriveActuator, DriveSpec
 from mwip.hardware.prior import PRIOR, Prior, Unknown
 from mwip.hardware.twin import Twin, run_on_twin
@@ -76,7 +77,8 @@ def test_twin_show_round_trips_with_the_prior(tmp_path: Path) -> None:
     path.write_text(text)
     back = load_twin(path)
     assert back == tw and back.prior == narrowed and back.drive.gear_ratio == 14.0
-    assert load_twin_text(twin_to_toml()) == Twin()
+    assert load_twin_text(twin_to_toml()) == default_twin()  # the identified default twin
+    assert load_twin_text(twin_to_toml(Twin())) == Twin()
 
 
 def load_twin_text(text: str) -> Twin:

@@ -182,9 +182,9 @@ class Scenario:
         (plain runs) or :func:`mwip.hardware.twin.run_on_twin` (``twin``)."""
         init = self.initial_state()
         if self.twin:
-            from mwip.hardware.twin import Twin, case_plant, run_on_twin
+            from mwip.hardware.twin import case_plant, run_on_twin
 
-            base = self.twin_config if self.twin_config is not None else Twin()
+            base = self.twin_config if self.twin_config is not None else _default_twin()
             tw = replace(base, Ts=self.Ts, dt=base.dt if self.dt is None else self.dt)
             kwargs.pop("budget", None)  # the twin's fixed Ts, dt: the default budget applies
             return run_on_twin(
@@ -252,3 +252,10 @@ def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
         except (ValueError, TypeError) as exc:
             raise ValueError(f"[disturbance] {exc}") from None
     return Scenario(**kwargs)
+
+
+def _default_twin() -> Any:
+    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
+    from mwip.hardware.identified import default_twin
+
+    return default_twin()

@@ -90,6 +90,8 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None, pool: Any = None,
         if post.map_index >= 0 and key in cols:
             entry["default_twin"] = float(cols[key][post.map_index])
         numbers.append(entry)
+    map_standing = ({r: bool(cols[f"{r}.stands"][post.map_index] == 1.0) for r in names}
+                    if post.map_index >= 0 else {})  # fmt: skip
     pcols = cols if prior_draws is None else _cols(prior_draws)
     standing = {r: float(np.mean(pcols[f"{r}.stands"])) for r in names}
     map_values: dict[str, float] = {}
@@ -116,6 +118,7 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None, pool: Any = None,
                                 for n in ev.numbers],  # fmt: skip
         "posterior": post.summary(),
         "map_values": map_values,
+        "map_standing": map_standing,
         "claims": claims,
         "claim_counts": counts,
         "numbers": numbers,
@@ -173,7 +176,8 @@ def calibrate_book(
     if res.twin is not None:
         from mwip.hardware.twin_config import twin_to_toml
 
-        write_text_atomic(out / "twin.toml", provenance(res.doc) + twin_to_toml(res.twin))
+        write_text_atomic(out / "twin.toml", provenance(res.doc) + twin_to_toml(
+            res.twin, identified="most probable twin of the book calibration (above)"))
     post_tab = table if settings is None else pop
     ok = res.accepted
     w = post_tab["weight"].to_numpy(dtype=float) if "weight" in post_tab else np.ones(len(ok))
@@ -184,7 +188,8 @@ def calibrate_book(
 
 def refine_sample(table: Any, ev: Evidence, settings: Any, store: Path, *, seed: int,
                   jobs: int = 1, duration: float = 0.0,
-                  note: Callable[[str], None] | None = None) -> tuple[Any, Any, list[Any]]:  # fmt: skip
+                  note: Callable[[str], None] | None = None,
+                  ) -> tuple[Any, Any, list[Any]]:  # fmt: skip
     """Stage 2 (:mod:`mwip.calibration.pmc`): phase A toward every calibration fact, then,
     if some facts are met by no twin evaluated, phase B toward the largest consistent subset
     of them. Returns the final population, every twin evaluated and the generations."""
@@ -228,7 +233,9 @@ def provenance(doc: dict[str, Any]) -> str:
         "# The book's robot: the most probable twin of the posterior conditioned on the book's",
         "# evidence (`mwip twin fit --evidence book`; mwip/calibration/book-evidence.toml,",
         f"# sha256 {doc['evidence_sha256'][:16]}).",
-        f"# Prior draws {p['n_prior']} (seed {doc.get('seed')}), consistent {p['size']}; "
+        f"# Prior draws {p['n_prior']} (seed {doc.get('seed')}), twins evaluated "
+        f"{doc.get('evaluated', p['n_prior'])} (with stage 2), consistent {p['size']} "
+        f"(effective {p.get('effective_size', p['size']):.0f}); "
         f"conditioned on {len(p['used'])} facts"
         + (f", dropped {len(p['dropped'])}: {', '.join(p['dropped'])}" if p["dropped"] else "")
         + ".",

@@ -60,7 +60,7 @@ def _refine(entry: Any) -> Any:
 
     if entry is None:
         return None
-    keys = ("keep", "propose", "generations", "min_acceptance")
+    keys = ("keep", "propose", "generations", "min_acceptance", "local")
     return Refine(**{k: entry[k] for k in keys if k in entry})
 
 

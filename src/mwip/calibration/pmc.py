@@ -14,8 +14,9 @@ The algorithm is the adaptive population Monte Carlo ABC of Lenormand, Jabot & D
 1. The population: the ``keep`` draws of stage 1 closest to the evidence (distance
    :func:`distance`), weights 1 (uniform prior, uniform proposal).
 2. Each generation proposes ``propose`` new twins from the weighted population with a
-   Gaussian kernel of diagonal covariance ``2 Var_w(u)`` (Beaumont et al. 2009), truncated to
-   the cube, and weighs each by ``pi(u) / q(u)``, ``q`` the exactly normalised truncated
+   Gaussian kernel per particle, of diagonal covariance the optimal local covariance
+   (:func:`local_sigma`; ``local = 0``: ``2 Var_w(u)`` for all, Beaumont et al. 2009),
+   truncated to the cube, and weighs each by ``pi(u) / q(u)``, ``q`` the exactly normalised truncated
    mixture :func:`proposal_density` (uniform prior: ``pi = 1``).
 3. The old population and the new twins are merged and the ``keep`` closest kept; the
    threshold ``epsilon`` is the largest distance kept. It stops when the fraction of new
@@ -32,6 +33,7 @@ are independent of the batch it is in, so the result is deterministic for a seed
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,7 +44,7 @@ from numpy.typing import NDArray
 
 from mwip.calibration.evidence import Evidence
 
-__all__ = ["Refine", "distance", "proposal_density", "propose", "refine"]
+__all__ = ["Refine", "distance", "local_sigma", "proposal_density", "propose", "refine"]
 
 #: Offset of the generation index in the random streams (stage 1 uses the draw index).
 _STREAM = 1_000_000
@@ -56,12 +58,15 @@ class Refine:
     propose: int = 250
     generations: int = 12
     min_acceptance: float = 0.02
+    local: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("keep", "propose", "generations"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= 100_000:
                 raise ValueError(f"refine.{name} must be an integer in [1, 100000], got {v!r}")
+        if not 0.0 <= self.local <= 1.0:
+            raise ValueError(f"refine.local must be in [0, 1], got {self.local!r}")
         if not 0.0 <= self.min_acceptance < 1.0:
             raise ValueError(
                 f"refine.min_acceptance must be in [0, 1), got {self.min_acceptance!r}"
@@ -106,34 +111,64 @@ def _phi(z: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def proposal_density(u: NDArray[np.float64], centres: NDArray[np.float64],
-                     weights: NDArray[np.float64], sigma: NDArray[np.float64]) -> NDArray:  # fmt: skip
-    """Density at ``u`` (M, D) of the mixture ``sum_j w_j N(c_j, diag sigma^2)`` truncated to
-    the unit cube and normalised there (``weights`` sum to 1):
-    ``q(u) = sum_j w_j N(u; c_j) / sum_j w_j P_j``, ``P_j = prod_d [Phi((1 - c_jd) / s_d) -
-    Phi(-c_jd / s_d)]`` the mass of kernel ``j`` inside the cube."""
-    z = (u[:, None, :] - centres[None, :, :]) / sigma  # (M, J, D)
-    log_k = -0.5 * np.sum(z * z, axis=2) - np.sum(np.log(sigma * np.sqrt(2 * np.pi)))
-    mass = np.prod(_phi((1.0 - centres) / sigma) - _phi(-centres / sigma), axis=1)  # (J,)
-    num = np.exp(log_k) @ weights
-    return num / float(weights @ mass)
+                     weights: NDArray[np.float64],
+                     sigma: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
+    """Density at ``u`` (M, D) of the mixture ``sum_j w_j N(c_j, diag s_j^2)`` truncated to
+    the unit cube and normalised there (``weights`` sum to 1; ``sigma`` (D,) for one kernel
+    width, or (J, D) for one per centre):
+    ``q(u) = sum_j w_j N(u; c_j, s_j) / sum_j w_j P_j``, ``P_j = prod_d [Phi((1 - c_jd) /
+    s_jd) - Phi(-c_jd / s_jd)]`` the mass of kernel ``j`` inside the cube."""
+    s = np.broadcast_to(sigma, centres.shape)
+    out = np.empty(len(u))
+    for a in range(0, len(u), 256):  # (M, J, D) in slices: memory
+        z = (u[a:a + 256, None, :] - centres[None, :, :]) / s[None]
+        log_k = -0.5 * np.sum(z * z, axis=2) - np.sum(np.log(s * np.sqrt(2 * np.pi)), axis=1)
+        out[a:a + 256] = np.exp(log_k) @ weights
+    mass = np.prod(_phi((1.0 - centres) / s) - _phi(-centres / s), axis=1)  # (J,)
+    return out / float(weights @ mass)
 
 
 def propose(rng: np.random.Generator, centres: NDArray[np.float64],
-            weights: NDArray[np.float64], sigma: NDArray[np.float64], n: int) -> NDArray:  # fmt: skip
+            weights: NDArray[np.float64], sigma: NDArray[np.float64],
+            n: int) -> NDArray[np.float64]:  # fmt: skip
     """``n`` draws from the truncated mixture of :func:`proposal_density`: a parent by weight
     and a Gaussian step, the pair drawn again (parent too) while the step leaves the cube:
     rejection sampling of the mixture, whose density is then the mixture's restricted to the
     cube and normalised by its total mass there (redrawing the step alone would normalise each
     kernel by its own mass instead)."""
+    s = np.broadcast_to(sigma, centres.shape)
     out = np.empty((n, centres.shape[1]))
     for i in range(n):
         while True:
             j = rng.choice(len(centres), p=weights)
-            x = centres[j] + sigma * rng.standard_normal(centres.shape[1])
+            x = centres[j] + s[j] * rng.standard_normal(centres.shape[1])
             if np.all((x >= 0.0) & (x <= 1.0)):
                 out[i] = x
                 break
     return out
+
+
+def local_sigma(u: NDArray[np.float64], w: NDArray[np.float64], d: NDArray[np.float64],
+                fraction: float) -> NDArray[np.float64]:  # fmt: skip
+    """Kernel widths, one per particle and dimension (J, D): the diagonal of the optimal local
+    covariance (OLCM, Filippi et al. 2013, *Stat. Appl. Genet. Mol. Biol.* 12: 87-107),
+    ``s_jd^2 = sum_k w_k (u_kd - u_jd)^2 / sum_k w_k`` over the particles ``k`` closest to the
+    evidence (the ``fraction`` of the population with the smallest distance: those the next
+    threshold would keep), so each particle steps toward where the better ones are; ``fraction
+    = 0`` gives Beaumont et al.'s (2009) one width ``2 Var_w(u)`` for all."""
+    if fraction <= 0.0:
+        mean = w @ u
+        return np.broadcast_to(np.sqrt(np.maximum(2.0 * (w @ (u - mean) ** 2), 1e-8)),
+                               u.shape).copy()  # fmt: skip
+    k = max(2, int(np.ceil(fraction * len(u))))
+    best = np.argsort(d, kind="stable")[:k]
+    wb = w[best] / w[best].sum()
+    diff2 = (u[best][None, :, :] - u[:, None, :]) ** 2  # (J, k, D)
+    return np.sqrt(np.maximum(np.einsum("k,jkd->jd", wb, diff2), 1e-6))
+
+
+def _to_parquet(frame: Any, fh: Any) -> None:
+    frame.to_parquet(fh, index=False)
 
 
 def _select(d: NDArray[np.float64], keep: int) -> NDArray[np.intp]:
@@ -187,18 +222,16 @@ def refine(
     pool = [t0]
     pop = t0.iloc[_select(t0["distance"].to_numpy(), settings.keep)].reset_index(drop=True)
     eps = float(pop["distance"].max())
-    history: list[dict[str, Any]] = [{"phase": phase, "generation": 0, "evaluated": len(t0), "epsilon": eps,
-                                      "acceptance": None,
-                                      "at_zero": int((pop["distance"] == 0).sum())}]  # fmt: skip
+    history: list[dict[str, Any]] = [{
+        "phase": phase, "generation": 0, "evaluated": len(t0), "epsilon": eps,
+        "acceptance": None, "at_zero": int((pop["distance"] == 0).sum())}]  # fmt: skip
     for g in range(1, settings.generations + 1):
         if eps <= 0.0:
             break
         u_pop = unit(pop)
         w = pop["weight"].to_numpy(dtype=float)
         w = w / w.sum()
-        mean = w @ u_pop
-        var = w @ (u_pop - mean) ** 2
-        sigma = np.sqrt(np.maximum(2.0 * var, 1e-8))
+        sigma = local_sigma(u_pop, w, pop["distance"].to_numpy(), settings.local)
         path = store / f"{phase}-gen-{g:02d}.parquet" if store is not None else None
         if path is not None and path.exists():
             new = pd.read_parquet(path)
@@ -217,7 +250,7 @@ def refine(
             new["generation"] = g
             if path is not None:
                 path.parent.mkdir(parents=True, exist_ok=True)
-                write_atomic(path, lambda fh, df=new: df.to_parquet(fh, index=False))
+                write_atomic(path, functools.partial(_to_parquet, new))
         pool.append(new)
         acc = float(np.mean(new["distance"].to_numpy() <= eps))
         merged = pd.concat([pop, new], ignore_index=True)
@@ -227,8 +260,9 @@ def refine(
         history.append({"phase": phase, "generation": g, "evaluated": len(new), "epsilon": eps,
                         "acceptance": acc, "at_zero": int((pop["distance"] == 0).sum())})
         if progress is not None:
-            progress(f"refine ({phase}): generation {g}: threshold {eps:.3g}, {acc:.0%} of the new twins "
-                     f"within the previous one, {history[-1]['at_zero']} meet every fact")
+            progress(f"refine ({phase}): generation {g}: threshold {eps:.3g}, {acc:.0%} of "
+                     f"the new twins within the previous one, {history[-1]['at_zero']} meet "
+                     "every fact")
         if acc < settings.min_acceptance:
             break
     return pop, history, pd.concat(pool, ignore_index=True)

@@ -88,7 +88,6 @@ def run_block(
     """The rows of ``block``, one table (column -> (B,) array) per controller: columns
     ``controller``, ``sample``, the sample's inputs, ``noise_seed`` and the metrics
     (:mod:`mwip.campaign.metrics`)."""
-    from mwip.hardware.twin import Twin
     from mwip.sim.engine import simulate
 
     idx = block_samples(campaign, block)
@@ -106,9 +105,11 @@ def run_block(
         ctrl = copy.deepcopy(controllers[entry.label])
         kw: dict[str, Any] = {}
         if "twin" in (campaign.sensors, campaign.drive):
-            twin = Twin(
-                ideal_sensors=campaign.sensors == "ideal", ideal_actuator=campaign.drive == "ideal"
-            )
+            from mwip.hardware.identified import default_twin
+
+            # the identified default twin (issue 23), its sensors or drive ideal on request
+            twin = replace(default_twin(), ideal_sensors=campaign.sensors == "ideal",
+                           ideal_actuator=campaign.drive == "ideal")  # fmt: skip
             sensor = twin.sensor(campaign.centre)
             actuator = twin.actuator(campaign.centre)
             # each sample's own wheel geometry: the twin's sensor and drive are built for one
@@ -117,9 +118,14 @@ def run_block(
             sensor.b_over_r = pb["b"] / pb["r"]
             actuator.b_over_r = pb["b"] / pb["r"]
             kw = {"sensor": sensor, "actuator": actuator, "Ts": twin.Ts, "dt": twin.dt}
+            # the plant the twin integrates: reflected rotor inertia and the back-EMF and
+            # viscous damping on Db (as run_on_twin; the drive returns the rest of the torque)
+            sim_plant = twin.plant(plant)
+        else:
+            sim_plant = plant
         res = simulate(
             ctrl,
-            plant,
+            sim_plant,
             q0=q0,
             qdot0=qdot0,
             duration=campaign.duration,

@@ -149,9 +149,8 @@ def export_c(
         raise click.UsageError(f"--verify: {exc}") from None
     tw = None
     if twin:
-        from mwip.hardware.twin import Twin
 
-        tw = Twin()
+        tw = _default_twin()
     rep = run_verify(build(), cctrl, plant=plant, q0=(0.0, theta0, 0.0), duration=duration,
                      twin=tw)  # fmt: skip
     tol = 1e-9 if precision == "double" else math.inf
@@ -165,3 +164,10 @@ def export_c(
         click.echo(f"mwip: error: the C controller differs from the Python one by more than "
                    f"{tol:g}", err=True)  # fmt: skip
         sys.exit(1)
+
+
+def _default_twin() -> Any:
+    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
+    from mwip.hardware.identified import default_twin
+
+    return default_twin()

@@ -41,7 +41,8 @@ from mwip.metrics import rms
 from mwip.params import Params
 from mwip.sim.result import SimResult
 
-__all__ = ["ablation_steps", "rms_metrics", "run_ablation", "Ablation", "MetricFn"]
+__all__ = [
+    "board_signals", "ablation_steps", "rms_metrics", "run_ablation", "Ablation", "MetricFn"]
 
 #: ``metrics(result, run, case) -> {quantity: value}`` for one (unbatched) twin run.
 MetricFn = Callable[[SimResult, str, int], Mapping[str, float]]
@@ -65,6 +66,17 @@ def ablation_steps(
         alone = frozenset({name}) | REQUIRES.get(name, frozenset())
         steps.append((name, frozenset(names[: k + 1]) if cumulative else alone))
     return steps
+
+
+def board_signals(res: SimResult) -> tuple[Any, Any]:
+    """What the robot's board recorded in a single twin run: its fused pitch estimate and
+    the encoder wheel speed ``psi'`` (``y_meas`` columns 1 and 3), the signals the book's
+    Chapter 6 tables and figures show (issue 23); the true ``theta``, ``psi'`` where the run
+    has no measurements (a plain-plant run)."""
+    meas = res.series().get("y_meas")
+    if meas is None:
+        return res.theta, res.q_dot[:, 0]
+    return meas[:, 1], meas[:, 3]
 
 
 def rms_metrics(window: tuple[float, float], q1d_dot: float = 0.0) -> MetricFn:
@@ -186,7 +198,7 @@ def run_ablation(
     claims : ``(text, test)``: each test gets one step's metrics (keys
         ``<run>.case<k>.<quantity>``) and says whether the claim holds.
     """
-    tw = replace(Twin() if twin is None else twin, elements=frozenset(ELEMENTS),
+    tw = replace(_default_twin() if twin is None else twin, elements=frozenset(ELEMENTS),
                  ideal_sensors=False, ideal_actuator=False)  # fmt: skip
     steps = ablation_steps(order, cumulative=cumulative)
     fn = metrics if metrics is not None else rms_metrics((2.0, 10.0))
@@ -214,3 +226,10 @@ def run_ablation(
         m = ab.step_metrics(step)
         ab.claims[step] = [_judge(test, m) for _, test in claims]
     return ab
+
+
+def _default_twin() -> Any:
+    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
+    from mwip.hardware.identified import default_twin
+
+    return default_twin()

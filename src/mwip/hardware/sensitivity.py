@@ -124,7 +124,7 @@ def gear_sensitivity(
     ``theta''/u_A`` of the twin's plant (reflected inertia on) over the nominal model's, the
     pitch pole, the back-EMF damping ``eta N^2 k_t k_e / R``, the wheel stall torque and the
     wheel no-load speed."""
-    tw = Twin() if twin is None else twin
+    tw = _default_twin() if twin is None else twin
     g_nom = input_gains(nominal)[1]
     rows = []
     for n in ratios:
@@ -240,3 +240,10 @@ def tables_markdown(tables: dict[str, list[dict[str, Any]]]) -> str:
             out.append("| " + " | ".join(f"{r[k]:.4g}" for k in keys) + " |")
         out.append("")
     return "\n".join(out)
+
+
+def _default_twin() -> Any:
+    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
+    from mwip.hardware.identified import default_twin
+
+    return default_twin()

@@ -29,11 +29,11 @@ TWIN_OPTION = click.option(
 def load_twin_option(path: Path | None) -> object:
     """The twin of a ``--twin FILE`` option (``None``: the default twin); errors name
     ``--twin``."""
-    from mwip.hardware.twin import Twin
+    from mwip.hardware.identified import default_twin
     from mwip.hardware.twin_config import load_twin
 
     if path is None:
-        return Twin()
+        return default_twin()
     try:
         return load_twin(path)
     except ValueError as exc:
@@ -47,11 +47,25 @@ def twin() -> None:
 
 @twin.command("show")
 @TWIN_OPTION
-def twin_show(twin_file: Path | None) -> None:
-    """Print the twin file (defaults with their sources)."""
+@click.option("--datasheet", is_flag=True,
+              help="The data-sheet twin (every unknown at its data-sheet guess, the prior's "
+              "centre) instead of the identified default twin.")  # fmt: skip
+def twin_show(twin_file: Path | None, datasheet: bool) -> None:
+    """Print the twin file: the default twin (the book's robot identified from its evidence,
+    with its provenance), or FILE's after validation, every value with its source."""
+    from mwip.hardware import identified
     from mwip.hardware.twin_config import twin_to_toml
 
-    click.echo(twin_to_toml(load_twin_option(twin_file)), nl=False)  # type: ignore[arg-type]
+    if twin_file is not None and datasheet:
+        raise click.UsageError("give --twin FILE or --datasheet, not both")
+    if datasheet:
+        click.echo(twin_to_toml(identified.datasheet_twin()), nl=False)
+    elif twin_file is None:
+        click.echo(identified.provenance() + twin_to_toml(
+            identified.default_twin(), identified="most probable twin of the book calibration "
+            "(above)"), nl=False)  # fmt: skip
+    else:
+        click.echo(twin_to_toml(load_twin_option(twin_file)), nl=False)  # type: ignore[arg-type]
 
 
 @twin.command("sensitivity")

@@ -139,7 +139,12 @@ def twin_from_dict(data: Mapping[str, Any], base: Twin | None = None) -> Twin:
     """A :class:`Twin` from the contents of a ``[twin]`` table (missing keys from ``base``,
     default the default twin). ``encoder.gear_ratio`` follows ``drive.gear_ratio`` unless
     given."""
-    tw = Twin() if base is None else base
+    if base is None:
+        from mwip.hardware.identified import default_twin
+
+        tw = default_twin()
+    else:
+        tw = base
     allowed = set(_TOP) | set(_TABLES) | {"prior"}
     unknown = sorted(set(data) - allowed)
     if unknown:
@@ -189,15 +194,23 @@ def _value(v: Any) -> str:
     raise TypeError(f"cannot write {v!r}")
 
 
-def twin_to_toml(twin: Twin | None = None) -> str:
+def twin_to_toml(twin: Twin | None = None, identified: str | None = None) -> str:
     """The ``[twin]`` tables of ``twin`` (default: the default twin), each value commented
-    with its source (:data:`SOURCES`)."""
-    tw = Twin() if twin is None else twin
+    with its source (:data:`SOURCES`); ``identified`` (e.g. "most probable twin of the book
+    calibration") replaces the data-sheet guess in the comment of every unknown's value."""
+    if twin is None:
+        from mwip.hardware.identified import default_twin
+
+        tw = default_twin()
+    else:
+        tw = twin
     lines = ["# mwip digital twin (docs/twin_model.md). Units SI.", "[twin]"]
 
     def put(key: str, value: Any, src_key: str) -> None:
         text = f"{key} = {_value(value)}"
         src = SOURCES.get(src_key)
+        if identified is not None and src_key in PRIOR.names:
+            src = f"unknown (twin.prior); identified: {identified}"
         lines.append(f"{text:<34} # {src}" if src else text)
 
     for key in _TOP:

@@ -17,7 +17,6 @@ opens the full-size file.
 
 from __future__ import annotations
 
-import base64
 import html
 import json
 from collections.abc import Callable
@@ -48,6 +47,7 @@ main{max-width:1280px;margin:0 auto;padding:1rem 1.2rem 4rem;box-sizing:border-b
 h1{font-size:1.6rem;margin:.4rem 0}h2{font-size:1.3rem;margin:1.2rem 0 .3rem}
 h3{font-size:1.05rem;margin:1rem 0 .3rem;color:#37424d}
 .headline{font-size:1.45rem;font-weight:700;margin:.3rem 0;color:#123}
+.subhead{font-size:1.05rem;font-weight:600;margin:.2rem 0 .5rem;color:#234}
 section.study{background:#fff;border:1px solid #dde2e7;border-radius:8px;padding:1rem;
 margin:1.2rem 0}
 .scroll{overflow-x:auto}
@@ -92,12 +92,14 @@ def _e(x: Any) -> str:
 
 
 def _img(path: Path, href: str, caption: str | None = None) -> str:
-    """A figure shown at its natural width (at most the page's), linking to the full file."""
-    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    """A figure shown at its natural width (at most the page's), linking to the full file.
+    The image is the file itself (``href``, relative to the report), not a copy embedded in
+    the page: the report stays small (issue 25: under 1 MB) and the folder is the unit to
+    copy."""
     cap = caption if caption is not None else _e(path.name)
     return (
         f'<figure><a href="{_e(href)}" target="_blank" title="open the full-size image">'
-        f'<img alt="{_e(path.stem)}" src="data:image/png;base64,{data}"></a>'
+        f'<img alt="{_e(path.stem)}" src="{_e(href)}"></a>'
         f"<figcaption>{cap} &middot; click for full size</figcaption></figure>"
     )
 
@@ -302,6 +304,67 @@ def _ablation(res: StudyResult) -> str:
     )
 
 
+def twin_headline(record: dict[str, Any]) -> str:
+    """One sentence on the twin the Chapter 6 studies ran on (the run record's
+    ``twin_status``, :func:`mwip.hardware.identified.status`), or ``""``."""
+    st = record.get("twin_status")
+    if not isinstance(st, dict) or not st.get("text"):
+        return ""
+    c = st.get("claim_counts") or {}
+    if not st.get("identified"):
+        return f"Chapter 6 ran on {st['text']}."
+    return (f"Chapter 6, judged across the identified twins: {c.get('holds', 0)} held-out "
+            f"claims hold, {c.get('fails', 0)} fail, {c.get('undecided', 0)} undecided; "
+            f"{st['text']}.")  # fmt: skip
+
+
+def _pct(x: Any) -> str:
+    return "n/a" if not isinstance(x, int | float) else f"{100 * x:.0f} %"
+
+
+def _twin_headline_html(record: dict[str, Any]) -> str:
+    text = twin_headline(record)
+    return f'<p class="subhead" id="twin-headline">{_e(text)}</p>' if text else ""
+
+
+def _identified_section(record: dict[str, Any]) -> str:
+    """The identified twin: where it comes from and the held-out Chapter 6 claims across the
+    posterior (``mwip twin fit --evidence book``, docs/book_calibration)."""
+    st = record.get("twin_status")
+    if not isinstance(st, dict) or not st.get("identified"):
+        return ""
+    rows = []
+    for cl in st.get("claims") or []:
+        iv = cl.get("interval") or [None, None]
+        by = cl.get("decided_by") or {}
+        dflt = {True: "holds", False: "fails"}.get(cl.get("default_twin"), "n/a")
+        rows.append(
+            f"<tr><td>{_e(cl.get('study'))}</td><td>{_e(cl.get('text'))}</td>"
+            f"<td class='num'>{_pct(cl.get('fraction'))} ({_pct(iv[0])}-{_pct(iv[1])})</td>"
+            f"<td>{_e(cl.get('verdict'))}</td><td>{dflt}</td>"
+            f"<td>{_e(by.get('parameter', ''))}</td></tr>"
+        )  # fmt: skip
+    dropped = st.get("dropped") or []
+    return (
+        '<section id="identified-twin"><h2>The identified twin</h2>'
+        f"<p>{_e(st['text'][0].upper() + st['text'][1:])}.</p>"
+        '<p class="muted">The twin\'s unknowns (gear ratio, back-EMF compensation, dead-band, '
+        "friction, sensors, payload geometry) were identified from the book's calibration "
+        "evidence only (every Chapter 6 run stands; Table 6.4's Case 1 SMC numbers), declared "
+        "before the fit in <code>mwip/calibration/book-evidence.toml</code>; the claims below "
+        "are judged on evidence the fit never used, on the twins' measured signals (the "
+        "board's pitch estimate, the encoder speeds). A claim holds or fails when it does in "
+        "at least 95 % of the consistent twins, else it is undecided (the parameter that "
+        "decides it is named)."
+        + (f" Calibration facts met by no twin (dropped): {_e(', '.join(dropped))}." if dropped
+           else "")
+        + "</p>"
+        '<div class="scroll"><table><tr><th>study</th><th>claim</th><th>holds in (95 % CI)</th>'
+        "<th>verdict</th><th>default twin</th><th>decided by</th></tr>"
+        + "".join(rows) + "</table></div></section>"
+    )  # fmt: skip
+
+
 def _twin_section(results: list[StudyResult], record: dict[str, Any]) -> str:
     """The digital twin's assumptions where the book prints none: the Case 2 payload and the
     Case 3 stick, as sensitivities of the robot that ran (issue 16 item 3)."""
@@ -492,6 +555,7 @@ def render_html(
 <body><main>
 <h1>mwip: reproduction of the book's studies</h1>
 <p class="headline" id="headline">{_e(headline(results, damping, cmp))}</p>
+{_twin_headline_html(record)}
 <p class="muted" id="extras">{extras}</p>
 <p class="muted" id="marks">"does not hold" (<code>[no]</code> in the terminal summary) means
 our run contradicts the book's claim as the book words it; its cause says why, its evidence
@@ -501,6 +565,7 @@ gives our numbers. Every verdict and number is read from the studies' metrics.js
 {_book_claims_section(results, damping, cmp, note)}
 <h2>Overview</h2>{_overview(results)}
 <h2>Run</h2>{_metadata(record, cmp)}
+{_identified_section(record)}
 {_twin_section(results, record)}
 {sections}
 </main></body></html>

@@ -167,7 +167,7 @@ def run_studies(
         registry.get(name)  # ValueError naming the studies if unknown
     overrides = {n: settings.validate(n, o) for n, o in (overrides or {}).items()}
     plant, nominal = registry.robot(plant, nominal)
-    twin = twin if twin is not None else Twin()
+    twin = twin if twin is not None else _default_twin()
     started = datetime.now(UTC).isoformat(timespec="seconds")
     t0 = time.perf_counter()
     outcomes: dict[str, StudyOutcome] = {}
@@ -223,6 +223,7 @@ def run_studies(
                 "quick": quick, "studies": {n: studies[n] for n in order if n in studies},
                 "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
                 "damping": damping, "twin": twin_to_toml(twin),
+                "twin_status": twin_status(twin),
             })  # fmt: skip
             write_json_atomic(stage.path / RUN_RECORD, record)
             write_text_atomic(stage.path / MARKER, MARKER_TEXT)
@@ -275,3 +276,17 @@ def settings_of(name: str, overrides: dict[str, Any] | None) -> dict[str, Any]:
         return {**settings.defaults(name), **(overrides or {})}
     except ValueError:
         return dict(overrides or {})
+
+
+def twin_status(twin: Any) -> dict[str, Any]:
+    """:func:`mwip.hardware.identified.status` of the studies' twin."""
+    from mwip.hardware.identified import status
+
+    return status(twin)
+
+
+def _default_twin() -> Any:
+    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
+    from mwip.hardware.identified import default_twin
+
+    return default_twin()

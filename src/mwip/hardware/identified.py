@@ -1,0 +1,97 @@
+"""The default twin: the book's robot identified from the book's evidence (issue 23).
+
+``book-twin.toml`` beside this module is the most probable member of the posterior of
+``mwip twin fit --evidence book`` (:mod:`mwip.calibration.book`; the declaration
+``mwip/calibration/book-evidence.toml``), copied here with its provenance (the comment block it
+starts with). :func:`default_twin` reads it once; it is the twin of every command and study
+that is not given ``--twin FILE`` (``mwip twin show`` prints it). The data-sheet twin the
+prior is centred on, ``Twin()`` (``mwip twin show --datasheet``), stays what the elements'
+defaults say.
+
+To refresh it after a new calibration: ``mwip twin fit --evidence book --out cal`` and copy
+``cal/twin.toml`` here (a test checks that the file is the calibration's MAP member as
+recorded in ``docs/book_calibration/posterior.json``).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from mwip.hardware.twin import Twin
+
+__all__ = ["IDENTIFIED_FILE", "STATUS_FILE", "default_twin", "provenance", "datasheet_twin",
+           "status"]
+
+IDENTIFIED_FILE = Path(__file__).with_name("book-twin.toml")
+
+
+@lru_cache(maxsize=1)
+def default_twin() -> Twin:
+    """The identified default twin (``book-twin.toml``; its missing keys from ``Twin()``)."""
+    from mwip.hardware.twin import Twin
+    from mwip.hardware.twin_config import load_twin
+
+    return load_twin(IDENTIFIED_FILE, base=Twin())
+
+
+def datasheet_twin() -> Twin:
+    """The data-sheet twin (every unknown at its data-sheet guess: the prior's centre)."""
+    from mwip.hardware.twin import Twin
+
+    return Twin()
+
+
+def provenance() -> str:
+    """The comment block ``book-twin.toml`` starts with (where the default twin comes from)."""
+    out = []
+    for line in IDENTIFIED_FILE.read_text(encoding="utf-8").splitlines():
+        if not line.startswith("#") or line.startswith("# mwip digital twin"):
+            break
+        out.append(line)
+    return "\n".join(out) + "\n"
+
+
+STATUS_FILE = IDENTIFIED_FILE.with_suffix(".json")
+
+
+@lru_cache(maxsize=1)
+def _posterior() -> dict[str, Any]:
+    import json
+
+    try:
+        doc = json.loads(STATUS_FILE.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def status(twin: Any = None) -> dict[str, Any]:
+    """The twin's status in words and numbers, for the run record and the report: whether
+    ``twin`` (default: the default twin) is the identified one and, if so, the posterior it
+    comes from (``book-twin.json``: the calibration's ``posterior.json``): its size, the
+    facts conditioned on and dropped, how many Chapter 6 runs stand on it, and the held-out
+    claims across the posterior (held / failed / undecided)."""
+    identified = twin is None or twin == default_twin()
+    if not identified:
+        return {"identified": False,
+                "text": "a twin given by the user (--twin FILE): not the identified one"}
+    doc = _posterior()
+    p = doc.get("posterior", {})
+    stand = doc.get("map_standing", {})
+    counts = doc.get("claim_counts", {})
+    claims = [{k: c.get(k) for k in ("study", "id", "text", "verdict", "fraction", "interval",
+                                     "effective_n", "default_twin", "decided_by")}
+              for c in doc.get("claims", [])]  # fmt: skip
+    n_up, n_runs = sum(bool(v) for v in stand.values()), len(stand)
+    text = (f"the default twin is the most probable of {p.get('size', 0)} twins consistent with "
+            f"the book's calibration evidence (effective {p.get('effective_size', 0):.0f}; "
+            f"{len(p.get('used', []))} facts conditioned on, {len(p.get('dropped', []))} met "
+            f"by no twin); {n_up} of {n_runs} Chapter 6 runs stand on it")  # fmt: skip
+    return {"identified": True, "text": text, "provenance": provenance(),
+            "size": p.get("size"), "effective_size": p.get("effective_size"),
+            "used": p.get("used", []), "dropped": p.get("dropped", []),
+            "conflicts": p.get("conflicts", []), "standing": stand,
+            "claim_counts": counts, "claims": claims}  # fmt: skip

@@ -1,0 +1,78 @@
+"""The default twin is the book calibration's most probable member (issue 23): the packaged
+twin file is the MAP of the packaged posterior, it does what the posterior says it does, and
+`mwip twin show`, the run record and the report say where it comes from."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from mwip.cli import main
+from mwip.hardware.identified import IDENTIFIED_FILE, STATUS_FILE, default_twin, status
+from mwip.hardware.prior import PRIOR
+from mwip.hardware.twin import Twin
+from mwip.hardware.twin_config import load_twin
+
+DOC = json.loads(STATUS_FILE.read_text(encoding="utf-8"))
+
+
+def test_the_default_twin_is_the_posteriors_most_probable_member() -> None:
+    tw = default_twin()
+    assert tw == load_twin(IDENTIFIED_FILE)
+    values = tw.values()
+    assert set(DOC["map_values"]) == set(PRIOR.names)
+    for name, v in DOC["map_values"].items():
+        assert values[name] == pytest.approx(v, rel=1e-12, abs=1e-15), name
+    # and it is not the data-sheet twin the prior is centred on
+    assert tw != Twin()
+    assert DOC["posterior"]["map_index"] >= 0
+
+
+def test_the_default_twin_does_what_the_posterior_records() -> None:
+    """Rerun a few of the calibration's runs on the default twin itself: standing and the
+    calibration numbers as recorded for the MAP member (same code, one row)."""
+    from mwip.calibration.runs import RUNS, run_batch
+
+    standing = DOC["map_standing"]
+    pick = [r for r in RUNS if r.name in ("exp-hodosmc-balance/smc.case1",
+                                          "exp-hodosmc-balance/do1smc.case1")]  # fmt: skip
+    values = {k: np.array([v]) for k, v in DOC["map_values"].items()}
+    cols = run_batch(values, runs=tuple(pick))
+    for r in pick:
+        assert bool(cols[f"{r.name}.stands"][0] == 1.0) == standing[r.name], r.name
+    for num in DOC["calibration_numbers"]:
+        if num["key"] in cols and num["map"] is not None:
+            assert cols[num["key"]][0] == pytest.approx(num["map"], rel=1e-9), num["key"]
+
+
+def test_twin_show_prints_the_identified_twin_with_its_provenance() -> None:
+    r = CliRunner().invoke(main, ["twin", "show"])
+    assert r.exit_code == 0, r.output
+    assert r.output.startswith("# The book's robot: the most probable twin")
+    assert "identified: most probable twin of the book calibration" in r.output
+    ds = CliRunner().invoke(main, ["twin", "show", "--datasheet"])
+    assert ds.exit_code == 0 and "identified:" not in ds.output
+    assert "ASSUMED MAXON GP 32 A 23:1" in ds.output
+
+
+def test_status_says_which_twin_ran() -> None:
+    st = status()
+    assert st["identified"] and "most probable" in st["text"]
+    assert st["claim_counts"] == DOC["claim_counts"]
+    n_up = sum(DOC["map_standing"].values())
+    assert f"{n_up} of {len(DOC['map_standing'])} Chapter 6 runs stand" in st["text"]
+    other = status(Twin())
+    assert not other["identified"] and "--twin FILE" in other["text"]
+
+
+def test_the_report_headline_states_the_twins_status(tmp_path) -> None:
+    from mwip.report.html import twin_headline
+
+    text = twin_headline({"twin_status": status()})
+    c = DOC["claim_counts"]
+    assert text.startswith(f"Chapter 6, judged across the identified twins: {c['holds']} ")
+    assert f"{c['fails']} fail, {c['undecided']} undecided" in text
+    assert twin_headline({}) == ""
