@@ -16,8 +16,8 @@ The algorithm is the adaptive population Monte Carlo ABC of Lenormand, Jabot & D
 2. Each generation proposes ``propose`` new twins from the weighted population with a
    Gaussian kernel per particle, of diagonal covariance the optimal local covariance
    (:func:`local_sigma`; ``local = 0``: ``2 Var_w(u)`` for all, Beaumont et al. 2009),
-   truncated to the cube, and weighs each by ``pi(u) / q(u)``, ``q`` the exactly normalised truncated
-   mixture :func:`proposal_density` (uniform prior: ``pi = 1``).
+   truncated to the cube, and weighs each by ``pi(u) / q(u)``, ``q`` the exactly normalised
+   truncated mixture :func:`proposal_density` (uniform prior: ``pi = 1``).
 3. The old population and the new twins are merged and the ``keep`` closest kept; the
    threshold ``epsilon`` is the largest distance kept. It stops when the fraction of new
    twins within the previous threshold falls below ``min_acceptance``, when ``epsilon`` is 0
