@@ -97,12 +97,12 @@ def load_twin_text(text: str) -> Twin:
 )  # fmt: skip
 def test_bad_prior_entries_are_one_line_errors(prior: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match) as exc:
-        twin_from_dict({"prior": prior})
+        twin_from_dict({"prior": prior}, base=Twin())  # the data-sheet twin: delay 0.2
     assert "\n" not in str(exc.value)
 
 
 def test_emf_feedforward_alias_and_half_compensation() -> None:
-    tw = twin_from_dict({"drive": {"emf_feedforward": True}})
+    tw = twin_from_dict({"drive": {"emf_feedforward": True}}, base=Twin())
     assert tw.drive.emf_compensation == 1.0 and tw.drive == DriveSpec(emf_compensation=1.0)
     assert DriveSpec(emf_feedforward=False).emf_compensation == 0.0
     assert DriveSpec(mode="torque").compensation == 1.0
