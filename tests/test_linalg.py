@@ -44,7 +44,7 @@ from mwip.linalg import (
     solve_discrete_are,
     solve_discrete_lyapunov,
 )
-from mwip.linearize import linearize
+from mwip.models.linear import linearize
 from mwip.observers.design import error_dynamics, published_gain_sets, stacked_gain
 from mwip.observers.hodo import discretize_observer
 from mwip.params import NOMINAL, NOMINAL_LITERAL, REAL, REAL_LITERAL
