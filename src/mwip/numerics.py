@@ -163,15 +163,26 @@ def _check_expm(M: Array, E: Array) -> None:
 # Cache
 # ---------------------------------------------------------------------------------------------
 _MEMO: dict[str, Array] = {}
+_PREFIX: list[str] = []
+
+
+def _prefix() -> str:
+    """The part of every cache name that is fixed in a process: this file and the SciPy and
+    NumPy versions (read once)."""
+    if not _PREFIX:
+        from mwip.cache import digest, versions
+
+        _PREFIX.append(digest([Path(__file__), *versions(["scipy", "numpy"])]))
+    return _PREFIX[0]
 
 
 def _cached(kind: str, inputs: tuple[Array, ...], solve: Callable[[], Array],
             check: Callable[[Array], None]) -> Array:  # fmt: skip
     """``solve()``'s checked answer for ``inputs``, from this process, the design cache, or
     solved (then checked and saved). A cached answer that fails ``check`` is solved again."""
-    from mwip.cache import digest, load_arrays, save_arrays, versions
+    from mwip.cache import digest, load_arrays, save_arrays
 
-    name = digest([Path(__file__), kind, *versions(["scipy", "numpy"]), *inputs])
+    name = digest([_prefix(), kind, *inputs])
     if name in _MEMO:
         return _MEMO[name].copy()
     z = load_arrays("numerics", name)
