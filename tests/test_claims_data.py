@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import re
 
-from mwip.studies.common import CAUSES
+from mwip.schema.claims import CAUSES
 
 
 def test_every_failing_book_claim_has_cause_and_evidence(quick_reproduction):

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from mwip.cli import main
-from mwip.linearize import linearize
+from mwip.models.linear import linearize
 from mwip.params import (
     BOOK_TABLES,
     NOMINAL,

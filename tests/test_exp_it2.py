@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from mwip.hardware.twin import Twin
+from mwip.schema.claims import CAUSES
 from mwip.studies import exp_it2, run_study, settings
-from mwip.studies.common import CAUSES
 from mwip.studies.twin_settings import ABLATION_FIELD, study_settings
 
 KINDS = ("it2", "t1")

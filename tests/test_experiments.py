@@ -11,8 +11,8 @@ import pytest
 from mwip.hardware.ablation import Ablation, ablation_steps
 from mwip.hardware.elements import ELEMENTS
 from mwip.hardware.twin import Twin
+from mwip.schema.claims import CAUSES
 from mwip.studies import exp_asta, exp_hodosmc, get_study, run_study
-from mwip.studies.common import CAUSES
 from mwip.studies.twin_settings import ABLATION_FIELD, fall_evidence, first_fall, study_settings
 
 KINDS = ("smc", "do1smc", "do4smc")

@@ -430,7 +430,7 @@ def _api_cases():
     from mwip import NOMINAL, REAL
     from mwip.control import LQR, design_lqr
     from mwip.control.smc_design import check_smc_design
-    from mwip.linearize import linearize
+    from mwip.models.linear import linearize
     from mwip.params import Params
     from mwip.sim import simulate
 

@@ -82,3 +82,18 @@ def test_batched_linearisation():
     A, B = linearize(stack_params([REAL, NOMINAL]))
     assert A.shape == (2, 5, 5) and B.shape == (2, 5, 2)
     np.testing.assert_allclose(A[1], linearize(NOMINAL)[0])
+
+
+def test_package_attribute_is_the_function_after_importing_a_models_module():
+    """Issue 24: ``import mwip; from mwip.models import reduced; mwip.linearize(...)`` used to
+    raise ``TypeError: 'module' object is not callable`` (module and function of one name);
+    the module is ``mwip.models.linear`` now, in a fresh process."""
+    import subprocess
+    import sys
+
+    code = ("import mwip; from mwip.models import reduced; from mwip import params; "
+            "import mwip.models.linear; A, B = mwip.linearize(params.NOMINAL); "
+            "print(A.shape, B.shape, callable(mwip.linearize))")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()  # fmt: skip
+    assert out == ["(5,", "5)", "(5,", "2)", "True"]

@@ -12,7 +12,7 @@ import pytest
 ct = pytest.importorskip("control")
 
 from mwip.control.lqr import BOOK_Q, BOOK_R, LQR, design_lqr  # noqa: E402
-from mwip.linearize import INPUT_NAMES, STATE_NAMES, linearize  # noqa: E402
+from mwip.models.linear import INPUT_NAMES, STATE_NAMES, linearize  # noqa: E402
 from mwip.params import NOMINAL, REAL  # noqa: E402
 from mwip.pycontrol import lqr_system, plant_system  # noqa: E402
 from mwip.sim import simulate  # noqa: E402

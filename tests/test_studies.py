@@ -110,7 +110,7 @@ def test_hodosmc_vs_smc_quick_claims(tmp_path):
 
 
 def test_finish_claims_keeps_causes_for_failures_only():
-    from mwip.studies.common import finish_claims, validate_claim
+    from mwip.schema.claims import finish_claims, validate_claim
 
     claims = [
         {"id": "a", "text": "a", "book": True, "holds": True, "cause": "implementation",

@@ -24,7 +24,7 @@ from mwip.fuzzy.ts_model import (
     quasi_lpv,
     vertex_matrices,
 )
-from mwip.linearize import linearize
+from mwip.models.linear import linearize
 from mwip.params import NOMINAL, NOMINAL_LITERAL
 from mwip.sim import simulate
 

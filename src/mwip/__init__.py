@@ -7,8 +7,6 @@ Underactuated Robot: Mobile Wheeled Inverted Pendulum* (2023).
 The names below are imported on first use (:mod:`mwip.lazy`): ``import mwip`` costs nothing.
 """
 
-import sys
-import types
 from typing import TYPE_CHECKING
 
 from mwip.lazy import exports
@@ -19,23 +17,9 @@ __version__ = "0.1.0"
 __getattr__, __dir__ = exports(
     __name__,
     {"Params": "mwip.params", "REAL": "mwip.params", "NOMINAL": "mwip.params",
-     "linearize": "mwip.linearize"},
+     "linearize": "mwip.models.linear"},
 )  # fmt: skip
 
-
-class _Package(types.ModuleType):
-    """``mwip.linearize`` is both a submodule and the function it defines; importing the
-    submodule sets the package attribute to the module, so the function is put there instead
-    (what ``from mwip.linearize import linearize`` in this file used to leave)."""
-
-    def __setattr__(self, name: str, value: object) -> None:
-        if name == "linearize" and isinstance(value, types.ModuleType):
-            value = value.linearize
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
-
 if TYPE_CHECKING:
-    from mwip.linearize import linearize
+    from mwip.models.linear import linearize
     from mwip.params import NOMINAL, REAL, Params

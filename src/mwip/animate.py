@@ -1,5 +1,5 @@
 """The robot of a run drawn to scale and moving (``mwip animate RUN_DIR``,
-:mod:`mwip.plot.command`).
+:mod:`mwip.cli_plot`).
 
 A side view (wheel turning, body leaning, payload when present) beside a top view of the path,
 with a time cursor on the theta and torque traces (:class:`mwip.plot.robot_view.RobotView`).

@@ -21,10 +21,10 @@ import click
 from mwip.cli_campaign import campaign as _campaign_cmd
 from mwip.cli_controllers import controllers as _controllers_cmd
 from mwip.cli_kernels import kernels as _kernels_group
+from mwip.cli_plot import animate_cmd as _animate_cmd
+from mwip.cli_plot import plot_cmd as _plot_cmd
 from mwip.damping import DAMPING_READINGS
 from mwip.export.cli import export as _export_group
-from mwip.plot.command import animate_cmd as _animate_cmd
-from mwip.plot.command import plot_cmd as _plot_cmd
 
 if TYPE_CHECKING:  # NumPy and the rest load with the command that needs them (issue 18)
     import numpy as np

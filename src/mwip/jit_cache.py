@@ -1,66 +1,111 @@
-"""Numba's on-disk cache for mwip's kernels, invalidated when *any* kernel's source changes.
+"""Numba's on-disk cache for mwip's kernels, in a folder named after *every* kernel source.
 
-Numba keeps a compiled function's machine code beside its source file (``__pycache__``) and
-reuses it as long as *that file* is unchanged. The compiled loop (:mod:`mwip.sim.loop`)
-inlines kernels from other files (the plant, the laws, the observer): after an edit of a
-kernel, or an upgrade of mwip that changes one, Numba would run the *old* kernel from the
-cache. The locators below, put first in Numba's list for mwip's own files only, stamp every
-cache entry with :func:`mwip.sim.aot.key` as well, the hash of every source compiled into the
-loop (and of the Python, NumPy and Numba versions): any change recompiles. Other code's
-caches are untouched.
+Numba keeps a compiled function's machine code and reuses it as long as *that function's file*
+is unchanged. The compiled loop (:mod:`mwip.sim.loop`) inlines kernels from other files (the
+plant, the laws, the observer): after an edit of a kernel, or an upgrade of mwip that changes
+one, Numba would run the *old* kernel from its cache. So mwip's kernels are compiled by
+:func:`njit`, which is ``numba.njit(cache=True, ...)`` with Numba's cache folder
+(``NUMBA_CACHE_DIR``, Numba's public setting ``numba.config.CACHE_DIR``) set, while the function
+is decorated, to ``<mwip cache>/numba/<key>``: :func:`key` hashes every source compiled into
+the loop (:data:`SOURCES`) and the Python, NumPy and Numba versions, so any change gives a new,
+empty folder and recompiles. Only mwip's own functions are affected: the setting is restored
+right after, and Numba's cache of other code stays where the user put it. A cache folder that
+cannot be written turns caching off for mwip's kernels (they compile in each process) rather
+than falling back to ``__pycache__``, where a stale kernel could be found.
 
-Imported by every module that defines a compiled kernel, right after ``import numba``.
+Ground floor: imports neither Numba (until :func:`njit` is called) nor the engine; the
+ahead-of-time loop (:mod:`mwip.sim.aot`) names its module after the same :data:`SOURCES`.
 """
 
 from __future__ import annotations
 
+import hashlib
+import os
+import platform
+import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from numba.core import caching
+from mwip.cache import cache_dir, versions
 
-from mwip.sim.aot import key
+__all__ = ["SOURCES", "key", "folder", "njit"]
 
-__all__ = ["LOCATORS"]
+#: The source files compiled into :func:`mwip.sim.loop.run`, relative to the package
+#: (tests/test_aot.py checks that every mwip module the loop imports is listed).
+SOURCES: tuple[str, ...] = (
+    "sim/aot.py",
+    "jit_cache.py",
+    "cache.py",
+    "sim/loop.py",
+    "sim/kernel.py",
+    "sim/codes.py",
+    "models/reduced.py",
+    "models/_compiled.py",
+    "core.py",
+    "params.py",
+    "damping.py",
+    "io.py",
+    "control/_asta_kernel.py",
+    "control/_lqr_kernel.py",
+    "control/_smc_kernel.py",
+    "control/_tsmc_kernel.py",
+    "observers/_hodo_kernel.py",
+    "fuzzy/_fig53_kernel.py",
+    "fuzzy/ts_model.py",
+    "fuzzy/layout.py",
+)
 
 _ROOT = Path(__file__).resolve().parent
+_KEY: list[str] = []
 
 
-def _ours(py_file: str) -> bool:
+def key() -> str:
+    """Hex digest of :data:`SOURCES` and the Python, NumPy and Numba versions and the machine
+    (read from metadata: Numba is not imported)."""
+    if not _KEY:
+        import numpy as np
+
+        (nb,) = versions(["numba"])
+        h = hashlib.sha256(f"{sys.version}|{np.__version__}|{nb}|{platform.machine()}".encode())
+        for rel in SOURCES:
+            h.update(rel.encode())
+            h.update((_ROOT / rel).read_bytes())
+        _KEY.append(h.hexdigest()[:20])
+    return _KEY[0]
+
+
+def folder() -> Path | None:
+    """Numba's cache folder for mwip's kernels, ``<mwip cache>/numba/<key>`` (created), or
+    ``None`` if it cannot be written."""
+    path = cache_dir() / "numba" / key()
     try:
-        Path(py_file).resolve().relative_to(_ROOT)
-    except ValueError:
-        return False
-    return True
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    return path if os.access(path, os.W_OK | os.X_OK) else None
 
 
-class _Stamped:
-    """Numba's stamp of the function's own file, plus the hash of every kernel source."""
+def njit(*args: Any, **options: Any) -> Any:
+    """``numba.njit(cache=True, **options)`` with the cache in :func:`folder`; use as
+    ``@njit`` or ``@njit(inline="always")`` (or ``njit(...)(function)``)."""
+    if args and callable(args[0]) and len(args) == 1 and not options:
+        return njit()(args[0])
+    if args:
+        raise TypeError("njit takes keyword options only (no signatures for mwip's kernels)")
 
-    def get_source_stamp(self) -> Any:
-        return (super().get_source_stamp(), key())  # type: ignore[misc]
+    def decorate(fn: Callable[..., Any]) -> Any:
+        import numba
 
-    @classmethod
-    def from_function(cls, py_func: Any, py_file: str) -> Any:
-        if not _ours(py_file):
-            return None
-        return super().from_function(py_func, py_file)  # type: ignore[misc]
+        config: Any = numba.config
+        path = folder()
+        if path is None:
+            return numba.njit(**options)(fn)
+        old = config.CACHE_DIR
+        config.CACHE_DIR = str(path)
+        try:  # Numba picks the cache folder here, when caching is enabled for the function
+            return numba.njit(cache=True, **options)(fn)
+        finally:
+            config.CACHE_DIR = old
 
-
-class UserProvidedLocator(_Stamped, caching.UserProvidedCacheLocator):
-    """``NUMBA_CACHE_DIR`` when set (as Numba's own first choice)."""
-
-
-class InTreeLocator(_Stamped, caching.InTreeCacheLocator):
-    """``__pycache__`` beside the source (Numba's default)."""
-
-
-class UserWideLocator(_Stamped, caching.UserWideCacheLocator):
-    """The user's cache folder when the source tree is read-only."""
-
-
-LOCATORS = (UserProvidedLocator, InTreeLocator, UserWideLocator)
-
-_IMPL: Any = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")  # noqa: B009
-if LOCATORS[0] not in _IMPL._locator_classes:
-    _IMPL._locator_classes[0:0] = list(LOCATORS)
+    return decorate

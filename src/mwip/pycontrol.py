@@ -1,6 +1,6 @@
 """python-control interop (optional: ``pip install mwip[control]``).
 
-- :func:`statespace`: the linearisation of Section 4.4 (:func:`mwip.linearize.linearize`) as a
+- :func:`statespace`: the linearisation of Section 4.4 (:func:`mwip.models.linear.linearize`) as a
   ``control.StateSpace``, continuous or zero-order-hold sampled at ``Ts``.
 - :func:`plant_system`: the nonlinear reduced model (2.33) as a ``control.NonlinearIOSystem``
   (state ``[psi, theta, alpha, psi', theta', alpha', x, y]``, inputs ``u_r, u_l``, outputs the
@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from mwip.linearize import INPUT_NAMES, STATE_NAMES, linearize
+from mwip.models.linear import INPUT_NAMES, STATE_NAMES, statespace
 from mwip.params import Params
 
 __all__ = ["statespace", "plant_system", "lqr_system", "PLANT_STATES"]
@@ -42,25 +42,6 @@ def _control() -> Any:
 def _one_robot(p: Params) -> None:
     if p.batch_shape != ():
         raise ValueError("python-control systems describe one robot: pass scalar Params")
-
-
-def statespace(p: Params, *, Ts: float | None = None) -> Any:
-    """``control.StateSpace`` of the linearisation at upright (continuous, or ZOH at ``Ts``).
-
-    >>> from mwip.params import NOMINAL
-    >>> statespace(NOMINAL, Ts=0.005).dt
-    0.005
-    """
-    ct = _control()
-    _one_robot(p)
-    A, B = linearize(p)
-    sys = ct.ss(A, B, np.eye(5), np.zeros((5, 2)), states=list(STATE_NAMES),
-                inputs=list(INPUT_NAMES), outputs=list(STATE_NAMES), name="mwip")  # fmt: skip
-    if Ts is None:
-        return sys
-    if not (isinstance(Ts, int | float) and np.isfinite(Ts) and Ts > 0):
-        raise ValueError(f"Ts must be finite and in (0, inf), got {Ts!r}")
-    return ct.sample_system(sys, Ts, method="zoh", name="mwip_zoh")
 
 
 def plant_system(p: Params, *, name: str = "mwip_plant") -> Any:

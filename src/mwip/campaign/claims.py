@@ -21,7 +21,6 @@ import json
 import math
 import tempfile
 import warnings
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +28,12 @@ import numpy as np
 
 from mwip.campaign.sampling import sample_rng
 from mwip.campaign.spec import Campaign
-from mwip.campaign.stats import wilson
+from mwip.schema.robustness import (
+    ClaimRobustness,
+    claim_robustness,
+    load_claim_robustness,
+    robustness_text,
+)
 
 __all__ = [
     "claim_studies",
@@ -132,54 +136,3 @@ def run_block(campaign: Campaign, block: int) -> Any:
     cols = ["study", "sample", "claim_index", "claim", "book", "text", "holds", "error", "settings"]
     df = pd.DataFrame(rows, columns=cols)
     return df.astype({"sample": "int64", "claim_index": "int64", "holds": "bool"})
-
-
-@dataclass(frozen=True)
-class ClaimRobustness:
-    """A claim's verdict over its plausible settings: holds in ``k`` of ``n`` draws,
-    ``fraction = k / n`` with the Wilson 95 % interval ``[lo, hi]``."""
-
-    study: str
-    claim: str
-    book: str
-    k: int
-    n: int
-    fraction: float
-    lo: float
-    hi: float
-
-
-def claim_robustness(results: Any) -> dict[tuple[str, str], ClaimRobustness]:
-    """Per (study, claim id): the verdicts of a claims campaign's table (errors excluded)."""
-    df = results[results["error"] == ""]
-    out: dict[tuple[str, str], ClaimRobustness] = {}
-    for (study, claim), g in df.groupby(["study", "claim"], sort=False):
-        k, n = int(g["holds"].sum()), int(len(g))
-        lo, hi = wilson(k, n)
-        out[(str(study), str(claim))] = ClaimRobustness(
-            str(study), str(claim), str(g["book"].iloc[0]), k, n, k / n, lo, hi
-        )
-    return out
-
-
-def load_claim_robustness(folder: str | Path) -> dict[tuple[str, str], ClaimRobustness]:
-    """:func:`claim_robustness` of ``folder/results.parquet`` (a finished claims campaign)."""
-    import pandas as pd
-
-    return claim_robustness(pd.read_parquet(Path(folder) / "results.parquet"))
-
-
-def robustness_text(
-    table: dict[tuple[str, str], ClaimRobustness], study: str, claim: dict[str, Any]
-) -> str:
-    """What the main report shows beside ``claim`` (a claim of ``study``'s metrics document):
-    ``"holds in 75 % of plausible settings (95 % interval 62-85 %, n = 40)"``, or ``""`` when
-    the campaign has no verdicts for it."""
-    key = (study, str(claim.get("id") or claim.get("text", "")))
-    r = table.get(key)
-    if r is None or r.n == 0:
-        return ""
-    return (
-        f"holds in {100 * r.fraction:.0f} % of plausible settings "
-        f"(95 % interval {100 * r.lo:.0f}-{100 * r.hi:.0f} %, n = {r.n})"
-    )

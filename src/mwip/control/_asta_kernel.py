@@ -12,13 +12,11 @@ from __future__ import annotations
 
 import math
 
-import numba
-
-import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
+from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 from mwip.models._compiled import f_g_scalar
 
 
-@numba.njit(cache=True)
+@njit
 def asta_terms(c, q, qd, lam, ref, s, a, b):  # noqa: ANN001, ANN201 - compiled kernel
     """Fill ``s``, ``a``, ``b`` (N, 2); ``c`` (10,) coefficients, ``q, qd`` (N, 3),
     ``lam = (l1, l2, l3)``, ``ref = (psi'_d, theta_d, alpha_d, alpha'_d)``."""
@@ -36,7 +34,7 @@ def asta_terms(c, q, qd, lam, ref, s, a, b):  # noqa: ANN001, ANN201 - compiled 
         b[i, 1] = g3
 
 
-@numba.njit(cache=True)
+@njit
 def asta_sample(a, b, s, K, rate, eps, Ts, asmc, Gamma, w, u):  # noqa: ANN001, ANN201
     """The law and the state update of one sample, for a batch (the one implementation of
     :class:`mwip.control.asta.ASTA` and :class:`~mwip.control.asta.ASMC`'s ``__call__``).

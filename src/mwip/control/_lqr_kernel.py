@@ -8,12 +8,10 @@ alpha']`` from the measured ``y[:6]`` (with ``v = r_nom psi'``) is folded into `
 
 from __future__ import annotations
 
-import numba
-
-import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
+from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 
 
-@numba.njit(cache=True)
+@njit
 def lqr_law(y, gain, offset, u):  # noqa: ANN001, ANN201 - compiled kernel
     """Fill ``u`` (N, 2) with ``y[:, :6] @ gain + offset`` for measurements ``y`` (N, >= 6)."""
     for i in range(y.shape[0]):

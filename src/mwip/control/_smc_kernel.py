@@ -10,13 +10,11 @@ for every term, and benchmarks/mutate_kernels.py checks that a sign flip here fa
 
 from __future__ import annotations
 
-import numba
-
-import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
+from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 from mwip.models._compiled import f_g_scalar
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def smc_law(fg, q0, q1, q2, qd0, qd1, qd2, th0, th1, th2, t, lam, K1, K2, sat, phi, q1d_dot,  # noqa: ANN001, ANN201, PLR0913
             q3d):  # fmt: skip
     """(3.49)-(3.50) for one robot: ``(u_r, u_l, s1, s2)``.
@@ -42,7 +40,7 @@ def smc_law(fg, q0, q1, q2, qd0, qd1, qd2, th0, th1, th2, t, lam, K1, K2, sat, p
     return 0.5 * (uA + uB), 0.5 * (uA - uB), s1, s2
 
 
-@numba.njit(cache=True)
+@njit
 def smc_step(c, q, qd, tau_hat, t, lam, K1, K2, sat, phi, q1d_dot, q3d, u, S):  # noqa: ANN001, ANN201
     """Fill ``S`` (N, 2) with (3.49) and ``u`` (N, 2) with ``[u_r, u_l]`` from (3.50).
 

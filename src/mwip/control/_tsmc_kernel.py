@@ -10,13 +10,11 @@ benchmarks/mutate_kernels.py checks that a sign flip here fails them.
 
 from __future__ import annotations
 
-import numba
-
-import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
+from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 from mwip.models._compiled import f_g_scalar
 
 
-@numba.njit(cache=True)
+@njit
 def tsmc_step(c, q, qd, t, tau, coeffs, Tf, C, ratio, D, IDinv, Gam, sat, phi,  # noqa: ANN001, ANN201
               refs, u, s_out, k_out, a_out):  # fmt: skip
     """Fill ``u`` = ``[u_r, u_l]``, ``s``, ``k`` and the augmenting values ``a`` (all (N, 2)).

@@ -26,8 +26,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.core import LAW_LINEAR, CompiledLaw, Measurement
-from mwip.linalg import expm, solve_continuous_are, solve_discrete_are
-from mwip.linearize import linearize
+from mwip.models.linear import linearize
+from mwip.numerics import expm, solve_continuous_are, solve_discrete_are
 from mwip.params import NOMINAL, Params
 from mwip.validate import finite_array, real
 

@@ -31,12 +31,11 @@ numbers. It evaluates
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
-import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
 from mwip.fuzzy.layout import HEAD, ROW_WIDTH
 from mwip.fuzzy.ts_model import LOWER_HALF_WIDTH, THETA_VERTEX, UPPER_HALF_WIDTH
+from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 
 __all__ = [
     "HEAD", "ROW_WIDTH", "fls_eval", "fls_batch", "pdc_weights",
@@ -44,7 +43,7 @@ __all__ = [
 ]  # fmt: skip
 
 
-@numba.njit(cache=True)
+@njit
 def _tri(x, a, b, c):  # noqa: ANN001, ANN202 - compiled kernel
     """Triangle ``(a, b, c)`` of height 1 at ``x``, ``a < b < c`` (every set of a
     :class:`~mwip.fuzzy.sets.UniformPartition`), as :func:`mwip.fuzzy.sets.triangle`."""
@@ -52,7 +51,7 @@ def _tri(x, a, b, c):  # noqa: ANN001, ANN202 - compiled kernel
     return min(max(v, 0.0), 1.0)
 
 
-@numba.njit(cache=True)
+@njit
 def _block8(a, lo, n):  # noqa: ANN001, ANN202
     """``a[lo : lo + n].sum()`` for ``8 <= n <= 128`` as NumPy's pairwise sum does it: eight
     partial sums over the multiples of 8, combined pairwise, then the rest in order."""
@@ -74,7 +73,7 @@ def _block8(a, lo, n):  # noqa: ANN001, ANN202
     return res
 
 
-@numba.njit(cache=True)
+@njit
 def _pairwise(a, lo, n):  # noqa: ANN001, ANN202
     """``a[lo : lo + n].sum()`` for ``n >= 8`` in NumPy's pairwise order: above 128 numbers
     the sum of the two halves (the first a multiple of 8), recursively; here with an explicit
@@ -125,7 +124,7 @@ def _pairwise(a, lo, n):  # noqa: ANN001, ANN202
     return np.nan
 
 
-@numba.njit(cache=True)
+@njit
 def fls_eval(x1, x2, blk, mem, fr):  # noqa: ANN001, ANN201
     """Crisp output ``b * FLS(a1 x1, a2 x2)`` of the FLS ``blk`` (module docstring).
 
@@ -167,7 +166,7 @@ def fls_eval(x1, x2, blk, mem, fr):  # noqa: ANN001, ANN201
     return blk[8] * (blk[2] * wa_lo + blk[3] * wa_hi)
 
 
-@numba.njit(cache=True)
+@njit
 def fls_batch(x1, x2, blk, out):  # noqa: ANN001, ANN201
     """:func:`fls_eval` for every element of ``x1``, ``x2`` (M,) into ``out`` (M,)."""
     mem = np.empty((4, blk.shape[0]))
@@ -176,7 +175,7 @@ def fls_batch(x1, x2, blk, out):  # noqa: ANN001, ANN201
         out[i] = fls_eval(x1[i], x2[i], blk, mem, fr)
 
 
-@numba.njit(cache=True)
+@njit
 def pdc_weights(theta, t1):  # noqa: ANN001, ANN201
     """``(m_1, m_2)`` of the PDC law (5.10) at the measured pitch ``theta``.
 
@@ -198,7 +197,7 @@ def pdc_weights(theta, t1):  # noqa: ANN001, ANN201
     return w0 / s, w1 / s
 
 
-@numba.njit(cache=True)
+@njit
 def pdc_weights_batch(theta, t1, out):  # noqa: ANN001, ANN201
     """:func:`pdc_weights` for ``theta`` (M,) into ``out`` (M, 2)."""
     for i in range(theta.shape[0]):
@@ -207,7 +206,7 @@ def pdc_weights_batch(theta, t1, out):  # noqa: ANN001, ANN201
         out[i, 1] = m2
 
 
-@numba.njit(cache=True)
+@njit
 def fig53_law(y, rows, fls, first, u, theta_off, u_alpha):  # noqa: ANN001, ANN201
     """The Fig. 5.3 law for a batch: ``u`` (N, 2) = ``[u_r, u_l]``, ``theta_off``, ``u_alpha``
     (N,) from the measurements ``y`` (N, 8).

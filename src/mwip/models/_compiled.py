@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-import numba
-
-import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
+from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 from mwip.models.reduced import f_g_terms
 
 #: The closed forms of (2.36) compiled (inlined into every kernel that needs ``F, G``).
-f_g_scalar = numba.njit(cache=True, inline="always")(f_g_terms)
+f_g_scalar = njit(inline="always")(f_g_terms)
 
 
-@numba.njit(cache=True)
+@njit
 def f_g_batch(c, q, qd, F, G):  # noqa: ANN001, ANN201 - compiled kernel
     """Fill ``F`` (N, 3) and the nonzero entries of ``G`` (N, 3, 2) of (2.36) for one robot's
     coefficients ``c`` (10,) at the states ``q, qd`` (N, 3)."""
@@ -28,7 +26,7 @@ def f_g_batch(c, q, qd, F, G):  # noqa: ANN001, ANN201 - compiled kernel
         G[i, 2, 1] = g3
 
 
-@numba.njit(cache=True)
+@njit
 def f_plus_g_u(c, q, qd, uAB, out):  # noqa: ANN001, ANN201 - compiled kernel
     """``out = F + G [u_A, u_B]`` (N, 3) of (2.36) for one robot's coefficients ``c`` (10,)
     at ``q, qd`` (N, 3) with ``uAB`` (N, 2): the nominal acceleration a sample-time observer

@@ -22,15 +22,14 @@ the terms skipped are exact zeros, so the result equals the dense product's.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
-import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
 from mwip.core import HOLD_CODES, HOLD_END, HOLD_START, HOLD_TRAPEZOID  # noqa: F401 - re-exported
+from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 from mwip.models._compiled import f_g_scalar
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def model_terms(c, th, psid, thd, ald):  # noqa: ANN001, ANN201 - compiled kernel
     """``(f1, f2, f3, g1, g2, g3)`` of (2.36) on the coefficients ``c`` (10,) at one robot's
     pitch ``theta`` and rates ``psi', theta', alpha'``."""
@@ -38,13 +37,13 @@ def model_terms(c, th, psid, thd, ald):  # noqa: ANN001, ANN201 - compiled kerne
                       ald)  # fmt: skip
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _fgu(fg, uA, uB):  # noqa: ANN001, ANN202 - compiled kernel
     """``F + G [u_A, u_B]`` of (2.36) from the terms ``fg = (f1, f2, f3, g1, g2, g3)``."""
     return fg[0] + fg[3] * uA, fg[1] + fg[4] * uA, fg[2] + fg[5] * uB
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def channels_decoupled(Phi, Gam):  # noqa: ANN001, ANN201 - compiled kernel
     """True when no entry couples two channels: ``Phi[3i + ca, 3j + cb] = 0`` and
     ``Gam[3i + ca, cb] = 0`` for every ``ca != cb`` (module docstring)."""
@@ -63,7 +62,7 @@ def channels_decoupled(Phi, Gam):  # noqa: ANN001, ANN201 - compiled kernel
     return True
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def observer_step(Phi, Gam, decoupled, z, d0, d1, d2, work):  # noqa: ANN001, ANN201, PLR0913
     """``z <- Phi z + Gam [d0, d1, d2]`` in place on one robot's ``z`` (3n,), ``work`` (3n,)
     scratch; ``decoupled`` from :func:`channels_decoupled` (its zeros are skipped).
@@ -99,7 +98,7 @@ def observer_step(Phi, Gam, decoupled, z, d0, d1, d2, work):  # noqa: ANN001, AN
         z[row] = work[row]
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def hodo_sample(Phi, Gam, decoupled, Ts, hold, z, qd_prev, qd, fg_prev, fg, uA, uB, work):  # noqa: ANN001, ANN201, PLR0913
     """One robot's sample (3.20)-(3.23), discretised: ``z`` (3n,) advanced in place.
 
@@ -122,7 +121,7 @@ def hodo_sample(Phi, Gam, decoupled, Ts, hold, z, qd_prev, qd, fg_prev, fg, uA, 
     observer_step(Phi, Gam, decoupled, z, d0, d1, d2, work)
 
 
-@numba.njit(cache=True)
+@njit
 def hodo_update(c, Phi, Gam, Ts, hold, z, q_prev, qd_prev, q, qd, u, work):  # noqa: ANN001, ANN201
     """Advance ``z`` (N, 3n) over one sample in place and store ``q, qd`` as the previous
     measurement (``q_prev, qd_prev`` (N, 3), updated in place).

@@ -74,7 +74,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.linalg import solve_continuous_lyapunov
+from mwip.numerics import solve_continuous_lyapunov
 
 if TYPE_CHECKING:  # cvxpy is imported where an LMI is solved (it takes ~1 s to import)
     import cvxpy as cp

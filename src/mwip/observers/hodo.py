@@ -67,7 +67,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.core import HOLD_CODES
-from mwip.linalg import expm
+from mwip.numerics import expm
 from mwip.observers.design import GainsLike, as_gain_matrices, error_dynamics, stacked_gain
 from mwip.params import Params
 

@@ -103,7 +103,7 @@ def find_runs(folder: Path) -> dict[str, Path]:
 def main_run_name(folder: Path, runs: dict[str, Path] | None = None) -> str:
     """The run a study is shown by: the catalog's ``main_run`` for the study where it names a
     run that is there, else the first run (:func:`find_runs`)."""
-    from mwip.report.results import study_texts
+    from mwip.schema.texts import study_texts
 
     folder = Path(folder)
     runs = find_runs(folder) if runs is None else runs

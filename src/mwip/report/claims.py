@@ -3,8 +3,8 @@ book claim does not (its ``cause`` and ``evidence``), and how it fares under the
 of the damping (SPEC.md section 2) in a second results folder.
 
 A claim in ``metrics.json`` is ``{"id", "text", "holds", "book"}`` plus, for a failing book
-claim, ``"cause"`` (a key of :data:`mwip.studies.common.CAUSES`) and ``"evidence"``
-(:func:`mwip.studies.common.validate_claim`). A claim without ``"book": true`` is counted
+claim, ``"cause"`` (a key of :data:`mwip.schema.claims.CAUSES`) and ``"evidence"``
+(:func:`mwip.schema.claims.validate_claim`). A claim without ``"book": true`` is counted
 with the extras (no guessing from its wording); a claim without an ``id`` is matched across
 folders by its text.
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from mwip.report.results import StudyResult, load_results, load_run_record
-from mwip.studies.common import CAUSES
+from mwip.schema.claims import CAUSES
 
 __all__ = [
     "CAUSES",

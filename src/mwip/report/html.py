@@ -4,7 +4,7 @@ only.
 
 It leads with the book: the headline is how many of the book's claims reproduce; the first
 section is the table of the book's claims, those that reproduce first, then those that do not,
-grouped by cause (:data:`mwip.studies.common.CAUSES`) with their evidence, each with its
+grouped by cause (:data:`mwip.schema.claims.CAUSES`) with their evidence, each with its
 verdict under the other damping reading where a comparison folder is given
 (:mod:`mwip.report.claims`). Our extra claims are counted separately. Then an overview table,
 the run metadata, and per study: the set-up, the book's figure described, our figures and a
@@ -161,7 +161,7 @@ def claim_robustness_note(folder: Path | None) -> Note:
     (``mwip campaign run claims --out OUT/claims-campaign``; issue 15), or no note."""
     if folder is None or not (Path(folder) / "results.parquet").is_file():
         return _no_note
-    from mwip.campaign.claims import load_claim_robustness, robustness_text
+    from mwip.schema.robustness import load_claim_robustness, robustness_text
 
     table = load_claim_robustness(folder)
     return lambda study, claim: robustness_text(table, study, claim)

@@ -9,19 +9,17 @@ from __future__ import annotations
 
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from mwip.schema.texts import study_texts
+
 __all__ = [
     "StudyResult",
-    "load_catalog",
     "load_results",
     "load_run_record",
     "relative_diff",
-    "study_texts",
 ]
 
 RUN_RECORD = "run.json"
@@ -75,30 +73,6 @@ def relative_diff(ours: Any, published: Any) -> float | None:
     if not (math.isfinite(o) and math.isfinite(p)) or p == 0.0:
         return None
     return (o - p) / abs(p)
-
-
-def load_catalog() -> dict[str, dict[str, str]]:
-    """The per-study texts (title, set-up, the book's figure, gaps, docs) shipped with mwip:
-    the ``[report]`` table of each study file ``mwip/studies/scenarios/<study>.toml``."""
-    folder = resources.files("mwip.studies").joinpath("scenarios")
-    out: dict[str, dict[str, str]] = {}
-    for entry in sorted(folder.iterdir(), key=lambda e: e.name):
-        if entry.name.endswith(".toml"):
-            texts = tomllib.loads(entry.read_text("utf-8")).get("report")
-            if texts:
-                out[entry.name.removesuffix(".toml")] = dict(texts)
-    return out
-
-
-def study_texts(name: str) -> dict[str, str]:
-    """The texts the report shows for study ``name`` (title, setup, book, gaps, docs) and the
-    name of its ``main_run`` (the run its animation shows); ``{}`` if there are none.
-
-    Every reader of these texts goes through this function: they live in the ``[report]``
-    table of each study's file (:func:`load_catalog`).
-    """
-    entry = load_catalog().get(name, {})
-    return {str(k): str(v) for k, v in entry.items()} if isinstance(entry, dict) else {}
 
 
 def load_run_record(out: Path) -> dict[str, Any]:

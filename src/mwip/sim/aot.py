@@ -46,36 +46,12 @@ from types import ModuleType
 from typing import Any
 
 from mwip.cache import cache_dir, versions
+from mwip.jit_cache import SOURCES  # the sources compiled into the loop, one list
 
 __all__ = [
     "SOURCES", "RUN_SIGNATURE", "key", "module_path", "load", "build",
     "run_function", "status", "LAST_ERROR",
 ]  # fmt: skip
-
-#: The source files compiled into :func:`mwip.sim.loop.run`, relative to the package
-#: (tests/test_aot.py checks that every mwip module the loop imports is listed).
-SOURCES: tuple[str, ...] = (
-    "sim/aot.py",
-    "jit_cache.py",
-    "cache.py",
-    "sim/loop.py",
-    "sim/kernel.py",
-    "sim/codes.py",
-    "models/reduced.py",
-    "models/_compiled.py",
-    "core.py",
-    "params.py",
-    "damping.py",
-    "io.py",
-    "control/_asta_kernel.py",
-    "control/_lqr_kernel.py",
-    "control/_smc_kernel.py",
-    "control/_tsmc_kernel.py",
-    "observers/_hodo_kernel.py",
-    "fuzzy/_fig53_kernel.py",
-    "fuzzy/ts_model.py",
-    "fuzzy/layout.py",
-)
 
 #: The one signature of :func:`mwip.sim.loop.run` (Numba's type syntax): the argument order of
 #: :func:`mwip.sim.engine._call`.
@@ -175,7 +151,9 @@ def build(force: bool = False) -> Path:
         if target.is_file() and not force:
             return target
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # pycc is marked "pending deprecation" by Numba
+            # numba.pycc is "pending deprecation" in Numba (docs/engine.md): it is used here
+            # only, and a failed build falls back to the JIT loop (run_function)
+            warnings.simplefilter("ignore")
             from numba.pycc import CC
 
             from mwip.sim import loop

@@ -33,7 +33,7 @@ import math
 import numba
 import numpy as np
 
-import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
+from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 from mwip.models.reduced import generalized_forces, solve_shifted
 from mwip.sim.codes import DIVERGED, FELL, GAMMA, METHOD_NAMES, OK, RK4, ROS2W, STATUS_NAMES
 
@@ -54,11 +54,11 @@ __all__ = [
 
 _FELL_ANGLE = 0.5 * math.pi
 
-_gf = numba.njit(cache=True, inline="always")(generalized_forces)
-_solve = numba.njit(cache=True, inline="always")(solve_shifted)
+_gf = njit(inline="always")(generalized_forces)
+_solve = njit(inline="always")(solve_shifted)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _step(y, ur, ul, e0, e1, c, h):  # noqa: ANN001, ANN202 - compiled kernel
     """One ROS2-W step of one plant, in place on ``y`` (length 8)."""
     m11, m12, m22, m33, Ibl, Gb, Db, Dw, b, r = (
@@ -107,7 +107,7 @@ def _step(y, ur, ul, e0, e1, c, h):  # noqa: ANN001, ANN202 - compiled kernel
     y[7] += w1 * k1y + w2 * k2y
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _deriv(c, th, al, pd, td, ad, ur, ul, e):  # noqa: ANN001, ANN202 - compiled kernel
     """Accelerations (2.33) and planar velocities (2.29) of one plant: 5 numbers."""
     f1, f2, f3 = _gf(c[1], c[4], c[5], c[6], c[7], c[8], c[9], th, pd, td, ad, ur, ul,
@@ -117,7 +117,7 @@ def _deriv(c, th, al, pd, td, ad, ur, ul, e):  # noqa: ANN001, ANN202 - compiled
     return a0, a1, a2, c[9] * pd * math.cos(al), c[9] * pd * math.sin(al)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _rk4_step(y, ur, ul, e0, em, e1, c, h):  # noqa: ANN001, ANN202 - compiled kernel
     """One classical RK4 step of one plant, in place on ``y`` (length 8); ``e0, em, e1`` the
     external forces at the start, middle and end of the step."""
@@ -144,7 +144,7 @@ def _rk4_step(y, ur, ul, e0, em, e1, c, h):  # noqa: ANN001, ANN202 - compiled k
     y[7] += w * (y1 + 2.0 * y2 + 2.0 * y3 + y4)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def step_one(yi, ur, ul, tau, k, ti, c, h, method):  # noqa: ANN001, ANN201 - compiled kernel
     """Step ``k`` of a held interval for one plant with ``method`` (:data:`ROS2W` or
     :data:`RK4`); ``tau`` holds the external forces at the step boundaries (ROS2-W, n_sub + 1
@@ -155,7 +155,7 @@ def step_one(yi, ur, ul, tau, k, ti, c, h, method):  # noqa: ANN001, ANN201 - co
         _step(yi, ur, ul, tau[k, ti], tau[k + 1, ti], c, h)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _advance_one(i, y, u, tau, coef, h, n_sub, status, t0, t_end, method):  # noqa: ANN001, ANN202
     if status[i] != OK:
         return
@@ -180,7 +180,7 @@ def _advance_one(i, y, u, tau, coef, h, n_sub, status, t0, t_end, method):  # no
             return
 
 
-@numba.njit(cache=True)
+@njit
 def advance(y, u, tau, coef, h, n_sub, status, t0, t_end, method=0):  # noqa: ANN001, ANN201
     """Advance every running plant ``n_sub`` steps of size ``h`` with ``u`` held.
 
@@ -204,7 +204,7 @@ def advance(y, u, tau, coef, h, n_sub, status, t0, t_end, method=0):  # noqa: AN
     return running
 
 
-@numba.njit(cache=True, parallel=True)
+@njit(parallel=True)
 def advance_parallel(y, u, tau, coef, h, n_sub, status, t0, t_end, method=0):  # noqa: ANN001, ANN201
     """:func:`advance` with the plants spread over threads (for large batches)."""
     running = 0
@@ -214,7 +214,7 @@ def advance_parallel(y, u, tau, coef, h, n_sub, status, t0, t_end, method=0):  #
     return running
 
 
-@numba.njit(cache=True)
+@njit
 def rhs_batch(coef, y, u, e, out):  # noqa: ANN001, ANN201 - compiled kernel
     """Plant right-hand side ``y' = f(y, u, tau_ext)`` for M states at once, into ``out``.
 
@@ -246,7 +246,7 @@ def rhs_batch(coef, y, u, e, out):  # noqa: ANN001, ANN201 - compiled kernel
     return out
 
 
-@numba.njit(cache=True)
+@njit
 def ros2_stage(Winv, f, k_prev, out):  # noqa: ANN001, ANN201 - compiled kernel
     """ROS2-W stage ``k = W^-1 (f - 2 k_prev)`` per plant (``k_prev = 0`` for stage 1)."""
     for i in range(f.shape[0]):
@@ -258,7 +258,7 @@ def ros2_stage(Winv, f, k_prev, out):  # noqa: ANN001, ANN201 - compiled kernel
     return out
 
 
-@numba.njit(cache=True)
+@njit
 def ros2_update(y, k1, k2, h, status, t_new, t_end):  # noqa: ANN001, ANN201 - compiled kernel
     """``y += 3/2 h k1 + 1/2 h k2`` for the running plants, then the events: non-finite ->
     diverged, ``|theta| >= pi/2`` -> fell (``t_end = t_new``). Returns the plants running."""

@@ -35,13 +35,13 @@ import math
 import numba
 import numpy as np
 
-import mwip.jit_cache  # noqa: F401 - the kernels' cache follows every kernel source
 from mwip.control._asta_kernel import asta_sample, asta_terms
 from mwip.control._lqr_kernel import lqr_law
 from mwip.control._smc_kernel import smc_law
 from mwip.control._tsmc_kernel import tsmc_step
 from mwip.core import LAW_ASTA, LAW_FUZZY, LAW_LINEAR, LAW_TSMC
 from mwip.fuzzy._fig53_kernel import fig53_law
+from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 from mwip.observers._hodo_kernel import channels_decoupled, hodo_sample, model_terms
 from mwip.sim.codes import PARALLEL_MIN
 from mwip.sim.kernel import DIVERGED, FELL, OK, step_one
@@ -53,7 +53,7 @@ _FELL_ANGLE = 0.5 * math.pi
 
 # _run_one takes some arrays in tuples: CPython compiles a call with more than 30 positional
 # arguments to a *args call, which numba cannot inline
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001, ANN202, PLR0913
              kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs, cubic,
              fuzzy, out, status, t_end):  # fmt: skip
@@ -172,7 +172,7 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa:
                 break
 
 
-@numba.njit(cache=True)
+@njit
 def run(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001, ANN201, PLR0913
         kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs, cubic,
         frows, fls, states, us, logs, status, t_end):  # fmt: skip
@@ -198,7 +198,7 @@ def run(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001,
     return running
 
 
-@numba.njit(cache=True, parallel=True)
+@njit(parallel=True)
 def run_parallel(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx,  # noqa: ANN001, ANN201, PLR0913
                  kind, gain, offset, c_nom, lam, sc, Phi, Gam, obs, tC, tGam, tD, tIDinv, refs,
                  cubic, frows, fls, states, us, logs, status, t_end):  # fmt: skip

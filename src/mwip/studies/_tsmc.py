@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 
 from mwip.control.switching import Switching
 from mwip.control.tsmc import TSMC
-from mwip.linearize import linearize
+from mwip.models.linear import linearize
 from mwip.params import Params
 from mwip.sim import SimResult, simulate
 from mwip.sim.sensors import Measurement

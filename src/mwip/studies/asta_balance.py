@@ -34,6 +34,7 @@ import numpy as np
 
 from mwip.control.asta import asta_surface
 from mwip.metrics import overshoot, rms, settling_time
+from mwip.schema.claims import finish_claims
 from mwip.sim import simulate
 from mwip.studies._asta import (
     REACHED,
@@ -45,7 +46,6 @@ from mwip.studies._asta import (
     sigma_dot,
     three_panel_figure,
 )  # fmt: skip
-from mwip.studies.common import finish_claims
 from mwip.studies.study import Study, StudyContext, save_study
 
 SOURCE = "Figs. 4.2-4.4"

@@ -24,6 +24,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from mwip.metrics import rms
+from mwip.schema.claims import finish_claims
 from mwip.studies._asta import (
     common_metrics,
     run_pair,
@@ -31,7 +32,6 @@ from mwip.studies._asta import (
     settings_doc,
     three_panel_figure,
 )  # fmt: skip
-from mwip.studies.common import finish_claims
 from mwip.studies.study import Study, StudyContext, save_study
 
 SOURCE = "Figs. 4.5-4.7"

@@ -50,9 +50,9 @@ from mwip.observers import HighOrderDO
 from mwip.observers.bank import ObservedController
 from mwip.observers.design import as_gain_matrices
 from mwip.params import Params
+from mwip.schema.claims import finish_claims
 from mwip.sim import SimResult, simulate
 from mwip.sim.disturbance import Sinusoid, sinusoid_from_settings
-from mwip.studies.common import finish_claims
 from mwip.studies.study import Study, StudyContext, save_study
 
 SOURCE = "Fig. 3.2, Table 3.3"

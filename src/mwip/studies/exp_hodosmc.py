@@ -29,7 +29,7 @@ Case 1 at both ends of the ``do1_gain`` range of the study's ``[open]`` table (k
 ``sweep.do1smc_L<gain>.case1.*``), because that unprinted gain decides DO1SMC against DO4SMC;
 the obstacle study also runs ``case1_stick`` (the stick without the payload).
 
-Claims are data (:func:`mwip.studies.common.validate_claim`), judged on the twin of the run; a
+Claims are data (:func:`mwip.schema.claims.validate_claim`), judged on the twin of the run; a
 failing book claim names its cause with evidence computed here: where the runs that fell stop
 balancing along the ablation (:func:`mwip.studies.twin_settings.fall_evidence`; balancing with
 the ideal robot makes it ``twin-model``), the payload's cut of the input gain ``g2 + l3 g1`` of

@@ -31,9 +31,9 @@ from matplotlib.figure import Figure
 from mwip.control.smc import make_smc
 from mwip.metrics import rms, total_variation_rate
 from mwip.observers.design import as_gain_matrices
+from mwip.schema.claims import finish_claims
 from mwip.sim import SimResult, simulate
 from mwip.sim.disturbance import sinusoid_from_settings
-from mwip.studies.common import finish_claims
 from mwip.studies.study import Study, StudyContext, runs_record, save_study
 
 SOURCE = "Fig. 3.3"

@@ -43,6 +43,7 @@ from mwip.fuzzy.pdc import (
 from mwip.fuzzy.ts_model import vertex_matrices
 from mwip.metrics import settling_time
 from mwip.params import book_params
+from mwip.schema.claims import finish_claims
 from mwip.sim import simulate
 from mwip.studies.study import Study, StudyContext, runs_record, save_study
 
@@ -145,10 +146,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
          "text": "the +-35 % robust design (ours) balances the real plant",
          "holds": balances("robust"), "keys": ["robust.t_end", "robust.tail_max_abs_theta"]},
     ]  # fmt: skip
-    for c in claims:  # cause/evidence only where a book claim fails
-        if c["holds"] or not c["book"]:
-            c.pop("cause", None)
-            c.pop("evidence", None)
+    claims = finish_claims(claims, metrics, ctx.plant_label)
     doc_runs = runs_record(runs)
     doc_settings = (
         {"Ts": Ts, "dt": {k: v.settings.get("dt") for k, v in runs.items()},

@@ -27,8 +27,8 @@ from matplotlib.figure import Figure
 
 from mwip.control.lqr import LQR, design_lqr
 from mwip.params import book_params
+from mwip.schema.claims import finish_claims
 from mwip.sim import SimResult, simulate
-from mwip.studies.common import finish_claims
 from mwip.studies.study import Study, StudyContext, plant_label, runs_record, save_study
 
 SOURCE = "Sec. 4.4.2"

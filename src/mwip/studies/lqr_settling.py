@@ -21,8 +21,8 @@ from matplotlib.figure import Figure
 
 from mwip.control.lqr import LQR, design_lqr
 from mwip.metrics import settling_time
+from mwip.schema.claims import finish_claims
 from mwip.sim import simulate
-from mwip.studies.common import finish_claims
 from mwip.studies.study import Study, StudyContext, save_study
 
 NAME = "lqr-settling"

@@ -31,7 +31,8 @@ from matplotlib.figure import Figure
 
 from mwip.hardware.twin import Twin
 from mwip.params import NOMINAL, NOMINAL_LITERAL, REAL, REAL_LITERAL, Params
-from mwip.studies.common import metrics_document, save_figure, write_metrics
+from mwip.schema.metrics import metrics_document, write_metrics
+from mwip.studies.common import save_figure
 
 __all__ = ["Study", "StudyContext", "plant_label", "runs_record", "save_study"]
 
@@ -128,7 +129,7 @@ def save_study(
 ) -> dict[str, Any]:
     """Write what every study saves into ``ctx.out`` and return the metrics document.
 
-    The document is :func:`~mwip.studies.common.metrics_document` of the arguments (SPEC.md
+    The document is :func:`~mwip.schema.metrics.metrics_document` of the arguments (SPEC.md
     section 6). ``series`` maps a file stem to a run result (anything with ``to_npz``), saved
     as ``<stem>.npz``; ``figures`` maps a file name (``.png``) to a figure; ``arrays`` maps a
     file name (``.npz``) to named arrays of extra data (saved compressed). Every file is

@@ -43,6 +43,7 @@ import numpy as np
 from mwip.metrics import settling_time
 from mwip.models.steady import lean_for_speed
 from mwip.params import Params, book_params
+from mwip.schema.claims import finish_claims
 from mwip.sim import SimResult
 from mwip.studies._tsmc import (
     lean_text,
@@ -178,11 +179,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
                      f"at t = {t_end:g} s.",
          "keys": ["tsmc_lean.radius", "tsmc_lean.final_v", "tsmc_lean.theta_target"]},
     ]  # fmt: skip
-    for c in claims:  # a cause only where a book claim fails; evidence where any claim fails
-        if c["holds"] or not c["book"]:
-            c.pop("cause", None)
-        if c["holds"]:
-            c.pop("evidence", None)
+    claims = finish_claims(claims, metrics, ctx.plant_label)
     doc_runs = runs_record(runs)
     doc_settings = (
         {"dt": cfg["dt"], "Ts": cfg["Ts_record"],

@@ -46,6 +46,7 @@ from mwip.control.lqr import LQR, design_lqr
 from mwip.metrics import settling_time, total_variation_rate
 from mwip.models.steady import speed_time_constant
 from mwip.params import book_params
+from mwip.schema.claims import finish_claims
 from mwip.studies._tsmc import (
     fitted_decay_time,
     replay,
@@ -168,10 +169,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
          "keys": ["tsmc.final_controlled_err", "tsmc.v_max_rise_after_Tf",
                   "tsmc.v_decay_time", "real.v_time_constant"]},
     ]  # fmt: skip
-    for c in claims:  # cause/evidence only where a book claim fails
-        if c["holds"] or not c["book"]:
-            c.pop("cause", None)
-            c.pop("evidence", None)
+    claims = finish_claims(claims, metrics, ctx.plant_label)
     doc_runs = runs_record(runs)
     doc_settings = (
         {"dt": cfg["dt"], "Ts": cfg["Ts_record"], "mode": "continuous (law inside the "

@@ -34,6 +34,7 @@ import numpy as np
 
 from mwip.control.lqr import LQR, design_lqr
 from mwip.models.steady import balance_residual, lean_for_speed
+from mwip.schema.claims import finish_claims
 from mwip.studies._tsmc import (
     lean_text,
     replay,
@@ -129,11 +130,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
          "keys": ["tsmc_lean.final_v", "tsmc_lean.theta_target", "tsmc_lean.final_theta",
                   "real.lean_for_v_d"]},
     ]  # fmt: skip
-    for c in claims:  # a cause only where a book claim fails; evidence where any claim fails
-        if c["holds"] or not c["book"]:
-            c.pop("cause", None)
-        if c["holds"]:
-            c.pop("evidence", None)
+    claims = finish_claims(claims, metrics, ctx.plant_label)
     doc_runs = runs_record(runs)
     doc_settings = (
         {"dt": cfg["dt"], "Ts": cfg["Ts_record"], "mode": "continuous (law inside the "

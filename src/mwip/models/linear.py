@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from mwip.params import Params
 
-__all__ = ["linearize", "STATE_NAMES", "INPUT_NAMES", "state_from_q"]
+__all__ = ["linearize", "statespace", "STATE_NAMES", "INPUT_NAMES", "state_from_q"]
 
 STATE_NAMES: tuple[str, ...] = ("theta", "alpha", "theta_dot", "v", "alpha_dot")
 INPUT_NAMES: tuple[str, ...] = ("u_r", "u_l")
@@ -37,8 +37,6 @@ def linearize(p: Params, *, as_statespace: bool = False, Ts: float | None = None
     ``Ts`` (the model :func:`mwip.control.lqr.dlqr` designs on).
     """
     if as_statespace:
-        from mwip.pycontrol import statespace
-
         return statespace(p, Ts=Ts)
     if Ts is not None:
         raise ValueError("Ts is only used with as_statespace=True (see mwip.control.lqr.zoh)")
@@ -68,6 +66,36 @@ def linearize(p: Params, *, as_statespace: bool = False, Ts: float | None = None
     B[..., 4, 0] = b / (r * m33)
     B[..., 4, 1] = -b / (r * m33)
     return A, B
+
+
+def statespace(p: Params, *, Ts: float | None = None) -> Any:
+    """``control.StateSpace`` of the linearisation at upright (continuous, or ZOH at ``Ts``).
+
+    python-control is an optional dependency (``pip install mwip[control]``), imported here
+    when called. Re-exported by :mod:`mwip.pycontrol`.
+
+    >>> from mwip.params import NOMINAL
+    >>> statespace(NOMINAL, Ts=0.005).dt
+    0.005
+    """
+    try:
+        import control as ct
+    except ImportError as exc:
+        raise ImportError(
+            "python-control is needed for this: pip install 'mwip[control]' (or control)"
+        ) from exc
+    if not isinstance(p, Params):
+        raise TypeError(f"p must be a mwip.params.Params, got {type(p).__name__}")
+    if p.batch_shape != ():
+        raise ValueError("python-control systems describe one robot: pass scalar Params")
+    A, B = linearize(p)
+    sys = ct.ss(A, B, np.eye(5), np.zeros((5, 2)), states=list(STATE_NAMES),
+                inputs=list(INPUT_NAMES), outputs=list(STATE_NAMES), name="mwip")  # fmt: skip
+    if Ts is None:
+        return sys
+    if not (isinstance(Ts, int | float) and np.isfinite(Ts) and Ts > 0):
+        raise ValueError(f"Ts must be finite and in (0, inf), got {Ts!r}")
+    return ct.sample_system(sys, Ts, method="zoh", name="mwip_zoh")
 
 
 def state_from_q(
