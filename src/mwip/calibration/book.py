@@ -138,6 +138,7 @@ def calibrate_book(
     duration: float = 0.0,
     progress: Callable[[int, int, float], None] | None = None,
     refine: Any = True,
+    proposal: Any = True,
     note: Callable[[str], None] | None = None,
 ) -> BookCalibration:
     """Run (or resume) the book calibration into ``out``; returns the result and writes
@@ -160,8 +161,15 @@ def calibrate_book(
     if summary.status == "interrupted":
         raise KeyboardInterrupt
     table = pd.read_parquet(out / "prior-draws" / "results.parquet")
-    settings = ev.refine if refine is True else (refine or None)
-    if settings is None:
+    settings = (ev.refine if refine is True else (refine or None)) if ev.proposal is None or \
+        proposal is None else None
+    box = (ev.proposal if proposal is True else proposal) if proposal is not None else None
+    pop = table
+    if box is not None:
+        pop = box_sample(table, ev, box, out / "proposal", jobs=jobs or 1, duration=duration,
+                         note=note)  # fmt: skip
+        res = analyse(pop, ev, prior_draws=table)
+    elif settings is None:
         res = analyse(table, ev)
     else:
         pop, pool, history = refine_sample(table, ev, settings, out / "refine", seed=camp.seed,
@@ -178,12 +186,36 @@ def calibrate_book(
 
         write_text_atomic(out / "twin.toml", provenance(res.doc) + twin_to_toml(
             res.twin, identified="most probable twin of the book calibration (above)"))
-    post_tab = table if settings is None else pop
+    post_tab = pop
     ok = res.accepted
     w = post_tab["weight"].to_numpy(dtype=float) if "weight" in post_tab else np.ones(len(ok))
     post = {n: post_tab[f"param.{n}"].to_numpy(dtype=float)[ok] for n in res.doc["prior"]["names"]}
     _figure(table, res.doc, post, w[ok], out / "marginals.png")
     return res
+
+
+def box_sample(table: Any, ev: Evidence, box: Any, store: Path, *, jobs: int = 1,
+               duration: float = 0.0, note: Callable[[str], None] | None = None) -> Any:
+    """Stage 2 (:mod:`mwip.calibration.proposal`): the box draws, pooled with the prior draws
+    ``table`` under the balance-heuristic weights (column ``weight``)."""
+    import pandas as pd
+
+    from mwip.calibration.proposal import inside, mis_weights, sample_box
+    from mwip.calibration.sample import evaluate
+    from mwip.hardware.prior import PRIOR
+
+    names = list(PRIOR.names)
+    bounds = np.asarray(PRIOR.bounds, dtype=float)
+
+    def run(values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return evaluate(values, jobs=jobs, block=ev.block, duration=duration)
+
+    extra = sample_box(box, names, bounds, run, block=ev.block, store=store, note=note)
+    pool = pd.concat([table, extra], ignore_index=True)
+    x = pool[[f"param.{n}" for n in names]].to_numpy(dtype=float)
+    pool["weight"] = mis_weights(inside(x, box.ranges(names, bounds)), len(table), len(extra),
+                                 box.fraction(names, bounds))  # fmt: skip
+    return pool
 
 
 def refine_sample(table: Any, ev: Evidence, settings: Any, store: Path, *, seed: int,
