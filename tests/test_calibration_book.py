@@ -15,7 +15,8 @@ from mwip.calibration.book import calibrate_book
 from mwip.calibration.runs import RUNS, run_batch
 from mwip.hardware.twin import Twin
 
-SMALL = {"samples": 4, "block": 2, "duration": 0.6, "jobs": 1, "progress": None}
+SMALL = {"samples": 4, "block": 2, "duration": 0.6, "jobs": 1, "progress": None,
+         "proposal_draws": 3}
 
 
 def test_one_draw_at_the_default_values_is_the_studys_run():
@@ -38,7 +39,7 @@ def test_deterministic_and_resumable(tmp_path: Path):
     calibrate_book(tmp_path / "b", **SMALL)
     da = json.loads((tmp_path / "a" / "posterior.json").read_text())
     db = json.loads((tmp_path / "b" / "posterior.json").read_text())
-    assert da == db and a.doc["posterior"]["n_prior"] == 4
+    assert da == db and a.doc["posterior"]["n_prior"] == 4 + 3 and a.doc["samples"] == 4
     table = pd.read_parquet(tmp_path / "a" / "prior-draws" / "results.parquet")
     assert list(table["sample"]) == [0, 1, 2, 3]
     # resume: lose a chunk and the assembled table, run again -> the same table
@@ -64,9 +65,9 @@ def test_cli_evidence_book(tmp_path: Path):
 
     out = tmp_path / "cal"
     r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out", str(out),
-                                 "--samples", "2", "--duration", "0.4"])
+                                 "--samples", "2", "--duration", "0.4", "--stage2-draws", "1"])
     assert r.exit_code == 0, r.output
-    assert "prior draws 2" in r.output and (out / "posterior.json").is_file()
+    assert "twins evaluated 3 " in r.output and (out / "posterior.json").is_file()
     r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out",
                                  str(tmp_path / "x"), "somelog.csv"])
     assert r.exit_code == 2 and not (tmp_path / "x").exists()

@@ -8,7 +8,6 @@ import json
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
 from mwip.cli import main
 from mwip.hardware.identified import IDENTIFIED_FILE, STATUS_FILE, default_twin, status
@@ -48,14 +47,14 @@ def test_the_default_twin_does_what_the_posterior_records() -> None:
             assert cols[num["key"]][0] == pytest.approx(num["map"], rel=1e-9), num["key"]
 
 
-def test_twin_show_prints_the_identified_twin_with_its_provenance() -> None:
-    r = CliRunner().invoke(main, ["twin", "show"])
-    assert r.exit_code == 0, r.output
-    assert r.output.startswith("# The book's robot: the most probable twin")
-    assert "identified: most probable twin of the book calibration" in r.output
-    ds = CliRunner().invoke(main, ["twin", "show", "--datasheet"])
-    assert ds.exit_code == 0 and "identified:" not in ds.output
-    assert "ASSUMED MAXON GP 32 A 23:1" in ds.output
+def test_twin_show_prints_the_identified_twin_with_its_provenance(capsys) -> None:
+    assert main(["twin", "show"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("# The book's robot: the most probable twin")
+    assert "identified: most probable twin of the book calibration" in out
+    assert main(["twin", "show", "--datasheet"]) == 0
+    ds = capsys.readouterr().out
+    assert "identified:" not in ds and "ASSUMED MAXON GP 32 A 23:1" in ds
 
 
 def test_status_says_which_twin_ran() -> None:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -138,6 +138,8 @@ def calibrate_book(
     duration: float = 0.0,
     progress: Callable[[int, int, float], None] | None = None,
     refine: Any = True,
+    proposal: Any = True,
+    proposal_draws: int | None = None,
     note: Callable[[str], None] | None = None,
 ) -> BookCalibration:
     """Run (or resume) the book calibration into ``out``; returns the result and writes
@@ -160,8 +162,17 @@ def calibrate_book(
     if summary.status == "interrupted":
         raise KeyboardInterrupt
     table = pd.read_parquet(out / "prior-draws" / "results.parquet")
-    settings = ev.refine if refine is True else (refine or None)
-    if settings is None:
+    settings = (ev.refine if refine is True else (refine or None)) if ev.proposal is None or \
+        proposal is None else None
+    box = (ev.proposal if proposal is True else proposal) if proposal is not None else None
+    if box is not None and proposal_draws is not None:
+        box = replace(box, draws=int(proposal_draws))
+    pop = table
+    if box is not None:
+        pop = box_sample(table, ev, box, out / "proposal", jobs=jobs or 1, duration=duration,
+                         note=note)  # fmt: skip
+        res = analyse(pop, ev, prior_draws=table)
+    elif settings is None:
         res = analyse(table, ev)
     else:
         pop, pool, history = refine_sample(table, ev, settings, out / "refine", seed=camp.seed,
@@ -178,12 +189,36 @@ def calibrate_book(
 
         write_text_atomic(out / "twin.toml", provenance(res.doc) + twin_to_toml(
             res.twin, identified="most probable twin of the book calibration (above)"))
-    post_tab = table if settings is None else pop
+    post_tab = pop
     ok = res.accepted
     w = post_tab["weight"].to_numpy(dtype=float) if "weight" in post_tab else np.ones(len(ok))
     post = {n: post_tab[f"param.{n}"].to_numpy(dtype=float)[ok] for n in res.doc["prior"]["names"]}
     _figure(table, res.doc, post, w[ok], out / "marginals.png")
     return res
+
+
+def box_sample(table: Any, ev: Evidence, box: Any, store: Path, *, jobs: int = 1,
+               duration: float = 0.0, note: Callable[[str], None] | None = None) -> Any:
+    """Stage 2 (:mod:`mwip.calibration.proposal`): the box draws, pooled with the prior draws
+    ``table`` under the balance-heuristic weights (column ``weight``)."""
+    import pandas as pd
+
+    from mwip.calibration.proposal import inside, mis_weights, sample_box
+    from mwip.calibration.sample import evaluate
+    from mwip.hardware.prior import PRIOR
+
+    names = list(PRIOR.names)
+    bounds = np.asarray(PRIOR.bounds, dtype=float)
+
+    def run(values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return evaluate(values, jobs=jobs, block=ev.block, duration=duration)
+
+    extra = sample_box(box, names, bounds, run, block=ev.block, store=store, note=note)
+    pool = pd.concat([table, extra], ignore_index=True)
+    x = pool[[f"param.{n}" for n in names]].to_numpy(dtype=float)
+    pool["weight"] = mis_weights(inside(x, box.ranges(names, bounds)), len(table), len(extra),
+                                 box.fraction(names, bounds))  # fmt: skip
+    return pool
 
 
 def refine_sample(table: Any, ev: Evidence, settings: Any, store: Path, *, seed: int,
@@ -233,8 +268,8 @@ def provenance(doc: dict[str, Any]) -> str:
         "# The book's robot: the most probable twin of the posterior conditioned on the book's",
         "# evidence (`mwip twin fit --evidence book`; mwip/calibration/book-evidence.toml,",
         f"# sha256 {doc['evidence_sha256'][:16]}).",
-        f"# Prior draws {p['n_prior']} (seed {doc.get('seed')}), twins evaluated "
-        f"{doc.get('evaluated', p['n_prior'])} (with stage 2), consistent {p['size']} "
+        f"# Prior draws {doc.get('samples', p['n_prior'])} (seed {doc.get('seed')}), twins "
+        f"evaluated with stage 2 {p['n_prior']}, consistent {p['size']} "
         f"(effective {p.get('effective_size', p['size']):.0f}); "
         f"conditioned on {len(p['used'])} facts"
         + (f", dropped {len(p['dropped'])}: {', '.join(p['dropped'])}" if p["dropped"] else "")
@@ -252,15 +287,18 @@ def report_text(doc: dict[str, Any]) -> str:
     p = doc["posterior"]
     out = [f"# {doc['title']}", "", f"Signals: {doc['signals']}.", "",
            f"Acceptance: {doc['acceptance']['rule']}.", "",
-           f"Prior draws: {p['n_prior']}; consistent with the calibration evidence: "
-           f"**{p['size']}**."]  # fmt: skip
+           f"Prior draws: {doc.get('samples', p['n_prior'])}; twins evaluated with stage 2 "
+           f"(docs/twin_fit.md): {p['n_prior']}; consistent with the calibration evidence: "
+           f"**{p['size']}** (effective size {p.get('effective_size', p['size']):.0f})."]
+    # fmt: skip
     if p["conflicts"]:
         out += ["", "The calibration facts conflict: no draw satisfies them all. Smallest "
                 "conflicting sets:"]
         out += [f"- {{{', '.join(c)}}}" for c in p["conflicts"]]
         out += ["", f"Conditioned on the largest consistent subset ({len(p['used'])} facts); "
                 f"not used: {', '.join(p['dropped'])}."]
-    out += ["", "## Each run standing in the prior", "", "| run | stands in |", "|---|---|"]
+    out += ["", "## Each run standing in the prior (the 2,000 prior draws)", "",
+            "| run | stands in |", "|---|---|"]
     out += [f"| {r} | {_pct(v)} |" for r, v in doc["standing_in_prior"].items()]
     out += ["", "## Marginals", "",
             "| unknown | prior | posterior 5-50-95 % | identified |", "|---|---|---|---|"]

@@ -42,7 +42,8 @@ class Evidence:
     seed: int
     block: int
     source: dict[str, Any]
-    refine: Any = None  # mwip.calibration.pmc.Refine, or None (no stage 2)
+    refine: Any = None  # mwip.calibration.pmc.Refine, or None
+    proposal: Any = None  # mwip.calibration.proposal.BoxProposal, or None
 
     @property
     def log_tolerance(self) -> float:
@@ -62,6 +63,15 @@ def _refine(entry: Any) -> Any:
         return None
     keys = ("keep", "propose", "generations", "min_acceptance", "local")
     return Refine(**{k: entry[k] for k in keys if k in entry})
+
+
+def _proposal(entry: Any) -> Any:
+    from mwip.calibration.proposal import BoxProposal
+
+    if entry is None:
+        return None
+    box = {str(k): (float(v[0]), float(v[1])) for k, v in entry.get("box", {}).items()}
+    return BoxProposal(draws=int(entry["draws"]), seed=int(entry["seed"]), box=box)
 
 
 def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
@@ -88,6 +98,7 @@ def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
             block=int(s["block"]),
             source=data,
             refine=_refine(data.get("refine")),
+            proposal=_proposal(data.get("proposal")),
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"evidence file {str(path)!r}: missing or bad entry {exc}") from None

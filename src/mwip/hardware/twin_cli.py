@@ -108,10 +108,13 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
 @click.option("--duration", type=click.FloatRange(0.0, 15.0), default=0.0,
               help="--evidence: cap every run at this many seconds (a smoke test; 0: the "
               "studies' own durations).")
+@click.option("--stage2-draws", "stage2", type=click.IntRange(0, 100_000), default=None,
+              help="--evidence: twins of stage 2, the declared box proposal (default: the "
+              "declaration's, 1000; 0: none).")
 def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: str | None,
              fix: tuple[str, ...], validate: Path | None, segment: int,
              force: bool, evidence: str | None, samples: int | None, seed: int | None,
-             jobs: int, duration: float) -> None:  # fmt: skip
+             jobs: int, duration: float, stage2: int | None) -> None:  # fmt: skip
     """Identify the twin from robot logs (docs/twin_fit.md), or with --evidence book the
     book's robot from the book's evidence."""
     from mwip import outdir
@@ -119,7 +122,7 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
     if evidence is not None:
         if logs:
             raise click.UsageError("give LOG files or --evidence book, not both")
-        _fit_book(out, force, samples, seed, jobs, duration)
+        _fit_book(out, force, samples, seed, jobs, duration, stage2)
         return
     if not logs:
         raise click.UsageError("missing LOG files (or --evidence book)")
@@ -162,7 +165,7 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
 
 
 def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, jobs: int,
-              duration: float) -> None:  # fmt: skip
+              duration: float, stage2: int | None = None) -> None:  # fmt: skip
     """``twin fit --evidence book``: :func:`mwip.calibration.book.calibrate_book` into ``out``
     (a folder of mwip's own: a rerun resumes the prior draws)."""
     from mwip import outdir
@@ -171,7 +174,8 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
     target = outdir.check(out, force)
     outdir.claim(target)
     res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration,
-                         note=lambda line: click.echo(line, err=True))  # fmt: skip
+                         proposal_draws=stage2, note=lambda line: click.echo(line, err=True))
+    # fmt: skip
     p, c = res.doc["posterior"], res.doc["claim_counts"]
     click.echo(f"twins evaluated {res.doc['evaluated']} (prior draws and stage 2), posterior "
                f"{p['size']} (effective {p['effective_size']:.0f})"
