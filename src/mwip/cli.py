@@ -717,9 +717,9 @@ cli.add_command(_twin_group)
 @cli.command("list")
 def list_cmd() -> None:
     """List the studies with their book sources."""
-    from mwip.studies import all_studies
+    from mwip.studies.registry import declared
 
-    for study in all_studies():
+    for study in declared():  # read from the study modules' source, none imported
         click.echo(f"{study.name:24s} {study.source}")
 
 
@@ -782,23 +782,38 @@ def _execute(
     Chapter 6 studies' twin configuration (default: the default twin)."""
     from mwip.report import load_results, summary_lines
     from mwip.report.claims import find_compare, load_comparison
-    from mwip.studies.runner import run_studies
+    from mwip.studies import get_study
+    from mwip.studies.progress import StudyProgress
+    from mwip.studies.runner import expected_runs, run_studies
 
     failed: list[str] = []
-    runs = [0]
-    with click.progressbar(length=len(names), label="studies", file=sys.stderr,
-                           show_pos=True, item_show_func=lambda x: x) as bar:  # fmt: skip
+    prog = StudyProgress(names, {n: get_study(n).cost for n in names},
+                         expected_runs(names, quick))  # fmt: skip
+    tty = sys.stderr.isatty()
+    steps = 1000  # the bar counts thousandths of the work (weighted by Study.cost): its ETA
+    with click.progressbar(length=steps, label="studies", file=sys.stderr, show_eta=True,
+                           item_show_func=lambda x: x) as bar:  # fmt: skip
+
+        def advance() -> None:
+            bar.update(max(0, round(steps * prog.fraction()) - bar.pos), prog.status())
 
         def done(outcome: tuple[str, Any, str | None, float]) -> None:
             name, _, error, wall = outcome
             if error is not None:
                 failed.append(name)
                 click.echo(f"\n{name}: FAILED after {wall:.1f} s: {error}", err=True)
-            bar.update(1, f"runs done {runs[0]}; {name} finished ({wall:.1f} s)")
+            line = prog.done(name, wall, error)
+            if tty:
+                advance()
+            else:
+                click.echo(line, err=True)
 
         def run_done(study: str) -> None:
-            runs[0] += 1
-            bar.update(0, f"runs done {runs[0]}; last: {study}")
+            line = prog.run(study)
+            if tty:
+                advance()
+            elif line is not None:
+                click.echo(line, err=True)
 
         record = run_studies(names, out, quick=quick, jobs=jobs, plant=plant, nominal=design,
                              overrides=overrides, on_done=done, on_run=run_done,
@@ -934,10 +949,11 @@ def reproduce(
     OUT as it was). A study that fails is reported with its error and does not stop the
     others; the exit code is then 1.
     """
-    from mwip.studies import all_studies, study_names
+    from mwip.studies import study_names
+    from mwip.studies.registry import declared
 
     if list_only:
-        for s in all_studies():
+        for s in declared():
             click.echo(f"{s.name:24s} {s.source}")
         return
     _out_ok(out, force)

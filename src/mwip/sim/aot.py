@@ -205,6 +205,13 @@ def run_function() -> Callable[..., int] | None:
         return None
     mod = load()
     if mod is None and mode == "on" and LAST_ERROR is None:
+        from mwip.notice import once
+
+        once(
+            "aot",
+            f"building the compiled simulation loop into {module_path().parent} (first use "
+            "after installing or changing mwip; it happens once, ~10 s or more)",
+        )
         try:
             build()
         except (RuntimeError, OSError, ImportError) as exc:
