@@ -66,17 +66,18 @@ class _Path(click.Path):
 _FORCE = click.option(
     "--force",
     is_flag=True,
-    help="Write into OUT even if it is a non-empty folder that mwip did not create "
-    "(entries of the same names are replaced).",
+    help="Write into OUT even if it is a non-empty folder that mwip did not create, or one "
+    "another mwip command owns (entries of the same names are replaced).",
 )
 
 
-def _out_ok(out: Path, force: bool) -> Path:
-    """OUT if mwip may write there (:mod:`mwip.outdir`), else exit 2 naming --out."""
+def _out_ok(out: Path, force: bool, command: str | None = None) -> Path:
+    """OUT if mwip may write there (:mod:`mwip.outdir`; not a folder another command than
+    ``command`` owns), else exit 2 naming --out."""
     from mwip.outdir import check
 
     try:
-        return check(out, force)
+        return check(out, force, command=command)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
 
@@ -221,7 +222,8 @@ def cli() -> None:
     "--out",
     type=_Path(file_okay=False, path_type=Path),
     default=None,
-    help="Folder for timeseries.csv, timeseries.npz and summary.json.",
+    help="Folder for timeseries.csv, timeseries.npz and summary.json (default: none, "
+    "nothing is written; a folder of `mwip simulate`'s own).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--plot", is_flag=True, help="Also draw OUT/run.png (needs --out).")
@@ -292,7 +294,7 @@ def simulate(
     if plot and out is None:
         raise click.BadParameter("needs --out FOLDER to write run.png into", param_hint="--plot")
     if out is not None:
-        _out_ok(out, force)
+        _out_ok(out, force, "simulate")
     if scenario_file is not None:
         if not str(scenario_file).strip() or not scenario_file.exists():
             raise click.BadParameter(f"{str(scenario_file)!r} does not exist",
@@ -362,7 +364,7 @@ def simulate(
         from mwip.io import write_json_atomic
         from mwip.outdir import claim
 
-        claim(out)
+        claim(out, "simulate")
         res.to_csv(out / "timeseries.csv")
         res.to_npz(out / "timeseries.npz")
         write_json_atomic(out / "summary.json", summary)
@@ -728,7 +730,16 @@ _OUT = click.option(
     type=_Path(file_okay=False, path_type=Path),
     default=Path("out"),
     show_default=True,
-    help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json.",
+    help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json (a folder of `mwip "
+    "reproduce`'s own: other commands do not write into it without --force).",
+)
+_RUN_OUT = click.option(
+    "--out",
+    type=_Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json (default: runs/<STUDY>, "
+    "runs/<STUDY>+<STUDY>... for several, runs/<FILE's stem> for --scenario FILE; a folder of "
+    "`mwip run`'s own, never `mwip reproduce`'s without --force).",
 )
 _QUICK = click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
 _PLANT = click.option(
@@ -775,11 +786,13 @@ def _jobs(jobs: int) -> int:
 def _execute(
     names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params,
     verbose: bool = False, overrides: dict[str, dict[str, Any]] | None = None,
-    damping: str = "units", summary: bool = True, twin: Any = None,
+    damping: str = "units", summary: bool = True, twin: Any = None, command: str = "run",
+    robot: dict[str, str] | None = None,
 ) -> None:  # fmt: skip
     """Run ``names`` with a progress bar, then print the one-screen summary (not
     ``summary``: its headline only, on stderr); exits 1 if a study failed. ``twin``: the
-    Chapter 6 studies' twin configuration (default: the default twin)."""
+    Chapter 6 studies' twin configuration (default: the default twin); ``command`` owns OUT;
+    ``robot[name]``: what study ``name`` runs on when not the book's robot (report titles)."""
     from mwip.report import load_results, summary_lines
     from mwip.report.claims import find_compare, load_comparison
     from mwip.studies import get_study
@@ -817,7 +830,8 @@ def _execute(
 
         record = run_studies(names, out, quick=quick, jobs=jobs, plant=plant, nominal=design,
                              overrides=overrides, on_done=done, on_run=run_done,
-                             damping=damping, twin=twin)  # fmt: skip
+                             damping=damping, twin=twin, command=command,
+                             robot=robot)  # fmt: skip
     import shutil
 
     width = max(100, shutil.get_terminal_size((120, 40)).columns)
@@ -837,6 +851,7 @@ def _execute(
 def _run_scenarios(
     files: tuple[Path, ...], out: Path, quick: bool, params_file: str | None,
     nominal_file: str | None, verbose: bool, damping: str | None, twin: Any = None,
+    twin_file: Path | None = None,
 ) -> None:  # fmt: skip
     """Run each study file (its robot unless --params/--nominal override it, its twin unless
     --twin does; ``damping``, when given on the command line, replaces the files' [robot]
@@ -851,9 +866,36 @@ def _run_scenarios(
         design = sf.nominal if nominal_file is None else _params(nominal_file, "--nominal",
                                                                  damping=reading)  # fmt: skip
         click.echo(f"{sf.path}: {sf.name}", err=True)
+        from mwip.studies.study import plant_label
+
+        notes = _robot_notes([sf.name], params_file, nominal_file, twin_file)
+        book = ("real plant", "real plant (literal damping)")
+        if params_file is None and plant_label(plant) not in book:
+            mine = f"the robot of {sf.path}"
+            notes[sf.name] = f"{mine}, {notes[sf.name]}" if sf.name in notes else mine
         _execute([sf.name], out, quick or sf.quick, 1, plant, design, verbose,
                  {sf.name: sf.settings}, damping=reading,
-                 twin=twin if twin is not None else sf.twin)  # fmt: skip
+                 twin=twin if twin is not None else sf.twin, robot=notes)  # fmt: skip
+
+
+def _robot_notes(names: list[str], params_file: str | None, nominal_file: str | None,
+                 twin_file: Path | None) -> dict[str, str]:  # fmt: skip
+    """What each study of ``names`` runs on besides the book's robot, design model and default
+    twin (the Chapter 6 studies'), as the report's section titles say it."""
+    from mwip.studies import get_study
+
+    parts = []
+    if params_file is not None and params_file.lower() != "real":
+        parts.append(f"robot {params_file}")
+    if nominal_file is not None and nominal_file.lower() != "nominal":
+        parts.append(f"design model {nominal_file}")
+    notes = {}
+    for name in names:
+        here = [*parts, *([f"twin {twin_file}"] if twin_file is not None
+                          and get_study(name).place[0] == 6 else [])]  # fmt: skip
+        if here:
+            notes[name] = ", ".join(here)
+    return notes
 
 
 @cli.command("run")
@@ -865,7 +907,7 @@ def _run_scenarios(
     type=_Path(dir_okay=False, path_type=Path),
     help="A study file (TOML; `mwip scenario STUDY` prints one to copy); repeatable.",
 )
-@_OUT
+@_RUN_OUT
 @_QUICK
 @_PLANT
 @_NOMINAL
@@ -879,7 +921,7 @@ def run_cmd(
     ctx: click.Context,
     studies: tuple[str, ...],
     scenarios: tuple[Path, ...],
-    out: Path,
+    out: Path | None,
     quick: bool,
     params_file: str | None,
     nominal_file: str | None,
@@ -889,7 +931,8 @@ def run_cmd(
     verbose: bool,
     force: bool,
 ) -> None:
-    """Run one or more studies (see `mwip list`) and update OUT/index.html."""
+    """Run one or more studies (see `mwip list`) into OUT (default runs/<STUDY>) and update
+    OUT/index.html."""
     from mwip.studies import study_names
 
     known = study_names()
@@ -900,16 +943,22 @@ def run_cmd(
             )
     if not studies and not scenarios:
         raise click.UsageError("give at least one STUDY or --scenario FILE")
-    _out_ok(out, force)
+    if out is None:
+        stems = [*dict.fromkeys(studies), *(f.stem for f in scenarios)]
+        label = "+".join(stems) if len("+".join(stems)) <= 80 else f"{stems[0]}+{len(stems) - 1}"
+        out = Path("runs") / label
+    _out_ok(out, force, "run")
     plant, design = _robot(params_file, nominal_file, damping)
     twin = None if twin_file is None else load_twin_option(twin_file)
     if scenarios:
         given = ctx.get_parameter_source("damping") is not click.core.ParameterSource.DEFAULT
         _run_scenarios(scenarios, out, quick, params_file, nominal_file, verbose,
-                       damping if given else None, twin)  # fmt: skip
+                       damping if given else None, twin, twin_file)  # fmt: skip
     if studies:
-        _execute(list(dict.fromkeys(studies)), out, quick, _jobs(jobs), plant, design, verbose,
-                 damping=damping, twin=twin)  # fmt: skip
+        names = list(dict.fromkeys(studies))
+        notes = _robot_notes(names, params_file, nominal_file, twin_file)
+        _execute(names, out, quick, _jobs(jobs), plant, design, verbose, damping=damping,
+                 twin=twin, robot=notes)  # fmt: skip
 
 
 @cli.command()
@@ -956,25 +1005,26 @@ def reproduce(
         for s in declared():
             click.echo(f"{s.name:24s} {s.source}")
         return
-    _out_ok(out, force)
+    _out_ok(out, force, "reproduce")
     plant, design = _robot(params_file, nominal_file, damping)
     twin = None if twin_file is None else load_twin_option(twin_file)
+    notes = _robot_notes(study_names(), params_file, nominal_file, twin_file)
     code = 0
     if compare:  # first the other reading, so that the main report finds it
         from mwip.outdir import claim
 
-        claim(out)  # OUT holds the comparison (and its staging) from now on: mark it as mwip's
+        claim(out, "reproduce")  # OUT holds the comparison (and its staging) from now on
         other = next(d for d in DAMPING_READINGS if d != damping)
         click.echo(f"under the {other} damping reading, into {out / f'compare-{other}'}:",
                    err=True)  # fmt: skip
         try:
             _execute(study_names(), out / f"compare-{other}", quick, _jobs(jobs),
                      *_robot(params_file, nominal_file, other), damping=other,
-                     summary=False, twin=twin)  # fmt: skip
+                     summary=False, twin=twin, command="reproduce", robot=notes)  # fmt: skip
         except SystemExit as exc:
             code = int(exc.code or 0)
     _execute(study_names(), out, quick, _jobs(jobs), plant, design, verbose, damping=damping,
-             twin=twin)  # fmt: skip
+             twin=twin, command="reproduce", robot=notes)  # fmt: skip
     if code:
         sys.exit(code)
 

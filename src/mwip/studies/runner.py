@@ -33,7 +33,7 @@ import scipy
 from mwip.hardware.twin import Twin
 from mwip.hardware.twin_config import twin_to_toml
 from mwip.io import write_json_atomic, write_text_atomic
-from mwip.outdir import MARKER, MARKER_TEXT
+from mwip.outdir import MARKER, marker_text, owner
 from mwip.params import Params
 from mwip.report.html import write_report
 from mwip.report.posters import draw_poster
@@ -192,6 +192,8 @@ def run_studies(
     on_run: Callable[[str], None] | None = None,
     damping: str = "units",
     twin: Twin | None = None,
+    command: str | None = None,
+    robot: dict[str, str] | None = None,
 ) -> dict[str, Any]:
     """Run ``names`` into ``out``; returns the run record (also written to ``out/run.json``).
 
@@ -202,7 +204,11 @@ def run_studies(
     Chapter 6 studies' twin configuration (default: the default twin; recorded in ``run.json``
     as its twin file). ``on_done`` is called as each study ends, ``on_run(study)`` as each of
     its simulation runs ends (for a progress display; :func:`expected_runs` gives the totals).
-    Each study's number of runs is recorded in ``run.json`` (``runs``).
+    Each study's number of runs is recorded in ``run.json`` (``runs``), and ``robot[name]``,
+    when given, says what study ``name`` ran on other than the book's robot (e.g.
+    ``"--params my_robot.toml"``; the report's section title shows it). ``command`` names the
+    command that owns ``out`` in its marker (:mod:`mwip.outdir`; a folder already owned keeps
+    its owner).
     """
     order = registry.names()
     for name in names:
@@ -265,6 +271,8 @@ def run_studies(
                 _, doc, error, wall = outcomes[name]
                 studies[name] = {"wall_s": round(wall, 3), "error": error, "runs": counts[name],
                                  "settings": settings_of(name, overrides.get(name))}  # fmt: skip
+                if (robot or {}).get(name):
+                    studies[name]["robot"] = robot[name]  # type: ignore[index]
             record.update(_environment())
             record.update({
                 "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
@@ -275,7 +283,7 @@ def run_studies(
             })  # fmt: skip
             write_json_atomic(stage.path / RUN_RECORD, record)
             _remember_runs({n: counts[n] for n in names if outcomes[n][1] is not None}, quick)
-            write_text_atomic(stage.path / MARKER, MARKER_TEXT)
+            write_text_atomic(stage.path / MARKER, marker_text(owner(out) or command))
             ok = [n for n in names if outcomes[n][1] is not None]
             _stage_report(stage.path, out, ok)
             # the old report goes first, the new one last, after the run record it was made
