@@ -358,6 +358,13 @@ def simulate(
         dt=res.settings["dt"],
         design="continuous" if mode == "continuous" else f"sampled Ts={Ts:g}",
     )
+    from mwip.hardware.twin import Twin
+
+    drive_twin = sc.twin_config if sc.twin_config is not None else Twin()
+    limit = float(drive_twin.drive.wheel_torque_limit(drive_twin.motor))
+    peak = float(summary.get("max_abs_u") or 0.0)
+    over = math.isfinite(peak) and peak > limit
+    summary.update(torque_limit=limit, over_torque_limit=bool(over))
     summary = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                for k, v in summary.items()}  # fmt: skip
     if out is not None:
@@ -370,7 +377,7 @@ def simulate(
         write_json_atomic(out / "summary.json", summary)
         from mwip.plot.simulate_files import write_simulate_extras
 
-        written = write_simulate_extras(res, sc.plant, out, plot=plot)
+        written = write_simulate_extras(res, sc.plant, out, plot=plot, torque_limit=limit)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:
@@ -380,6 +387,10 @@ def simulate(
             f"settling time: {'n/a' if st is None else f'{st:.3f} s'}  "
             f"max |u|: {summary['max_abs_u']:.4g} N m"
         )
+        if over:
+            click.echo(f"torque: max |u| {peak:.4g} N m is {peak / limit:.1f}x the drive's limit "
+                       f"of {limit:.3g} N m per wheel (RE25 at its current limit, `mwip twin "
+                       "show`): the robot could not follow this run")  # fmt: skip
         if out is not None:
             click.echo(f"wrote {out / 'timeseries.csv'}, {out / 'timeseries.npz'}, "
                        f"{out / 'summary.json'}, {', '.join(map(str, written))}")  # fmt: skip
