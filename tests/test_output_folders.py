@@ -102,3 +102,15 @@ def test_help_says_where_results_go(command, capsys):
     expected = {"simulate": "default: none, nothing is written",
                 "run": "default: runs/<STUDY>", "reproduce": "default: out"}[command]  # fmt: skip
     assert expected in text
+
+
+def test_export_and_campaign_refuse_a_results_folder(tmp_path, capsys):
+    out = tmp_path / "out"
+    outdir.claim(out, "reproduce")
+    (out / "run.json").write_text("{}")
+    before = _tree(out)
+    assert main(["export", "c", "--controller", "lqr", "--out", str(out)]) == 2
+    assert "holds the results of `mwip reproduce`" in capsys.readouterr().err
+    assert main(["campaign", "run", "robustness", "--samples", "1", "--out", str(out)]) == 2
+    assert "not empty" in capsys.readouterr().err
+    assert _tree(out) == before

@@ -798,12 +798,13 @@ def _execute(
     names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params,
     verbose: bool = False, overrides: dict[str, dict[str, Any]] | None = None,
     damping: str = "units", summary: bool = True, twin: Any = None, command: str = "run",
-    robot: dict[str, str] | None = None,
+    robot: dict[str, str] | None = None, label: str = "studies",
 ) -> None:  # fmt: skip
     """Run ``names`` with a progress bar, then print the one-screen summary (not
     ``summary``: its headline only, on stderr); exits 1 if a study failed. ``twin``: the
     Chapter 6 studies' twin configuration (default: the default twin); ``command`` owns OUT;
-    ``robot[name]``: what study ``name`` runs on when not the book's robot (report titles)."""
+    ``robot[name]``: what study ``name`` runs on when not the book's robot (report titles);
+    ``label`` names the studies in the progress display (e.g. a pass of ``reproduce``)."""
     from mwip.report import load_results, summary_lines
     from mwip.report.claims import find_compare, load_comparison
     from mwip.studies import get_study
@@ -812,10 +813,10 @@ def _execute(
 
     failed: list[str] = []
     prog = StudyProgress(names, {n: get_study(n).cost for n in names},
-                         expected_runs(names, quick))  # fmt: skip
+                         expected_runs(names, quick), label=label)  # fmt: skip
     tty = sys.stderr.isatty()
     steps = 1000  # the bar counts thousandths of the work (weighted by Study.cost): its ETA
-    with click.progressbar(length=steps, label="studies", file=sys.stderr, show_eta=True,
+    with click.progressbar(length=steps, label=label, file=sys.stderr, show_eta=True,
                            item_show_func=lambda x: x) as bar:  # fmt: skip
 
         def advance() -> None:
@@ -1031,11 +1032,13 @@ def reproduce(
         try:
             _execute(study_names(), out / f"compare-{other}", quick, _jobs(jobs),
                      *_robot(params_file, nominal_file, other), damping=other,
-                     summary=False, twin=twin, command="reproduce", robot=notes)  # fmt: skip
+                     summary=False, twin=twin, command="reproduce", robot=notes,
+                     label=f"pass 1/2 ({other} reading): studies")  # fmt: skip
         except SystemExit as exc:
             code = int(exc.code or 0)
     _execute(study_names(), out, quick, _jobs(jobs), plant, design, verbose, damping=damping,
-             twin=twin, command="reproduce", robot=notes)  # fmt: skip
+             twin=twin, command="reproduce", robot=notes,
+             label=f"pass 2/2 ({damping} reading): studies" if compare else "studies")  # fmt: skip
     if code:
         sys.exit(code)
 

@@ -48,7 +48,9 @@ class StudyProgress:
         costs: Mapping[str, float],
         totals: Mapping[str, int | None],
         clock: Callable[[], float] = time.monotonic,
+        label: str = "studies",
     ) -> None:
+        self.label = label
         self.names = list(names)
         self.costs = {n: max(float(costs.get(n, 1.0)), 1e-9) for n in self.names}
         self.totals = dict(totals)
@@ -106,8 +108,9 @@ class StudyProgress:
         eta = "" if left is None or len(self.finished) == len(self.names) else (
             f", about {duration_text(left)} left")  # fmt: skip
         what = "FAILED" if error is not None else "done"
-        return (f"studies {len(self.finished)}/{len(self.names)} ({100 * self.fraction():.0f}% "
-                f"of the work, {duration_text(self._clock() - self._t0)} so far{eta}): "
+        share = f"{100 * self.fraction():.0f}%"
+        return (f"{self.label} {len(self.finished)}/{len(self.names)} ({share} of the work, "
+                f"{duration_text(self._clock() - self._t0)} so far{eta}): "
                 f"{study} {what} in {wall:.1f} s, {self._runs_text(study)}")  # fmt: skip
 
     def status(self) -> str:
