@@ -358,10 +358,11 @@ def simulate(
         dt=res.settings["dt"],
         design="continuous" if mode == "continuous" else f"sampled Ts={Ts:g}",
     )
-    from mwip.hardware.twin import Twin
+    from mwip.hardware.motor import RE25, DriveSpec  # the drive's limit (not the whole twin)
 
-    drive_twin = sc.twin_config if sc.twin_config is not None else Twin()
-    limit = float(drive_twin.drive.wheel_torque_limit(drive_twin.motor))
+    tw = sc.twin_config
+    limit = float(DriveSpec().wheel_torque_limit(RE25) if tw is None
+                  else tw.drive.wheel_torque_limit(tw.motor))  # fmt: skip
     peak = float(summary.get("max_abs_u") or 0.0)
     over = math.isfinite(peak) and peak > limit
     summary.update(torque_limit=limit, over_torque_limit=bool(over))
