@@ -23,7 +23,7 @@ from mwip.params import NOMINAL
 
 def episode_returns(policy, seed: int, n_envs: int = 32) -> np.ndarray:
     """Undiscounted return of each of ``n_envs`` balance episodes (10 s) under ``policy``."""
-    env = gymnasium.make_vec("MwipBalance-v0", num_envs=n_envs,
+    env = gymnasium.make_vec("mwip/Balance-v0", num_envs=n_envs,
                              vectorization_mode="vector_entry_point")  # fmt: skip
     obs, _ = env.reset(seed=seed)
     total = np.zeros(n_envs)

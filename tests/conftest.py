@@ -15,7 +15,8 @@ _AOT_CACHE: list[str] = []
 def pytest_configure(config: pytest.Config) -> None:
     """The suite builds and loads the ahead-of-time loop (mwip.sim.aot) in a cache of its own
     (built once per session, ~10 s), unless MWIP_CACHE_DIR is already set; subprocesses of the
-    tests inherit it."""
+    tests inherit it. First-use notices (mwip.notice) are off unless a test turns them on."""
+    os.environ.setdefault("MWIP_NOTICES", "off")  # first-use notices depend on the caches' state
     if not os.environ.get("MWIP_CACHE_DIR"):
         path = tempfile.mkdtemp(prefix="mwip-test-cache-")
         _AOT_CACHE.append(path)

@@ -20,7 +20,7 @@ from mwip.sim import Sinusoid, simulate  # noqa: E402
 def test_registered_and_passes_env_checker(env_id):
     from gymnasium.utils.env_checker import check_env
 
-    assert "Mwip" in env_id
+    assert env_id.startswith("mwip/")
     env = gymnasium.make(env_id)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # advice about unbounded/unnormalised boxes
@@ -53,7 +53,7 @@ def test_step_is_the_engine():
 
 def test_lqr_baseline_beats_random_policy_and_falls_terminate():
     K = design_lqr(NOMINAL, Ts=0.005).K
-    env = gymnasium.make("MwipBalance-v0")
+    env = gymnasium.make("mwip/Balance-v0")
     obs, _ = env.reset(seed=3)
     total, steps = 0.0, 0
     while True:
@@ -69,6 +69,43 @@ def test_lqr_baseline_beats_random_policy_and_falls_terminate():
         if term:
             break
     assert term and info["status"] == "fell"
+
+
+def test_make_with_max_episode_steps_truncates_by_gymnasiums_time_limit():
+    """Registered under the namespace with max_episode_steps: Gymnasium's TimeLimit ends the
+    episode (the env itself never truncates); make(..., max_episode_steps=N) overrides it;
+    the old ids are the same environments; make_vec passes the limit to the vector env."""
+    from gymnasium.wrappers import TimeLimit
+
+    for env_id in (*ENV_IDS, *mwip.gym.LEGACY_IDS):
+        assert gymnasium.spec(env_id).max_episode_steps == mwip.gym.MAX_EPISODE_STEPS == 2000
+    assert gymnasium.spec("mwip/Balance-v0").namespace == "mwip"
+    env = gymnasium.make("mwip/Balance-v0", max_episode_steps=7)
+    assert isinstance(env, TimeLimit) or any(
+        isinstance(w, TimeLimit) for w in _wrappers(env)
+    )  # fmt: skip
+    env.reset(seed=0, options={"theta0": 0.0})
+    ends = [env.step(np.zeros(2, dtype=np.float32))[3] for _ in range(7)]
+    assert ends == [False] * 6 + [True]
+    raw = env.unwrapped
+    assert isinstance(raw, MwipEnv)
+    raw.reset(seed=0, options={"theta0": 0.0})
+    assert not any(raw.step(np.zeros(2, dtype=np.float32))[3] for _ in range(2100))
+    with pytest.raises(TypeError, match="TimeLimit"):
+        MwipEnv(episode_seconds=1.0)
+    venv = gymnasium.make_vec("mwip/Balance-v0", num_envs=2, max_episode_steps=5,
+                              vectorization_mode="vector_entry_point")  # fmt: skip
+    venv.reset(seed=0)
+    truncs = [venv.step(np.zeros((2, 2)))[3].all() for _ in range(5)]
+    assert truncs == [False] * 4 + [True]
+    track = gymnasium.make_vec("mwip/Track-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    assert track.cfg.max_steps == 2000
+
+
+def _wrappers(env):
+    while hasattr(env, "env"):
+        yield env
+        env = env.env
 
 
 def test_track_task_rewards_the_reference():

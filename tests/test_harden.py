@@ -85,7 +85,8 @@ def test_a_users_folder_is_refused_unless_forced(tmp_path, capsys, fake_studies)
     assert main(["reproduce", "--out", str(out), "-j", "1", "--force"]) == 0
     assert (out / MARKER).is_file() and (out / "good" / "metrics.json").is_file()
     capsys.readouterr()
-    assert main(["run", "other", "--out", str(out)]) == 0
+    assert main(["reproduce", "--out", str(out), "-j", "1"]) == 0  # its own folder now
+    assert main(["run", "other", "--out", str(out)]) == 2  # reproduce's (issue 25)
 
 
 def test_new_empty_and_own_folders_are_accepted(tmp_path, fake_studies):

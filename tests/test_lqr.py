@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mwip import linearize
-from mwip.control.lqr import BOOK_Q, BOOK_R, design_lqr, dlqr, lqr, zoh
+from mwip.control.lqr import BOOK_Q, BOOK_R, design_lqr, dlqr, lqr, lqr_sampled, zoh
 from mwip.params import NOMINAL, NOMINAL_LITERAL, REAL, REAL_LITERAL
 
 
@@ -78,7 +78,7 @@ def test_zoh_matches_integral():
 
 def test_dlqr_riccati_residual():
     A, B = linearize(NOMINAL)
-    K, P, _ = dlqr(A, B, BOOK_Q, BOOK_R, 0.005)
+    K, P, _ = lqr_sampled(A, B, BOOK_Q, BOOK_R, 0.005)
     Ad, Bd = zoh(A, B, 0.005)
     res = Ad.T @ P @ Ad - P - Ad.T @ P @ Bd @ K + BOOK_Q
     assert np.abs(res).max() < 1e-6 * np.abs(P).max()
@@ -89,4 +89,18 @@ def test_bad_weights():
     with pytest.raises(ValueError, match="R must be"):
         lqr(A, B, BOOK_Q, -BOOK_R)
     with pytest.raises(ValueError, match="Ts must be"):
-        dlqr(A, B, BOOK_Q, BOOK_R, 0.0)
+        lqr_sampled(A, B, BOOK_Q, BOOK_R, 0.0)
+
+
+def test_old_dlqr_form_says_what_to_call():
+    """dlqr(A, B, Q, R, Ts) on continuous matrices was the old form: now a TypeError naming
+    lqr_sampled; the sampled design is dlqr on the ZOH model, bit for bit."""
+    A, B = linearize(NOMINAL)
+    for Ts in (0.005, 1):
+        with pytest.raises(TypeError, match=r"lqr_sampled\(A, B, Q, R, Ts\)"):
+            dlqr(A, B, BOOK_Q, BOOK_R, Ts)
+    K, S, E = lqr_sampled(A, B, BOOK_Q, BOOK_R, 0.005)
+    K2, S2, E2 = dlqr(*zoh(A, B, 0.005), BOOK_Q, BOOK_R)
+    assert np.array_equal(K, K2) and np.array_equal(S, S2) and np.array_equal(E, E2)
+    assert np.array_equal(design_lqr(NOMINAL, Ts=0.005).K, K)
+    assert np.all(np.abs(E) < 1)

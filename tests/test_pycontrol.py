@@ -48,6 +48,30 @@ def test_zoh_model_is_the_exact_discretisation():
     assert np.allclose(sysd.A @ x0 + sysd.B @ u, sol.y[:, -1], rtol=1e-9, atol=1e-12)
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_dlqr_signature_and_result_match_python_control_on_discrete_matrices(seed):
+    """mwip.control.dlqr(A, B, Q, R[, N]) as control.dlqr: discrete matrices in, (K, S, E)
+    out, with and without a cross weight N, and the state-space form dlqr(sys, Q, R)."""
+    from mwip.control import dlqr
+
+    rng = np.random.default_rng(seed)
+    sysd = linearize(_random_robot(rng), as_statespace=True, Ts=0.005)
+    Ad, Bd = sysd.A, sysd.B
+    N = 0.01 * rng.standard_normal((5, 2))
+    for extra in ((), (N,)):
+        ours = dlqr(Ad, Bd, BOOK_Q, BOOK_R, *extra)
+        theirs = ct.dlqr(Ad, Bd, BOOK_Q, BOOK_R, *extra)
+        K, S, E = ours
+        scale = np.abs(theirs[0]).max()
+        assert np.allclose(K, theirs[0], rtol=1e-8, atol=1e-11 * scale)
+        assert np.allclose(S, theirs[1], rtol=1e-8, atol=1e-11 * np.abs(theirs[1]).max())
+        assert np.allclose(np.sort_complex(E), np.sort_complex(theirs[2]), rtol=1e-8, atol=1e-12)
+    K_sys, _, _ = dlqr(sysd, BOOK_Q, BOOK_R)
+    assert np.array_equal(K_sys, dlqr(Ad, Bd, BOOK_Q, BOOK_R)[0])
+    with pytest.raises(ValueError, match="discrete-time system"):
+        dlqr(linearize(NOMINAL, as_statespace=True), BOOK_Q, BOOK_R)
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_lqr_and_dlqr_agree_with_python_control(seed):
     p = _random_robot(np.random.default_rng(seed))

@@ -300,7 +300,8 @@ def test_interrupted_reproduce_leaves_earlier_results(tmp_path, monkeypatch, cap
 
     declared = {"lqr-gain": Study("lqr-gain", "x", interrupted, place=(1,))}
     monkeypatch.setattr(registry, "_discover", lambda: declared)
-    assert main(["reproduce", "--quick", "--out", str(out), "-j", "1"]) == 130
+    # (run's folder: reproduce would refuse it, issue 25)
+    assert main(["run", "lqr-gain", "--quick", "--out", str(out), "-j", "1"]) == 130
     assert "interrupted" in capsys.readouterr().err
     assert (out / "lqr-gain" / "metrics.json").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]

@@ -66,17 +66,18 @@ class _Path(click.Path):
 _FORCE = click.option(
     "--force",
     is_flag=True,
-    help="Write into OUT even if it is a non-empty folder that mwip did not create "
-    "(entries of the same names are replaced).",
+    help="Write into OUT even if it is a non-empty folder that mwip did not create, or one "
+    "another mwip command owns (entries of the same names are replaced).",
 )
 
 
-def _out_ok(out: Path, force: bool) -> Path:
-    """OUT if mwip may write there (:mod:`mwip.outdir`), else exit 2 naming --out."""
+def _out_ok(out: Path, force: bool, command: str | None = None) -> Path:
+    """OUT if mwip may write there (:mod:`mwip.outdir`; not a folder another command than
+    ``command`` owns), else exit 2 naming --out."""
     from mwip.outdir import check
 
     try:
-        return check(out, force)
+        return check(out, force, command=command)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
 
@@ -221,7 +222,8 @@ def cli() -> None:
     "--out",
     type=_Path(file_okay=False, path_type=Path),
     default=None,
-    help="Folder for timeseries.csv, timeseries.npz and summary.json.",
+    help="Folder for timeseries.csv, timeseries.npz and summary.json (default: none, "
+    "nothing is written; a folder of `mwip simulate`'s own).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--plot", is_flag=True, help="Also draw OUT/run.png (needs --out).")
@@ -292,7 +294,7 @@ def simulate(
     if plot and out is None:
         raise click.BadParameter("needs --out FOLDER to write run.png into", param_hint="--plot")
     if out is not None:
-        _out_ok(out, force)
+        _out_ok(out, force, "simulate")
     if scenario_file is not None:
         if not str(scenario_file).strip() or not scenario_file.exists():
             raise click.BadParameter(f"{str(scenario_file)!r} does not exist",
@@ -356,19 +358,27 @@ def simulate(
         dt=res.settings["dt"],
         design="continuous" if mode == "continuous" else f"sampled Ts={Ts:g}",
     )
+    from mwip.hardware.motor import RE25, DriveSpec  # the drive's limit (not the whole twin)
+
+    tw = sc.twin_config
+    limit = float(DriveSpec().wheel_torque_limit(RE25) if tw is None
+                  else tw.drive.wheel_torque_limit(tw.motor))  # fmt: skip
+    peak = float(summary.get("max_abs_u") or 0.0)
+    over = math.isfinite(peak) and peak > limit
+    summary.update(torque_limit=limit, over_torque_limit=bool(over))
     summary = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                for k, v in summary.items()}  # fmt: skip
     if out is not None:
         from mwip.io import write_json_atomic
         from mwip.outdir import claim
 
-        claim(out)
+        claim(out, "simulate")
         res.to_csv(out / "timeseries.csv")
         res.to_npz(out / "timeseries.npz")
         write_json_atomic(out / "summary.json", summary)
         from mwip.plot.simulate_files import write_simulate_extras
 
-        written = write_simulate_extras(res, sc.plant, out, plot=plot)
+        written = write_simulate_extras(res, sc.plant, out, plot=plot, torque_limit=limit)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:
@@ -378,6 +388,10 @@ def simulate(
             f"settling time: {'n/a' if st is None else f'{st:.3f} s'}  "
             f"max |u|: {summary['max_abs_u']:.4g} N m"
         )
+        if over:
+            click.echo(f"torque: max |u| {peak:.4g} N m is {peak / limit:.1f}x the drive's limit "
+                       f"of {limit:.3g} N m per wheel (RE25 at its current limit, `mwip twin "
+                       "show`): the robot could not follow this run")  # fmt: skip
         if out is not None:
             click.echo(f"wrote {out / 'timeseries.csv'}, {out / 'timeseries.npz'}, "
                        f"{out / 'summary.json'}, {', '.join(map(str, written))}")  # fmt: skip
@@ -717,9 +731,9 @@ cli.add_command(_twin_group)
 @cli.command("list")
 def list_cmd() -> None:
     """List the studies with their book sources."""
-    from mwip.studies import all_studies
+    from mwip.studies.registry import declared
 
-    for study in all_studies():
+    for study in declared():  # read from the study modules' source, none imported
         click.echo(f"{study.name:24s} {study.source}")
 
 
@@ -728,7 +742,16 @@ _OUT = click.option(
     type=_Path(file_okay=False, path_type=Path),
     default=Path("out"),
     show_default=True,
-    help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json.",
+    help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json (a folder of `mwip "
+    "reproduce`'s own: other commands do not write into it without --force).",
+)
+_RUN_OUT = click.option(
+    "--out",
+    type=_Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json (default: runs/<STUDY>, "
+    "runs/<STUDY>+<STUDY>... for several, runs/<FILE's stem> for --scenario FILE; a folder of "
+    "`mwip run`'s own, never `mwip reproduce`'s without --force).",
 )
 _QUICK = click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
 _PLANT = click.option(
@@ -775,34 +798,53 @@ def _jobs(jobs: int) -> int:
 def _execute(
     names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params,
     verbose: bool = False, overrides: dict[str, dict[str, Any]] | None = None,
-    damping: str = "units", summary: bool = True, twin: Any = None,
+    damping: str = "units", summary: bool = True, twin: Any = None, command: str = "run",
+    robot: dict[str, str] | None = None, label: str = "studies",
 ) -> None:  # fmt: skip
     """Run ``names`` with a progress bar, then print the one-screen summary (not
     ``summary``: its headline only, on stderr); exits 1 if a study failed. ``twin``: the
-    Chapter 6 studies' twin configuration (default: the default twin)."""
+    Chapter 6 studies' twin configuration (default: the default twin); ``command`` owns OUT;
+    ``robot[name]``: what study ``name`` runs on when not the book's robot (report titles);
+    ``label`` names the studies in the progress display (e.g. a pass of ``reproduce``)."""
     from mwip.report import load_results, summary_lines
     from mwip.report.claims import find_compare, load_comparison
-    from mwip.studies.runner import run_studies
+    from mwip.studies import get_study
+    from mwip.studies.progress import StudyProgress
+    from mwip.studies.runner import expected_runs, run_studies
 
     failed: list[str] = []
-    runs = [0]
-    with click.progressbar(length=len(names), label="studies", file=sys.stderr,
-                           show_pos=True, item_show_func=lambda x: x) as bar:  # fmt: skip
+    prog = StudyProgress(names, {n: get_study(n).cost for n in names},
+                         expected_runs(names, quick), label=label)  # fmt: skip
+    tty = sys.stderr.isatty()
+    steps = 1000  # the bar counts thousandths of the work (weighted by Study.cost): its ETA
+    with click.progressbar(length=steps, label=label, file=sys.stderr, show_eta=True,
+                           item_show_func=lambda x: x) as bar:  # fmt: skip
+
+        def advance() -> None:
+            bar.update(max(0, round(steps * prog.fraction()) - bar.pos), prog.status())
 
         def done(outcome: tuple[str, Any, str | None, float]) -> None:
             name, _, error, wall = outcome
             if error is not None:
                 failed.append(name)
                 click.echo(f"\n{name}: FAILED after {wall:.1f} s: {error}", err=True)
-            bar.update(1, f"runs done {runs[0]}; {name} finished ({wall:.1f} s)")
+            line = prog.done(name, wall, error)
+            if tty:
+                advance()
+            else:
+                click.echo(line, err=True)
 
         def run_done(study: str) -> None:
-            runs[0] += 1
-            bar.update(0, f"runs done {runs[0]}; last: {study}")
+            line = prog.run(study)
+            if tty:
+                advance()
+            elif line is not None:
+                click.echo(line, err=True)
 
         record = run_studies(names, out, quick=quick, jobs=jobs, plant=plant, nominal=design,
                              overrides=overrides, on_done=done, on_run=run_done,
-                             damping=damping, twin=twin)  # fmt: skip
+                             damping=damping, twin=twin, command=command,
+                             robot=robot)  # fmt: skip
     import shutil
 
     width = max(100, shutil.get_terminal_size((120, 40)).columns)
@@ -822,6 +864,7 @@ def _execute(
 def _run_scenarios(
     files: tuple[Path, ...], out: Path, quick: bool, params_file: str | None,
     nominal_file: str | None, verbose: bool, damping: str | None, twin: Any = None,
+    twin_file: Path | None = None,
 ) -> None:  # fmt: skip
     """Run each study file (its robot unless --params/--nominal override it, its twin unless
     --twin does; ``damping``, when given on the command line, replaces the files' [robot]
@@ -836,9 +879,36 @@ def _run_scenarios(
         design = sf.nominal if nominal_file is None else _params(nominal_file, "--nominal",
                                                                  damping=reading)  # fmt: skip
         click.echo(f"{sf.path}: {sf.name}", err=True)
+        from mwip.studies.study import plant_label
+
+        notes = _robot_notes([sf.name], params_file, nominal_file, twin_file)
+        book = ("real plant", "real plant (literal damping)")
+        if params_file is None and plant_label(plant) not in book:
+            mine = f"the robot of {sf.path}"
+            notes[sf.name] = f"{mine}, {notes[sf.name]}" if sf.name in notes else mine
         _execute([sf.name], out, quick or sf.quick, 1, plant, design, verbose,
                  {sf.name: sf.settings}, damping=reading,
-                 twin=twin if twin is not None else sf.twin)  # fmt: skip
+                 twin=twin if twin is not None else sf.twin, robot=notes)  # fmt: skip
+
+
+def _robot_notes(names: list[str], params_file: str | None, nominal_file: str | None,
+                 twin_file: Path | None) -> dict[str, str]:  # fmt: skip
+    """What each study of ``names`` runs on besides the book's robot, design model and default
+    twin (the Chapter 6 studies'), as the report's section titles say it."""
+    from mwip.studies import get_study
+
+    parts = []
+    if params_file is not None and params_file.lower() != "real":
+        parts.append(f"robot {params_file}")
+    if nominal_file is not None and nominal_file.lower() != "nominal":
+        parts.append(f"design model {nominal_file}")
+    notes = {}
+    for name in names:
+        here = [*parts, *([f"twin {twin_file}"] if twin_file is not None
+                          and get_study(name).place[0] == 6 else [])]  # fmt: skip
+        if here:
+            notes[name] = ", ".join(here)
+    return notes
 
 
 @cli.command("run")
@@ -850,7 +920,7 @@ def _run_scenarios(
     type=_Path(dir_okay=False, path_type=Path),
     help="A study file (TOML; `mwip scenario STUDY` prints one to copy); repeatable.",
 )
-@_OUT
+@_RUN_OUT
 @_QUICK
 @_PLANT
 @_NOMINAL
@@ -864,7 +934,7 @@ def run_cmd(
     ctx: click.Context,
     studies: tuple[str, ...],
     scenarios: tuple[Path, ...],
-    out: Path,
+    out: Path | None,
     quick: bool,
     params_file: str | None,
     nominal_file: str | None,
@@ -874,7 +944,8 @@ def run_cmd(
     verbose: bool,
     force: bool,
 ) -> None:
-    """Run one or more studies (see `mwip list`) and update OUT/index.html."""
+    """Run one or more studies (see `mwip list`) into OUT (default runs/<STUDY>) and update
+    OUT/index.html."""
     from mwip.studies import study_names
 
     known = study_names()
@@ -885,16 +956,22 @@ def run_cmd(
             )
     if not studies and not scenarios:
         raise click.UsageError("give at least one STUDY or --scenario FILE")
-    _out_ok(out, force)
+    if out is None:
+        stems = [*dict.fromkeys(studies), *(f.stem for f in scenarios)]
+        label = "+".join(stems) if len("+".join(stems)) <= 80 else f"{stems[0]}+{len(stems) - 1}"
+        out = Path("runs") / label
+    _out_ok(out, force, "run")
     plant, design = _robot(params_file, nominal_file, damping)
     twin = None if twin_file is None else load_twin_option(twin_file)
     if scenarios:
         given = ctx.get_parameter_source("damping") is not click.core.ParameterSource.DEFAULT
         _run_scenarios(scenarios, out, quick, params_file, nominal_file, verbose,
-                       damping if given else None, twin)  # fmt: skip
+                       damping if given else None, twin, twin_file)  # fmt: skip
     if studies:
-        _execute(list(dict.fromkeys(studies)), out, quick, _jobs(jobs), plant, design, verbose,
-                 damping=damping, twin=twin)  # fmt: skip
+        names = list(dict.fromkeys(studies))
+        notes = _robot_notes(names, params_file, nominal_file, twin_file)
+        _execute(names, out, quick, _jobs(jobs), plant, design, verbose, damping=damping,
+                 twin=twin, robot=notes)  # fmt: skip
 
 
 @cli.command()
@@ -934,31 +1011,35 @@ def reproduce(
     OUT as it was). A study that fails is reported with its error and does not stop the
     others; the exit code is then 1.
     """
-    from mwip.studies import all_studies, study_names
+    from mwip.studies import study_names
+    from mwip.studies.registry import declared
 
     if list_only:
-        for s in all_studies():
+        for s in declared():
             click.echo(f"{s.name:24s} {s.source}")
         return
-    _out_ok(out, force)
+    _out_ok(out, force, "reproduce")
     plant, design = _robot(params_file, nominal_file, damping)
     twin = None if twin_file is None else load_twin_option(twin_file)
+    notes = _robot_notes(study_names(), params_file, nominal_file, twin_file)
     code = 0
     if compare:  # first the other reading, so that the main report finds it
         from mwip.outdir import claim
 
-        claim(out)  # OUT holds the comparison (and its staging) from now on: mark it as mwip's
+        claim(out, "reproduce")  # OUT holds the comparison (and its staging) from now on
         other = next(d for d in DAMPING_READINGS if d != damping)
         click.echo(f"under the {other} damping reading, into {out / f'compare-{other}'}:",
                    err=True)  # fmt: skip
         try:
             _execute(study_names(), out / f"compare-{other}", quick, _jobs(jobs),
                      *_robot(params_file, nominal_file, other), damping=other,
-                     summary=False, twin=twin)  # fmt: skip
+                     summary=False, twin=twin, command="reproduce", robot=notes,
+                     label=f"pass 1/2 ({other} reading): studies")  # fmt: skip
         except SystemExit as exc:
             code = int(exc.code or 0)
     _execute(study_names(), out, quick, _jobs(jobs), plant, design, verbose, damping=damping,
-             twin=twin)  # fmt: skip
+             twin=twin, command="reproduce", robot=notes,
+             label=f"pass 2/2 ({damping} reading): studies" if compare else "studies")  # fmt: skip
     if code:
         sys.exit(code)
 

@@ -3,9 +3,12 @@
 mwip writes only into a folder that it created or marked as its own, or an empty one: its
 results replace whole entries (a study's folder, ``index.html``, ``run.json``), and in a
 user's folder those names may be the user's files. A folder becomes mwip's when mwip first
-writes into it: it gets the marker file :data:`MARKER`. Any other folder (not empty, no
-marker) is refused unless the user names it with ``--force``; the current folder by an empty
-name (``--out ""``) is always refused.
+writes into it: it gets the marker file :data:`MARKER`, which names the command that owns it
+(``command: mwip reproduce``). Any other folder (not empty, no marker) is refused unless the
+user names it with ``--force``, and so is a folder another command owns (``mwip run`` never
+writes over ``mwip reproduce``'s results unless told to; a marker of an older mwip names no
+command and is any command's); the current folder by an empty name (``--out ""``) is always
+refused.
 
 :func:`check` decides without writing anything (so a refused run changes nothing);
 :func:`claim` creates the folder and its marker when the results are about to be written.
@@ -18,7 +21,7 @@ from pathlib import Path
 
 from mwip.io import write_text_atomic
 
-__all__ = ["MARKER", "check", "claim", "is_owned"]
+__all__ = ["MARKER", "check", "claim", "is_owned", "marker_text", "owner"]
 
 #: The marker file: its presence says the folder is mwip's output folder.
 MARKER = ".mwip-output"
@@ -28,17 +31,41 @@ MARKER_TEXT = (
 )
 
 
+_OWNER = "command: mwip "
+
+
+def marker_text(command: str | None = None) -> str:
+    """The marker file's text, naming ``command`` (e.g. ``"reproduce"``) as the folder's owner."""
+    return MARKER_TEXT + (f"{_OWNER}{command}\n" if command else "")
+
+
 def is_owned(out: Path) -> bool:
     """Whether ``out`` carries mwip's marker file."""
     return (Path(out) / MARKER).is_file()
 
 
-def check(out: Path | str, force: bool = False, option: str = "--out") -> Path:
+def owner(out: Path) -> str | None:
+    """The command that owns ``out`` by its marker (``"reproduce"``, ``"run"``, ...); ``None``
+    when there is no marker or it names no command."""
+    try:
+        text = (Path(out) / MARKER).read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return None
+    for line in text.splitlines():
+        if line.startswith(_OWNER) and line[len(_OWNER) :].strip():
+            return line[len(_OWNER) :].strip()
+    return None
+
+
+def check(
+    out: Path | str, force: bool = False, option: str = "--out", command: str | None = None
+) -> Path:
     """``out`` as a path if mwip may write into it; otherwise ``ValueError`` naming ``option``.
 
     Allowed: a folder that does not exist yet (its parent may not exist either), an empty
-    folder, a folder with :data:`MARKER`, and with ``force`` any folder. Never allowed: an
-    empty name, a path that exists and is not a folder.
+    folder, a folder with :data:`MARKER` owned by ``command`` (or by no named command, or
+    ``command`` is ``None``), and with ``force`` any folder. Never allowed: an empty name, a
+    path that exists and is not a folder.
     """
     text = str(out)
     if not text.strip():
@@ -59,7 +86,15 @@ def check(out: Path | str, force: bool = False, option: str = "--out") -> Path:
         raise ValueError(f"{option}: {text!r} exists and is not a folder")
     if not os.access(path, os.W_OK | os.X_OK):
         raise ValueError(f"{option}: {text!r} is not writable")
-    if force or is_owned(path):
+    if force:
+        return path
+    if is_owned(path):
+        held = owner(path)
+        if command is not None and held is not None and held != command:
+            raise ValueError(
+                f"{option}: {text!r} holds the results of `mwip {held}`; give another folder "
+                f"for `mwip {command}` or add --force to write into it"
+            )
         return path
     try:
         entries = [e for e in os.listdir(path) if e != MARKER]
@@ -74,13 +109,15 @@ def check(out: Path | str, force: bool = False, option: str = "--out") -> Path:
     return path
 
 
-def claim(out: Path) -> Path:
-    """Create ``out`` (if needed) and its marker file; call after :func:`check`."""
+def claim(out: Path, command: str | None = None) -> Path:
+    """Create ``out`` (if needed) and its marker file naming ``command`` as its owner; call
+    after :func:`check`. A folder already marked keeps its owner (a ``--force`` write into
+    another command's folder does not take it over); a marker naming no command gets one."""
     out = Path(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        if not is_owned(out):
-            write_text_atomic(out / MARKER, MARKER_TEXT)
+        if not is_owned(out) or (command is not None and owner(out) is None):
+            write_text_atomic(out / MARKER, marker_text(command))
     except OSError as exc:
         raise ValueError(f"--out: cannot write into {str(out)!r}: {exc.strerror or exc}") from None
     return out

@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-__all__ = ["Controller", "LQR", "LQRDesign", "design_lqr", "lqr", "dlqr"]
+__all__ = ["Controller", "LQR", "LQRDesign", "design_lqr", "lqr", "dlqr", "lqr_sampled"]
 
 _WHERE = {"Controller": "mwip.control.base", **{n: "mwip.control.lqr" for n in __all__[1:]}}
 

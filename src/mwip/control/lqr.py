@@ -12,6 +12,12 @@ Two designs from the same weights (SPEC.md section 2):
   ``(Ad, Bd) = zoh(A, B, Ts)``; ``K = (R + Bd^T P Bd)^{-1} Bd^T P Ad``. This is what a 5 ms
   loop must use: the continuous gain applied with 5 ms hold is violently unstable.
 
+The functions follow python-control's (and MATLAB's) signatures: :func:`lqr` on continuous
+matrices, :func:`dlqr` on *discrete* ones (``dlqr(Ad, Bd, Q, R[, N])``), each returning
+``(K, S, E)``; :func:`lqr_sampled` is "discretise (ZOH) then design", ``dlqr(*zoh(A, B, Ts),
+Q, R)``. (The old ``dlqr(A, B, Q, R, Ts)`` on continuous matrices raises a ``TypeError``
+naming :func:`lqr_sampled`: given discrete matrices it discretised them twice, silently.)
+
 The book prints both rows of K equal; the yaw columns must flip sign between the wheels
 (SPEC.md section 3). The design here gives rows ``[-223.99, +-70.71, -70.32, -23.12, +-218.99]``
 on the nominal parameters.
@@ -21,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,7 +39,7 @@ from mwip.params import NOMINAL, Params
 from mwip.validate import finite_array, real
 
 __all__ = [
-    "BOOK_Q", "BOOK_R", "lqr", "dlqr", "zoh", "LQRDesign", "design_lqr", "LQR",
+    "BOOK_Q", "BOOK_R", "lqr", "dlqr", "lqr_sampled", "zoh", "LQRDesign", "design_lqr", "LQR",
 ]  # fmt: skip
 
 #: The book's weights (Section 4.4.2).
@@ -67,22 +74,68 @@ def zoh(A: ArrayLike, B: ArrayLike, Ts: float) -> tuple[NDArray, NDArray]:
 
 
 def dlqr(
+    A: Any, B: ArrayLike, Q: ArrayLike | None = None, R: ArrayLike | None = None,
+    N: ArrayLike | None = None,
+) -> tuple[NDArray, NDArray, NDArray]:  # fmt: skip
+    """Discrete-time LQR on the discrete model ``x[k+1] = A x[k] + B u[k]``, python-control's
+    ``dlqr(A, B, Q, R[, N])`` (also ``dlqr(sys, Q, R[, N])`` with a discrete state-space
+    ``sys``): minimises ``sum x^T Q x + u^T R u + 2 x^T N u``. Returns ``(K, S, E)``: the gain
+    of ``u = -K x``, the solution of the discrete Riccati equation and the closed-loop
+    eigenvalues of ``A - B K`` (inside the unit circle).
+
+    ``K = (R + B^T S B)^{-1} (B^T S A + N^T)``, ``S`` of
+    ``A^T S A - S - (A^T S B + N)(R + B^T S B)^{-1}(B^T S A + N^T) + Q = 0`` (solved as the
+    equation without cross term of ``A - B R^{-1} N^T``, ``Q - N R^{-1} N^T``).
+
+    To design on a continuous model for a sample period, discretise first (``zoh``) or call
+    :func:`lqr_sampled` ``(A, B, Q, R, Ts)``; a sample period given here as the fifth argument
+    (the old ``dlqr(A, B, Q, R, Ts)``) raises a ``TypeError`` saying so.
+    """
+    if hasattr(A, "A") and hasattr(A, "B"):  # a state-space system (python-control's form)
+        if getattr(A, "dt", None) == 0:
+            raise ValueError("dlqr needs a discrete-time system (dt > 0); for a continuous one "
+                             "call mwip.control.lqr, or lqr_sampled(A, B, Q, R, Ts)")  # fmt: skip
+        A, B, Q, R, N = A.A, A.B, B, Q, R
+    if N is not None and np.ndim(N) == 0:
+        raise TypeError(
+            "mwip.control.dlqr(A, B, Q, R, N) takes the discrete model and an (n, m) cross "
+            f"weight N, as python-control's; got the number {N!r} as N. To discretise a "
+            "continuous (A, B) at sample period Ts and design, call "
+            "mwip.control.lqr_sampled(A, B, Q, R, Ts) (the former dlqr(A, B, Q, R, Ts))"
+        )
+    if Q is None or R is None:
+        raise TypeError("dlqr(A, B, Q, R[, N]): give the weights Q and R")
+    A, B, Q, R = (np.asarray(x, dtype=float) for x in (A, B, Q, R))
+    n, m = B.shape
+    _check_weights(Q, R, n, m)
+    if N is None:
+        S = solve_discrete_are(A, B, Q, R)
+        K = np.linalg.solve(R + B.T @ S @ B, B.T @ S @ A)
+    else:
+        Nc = np.asarray(N, dtype=float)
+        if Nc.shape != (n, m):
+            raise ValueError(f"N must be a {n}x{m} matrix, got shape {Nc.shape}")
+        RiNt = np.linalg.solve(R, Nc.T)
+        S = solve_discrete_are(A - B @ RiNt, B, Q - Nc @ RiNt, R)
+        K = np.linalg.solve(R + B.T @ S @ B, B.T @ S @ A + Nc.T)
+    return K, S, np.linalg.eigvals(A - B @ K)
+
+
+def lqr_sampled(
     A: ArrayLike, B: ArrayLike, Q: ArrayLike, R: ArrayLike, Ts: float
 ) -> tuple[NDArray, NDArray, NDArray]:
-    """LQR for sample period ``Ts``: discrete Riccati on the ZOH model. Returns ``(K, P, z)``.
+    """LQR for sample period ``Ts`` on the *continuous* ``(A, B)``: discretise by zero-order
+    hold, then :func:`dlqr`, i.e. ``dlqr(*zoh(A, B, Ts), Q, R)``. Returns ``(K, S, z)``.
 
     ``z`` are the closed-loop eigenvalues of ``Ad - Bd K`` (inside the unit circle).
     The continuous cost is approximated by ``Q, R`` per sample (not scaled by Ts) as in the
-    usual ``dlqr(c2d(sys), Q, R)`` practice.
+    usual ``dlqr(c2d(sys), Q, R)`` practice (MATLAB's ``lqrd`` discretises the cost as well,
+    and gives another gain).
     """
     if not (np.isfinite(Ts) and Ts > 0):
         raise ValueError(f"Ts must be finite and in (0, inf), got {Ts!r}")
-    Q, R = np.asarray(Q, dtype=float), np.asarray(R, dtype=float)
     Ad, Bd = zoh(A, B, Ts)
-    _check_weights(Q, R, Ad.shape[0], Bd.shape[1])
-    P = solve_discrete_are(Ad, Bd, Q, R)
-    K = np.linalg.solve(R + Bd.T @ P @ Bd, Bd.T @ P @ Ad)
-    return K, P, np.linalg.eigvals(Ad - Bd @ K)
+    return dlqr(Ad, Bd, Q, R)
 
 
 @dataclass(frozen=True)
@@ -119,7 +172,7 @@ def design_lqr(
         Ts = real("Ts", Ts, 0.0, 1e3)
     Qa, Ra = finite_array("Q", Q), finite_array("R", R)
     A, B = linearize(params)
-    K, _, poles = lqr(A, B, Qa, Ra) if Ts is None else dlqr(A, B, Qa, Ra, Ts)
+    K, _, poles = lqr(A, B, Qa, Ra) if Ts is None else lqr_sampled(A, B, Qa, Ra, Ts)
     return LQRDesign(K=K, Ts=Ts, Q=Qa, R=Ra, poles=poles, params=params)
 
 

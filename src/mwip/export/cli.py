@@ -55,7 +55,8 @@ def export() -> None:
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
     required=True,
-    help="Folder for PREFIX.h and PREFIX.c.",
+    help="Folder for PREFIX.h and PREFIX.c (required; not a results folder of another "
+    "mwip command).",
 )
 @click.option(
     "--verify",
@@ -134,6 +135,12 @@ def export_c(
         raise click.BadParameter(str(exc), param_hint="--controller") from None
     if out.exists() and not out.is_dir():
         raise click.BadParameter(f"{str(out)!r} exists and is not a folder", param_hint="--out")
+    from mwip.outdir import owner
+
+    held = owner(out) if out.is_dir() else None
+    if held is not None:  # another command's results folder (mwip.outdir)
+        raise click.BadParameter(f"{str(out)!r} holds the results of `mwip {held}`; give "
+                                 "another folder for the C files", param_hint="--out")  # fmt: skip
     for fname, text in code.files().items():
         write_text_atomic(out / fname, text)
     click.echo(f"wrote {out / (prefix + '.h')}, {out / (prefix + '.c')} "

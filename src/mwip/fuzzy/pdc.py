@@ -188,6 +188,10 @@ def design_pdc(
     cached = _cached_design(key, models, epsilon, rho, margin, solver, decay)
     if cached is not None:
         return cached
+    from mwip.notice import once
+
+    once("pdc", "solving the IT2 PDC LMI design with cvxpy (Theorem 5.1; once per design: "
+         "the result is cached, seconds to a minute)")  # fmt: skip
     import cvxpy as cp
 
     n = ts.A.shape[-1]

@@ -20,8 +20,11 @@ Reward per step, in (0, 1] so that staying up always pays more than falling::
 
 (1 upright and on target; 0.37 at theta = 0.2 rad). An episode *terminates* when the
 robot falls (``|theta| >= pi/2``, SPEC.md section 2) or the state is not finite, with the
-reward :data:`FALL_PENALTY` (the discounted value, at gamma = 0.99, of the steps it loses),
-and is *truncated* after ``episode_seconds``.
+reward :data:`FALL_PENALTY` (the discounted value, at gamma = 0.99, of the steps it loses).
+:class:`MwipEnv` never truncates: the time limit is Gymnasium's ``TimeLimit`` wrapper, which
+``gymnasium.make("mwip/Balance-v0")`` adds with the registered ``max_episode_steps`` (2000
+steps, 10 s; ``max_episode_steps=N`` to change it). The vectorised env, which Gymnasium does
+not wrap, truncates after ``max_episode_steps`` (or ``episode_seconds``) itself.
 
 Parameters, disturbances and sampling can come from a scenario TOML (:mod:`mwip.scenario`):
 its ``[plant]``, ``[disturbance]``, ``Ts`` and ``dt``.
@@ -67,6 +70,7 @@ class EnvConfig:
         Ts: float = 0.005,
         dt: float | None = None,
         episode_seconds: float = 10.0,
+        max_episode_steps: int | None = None,
         max_torque: float = WHEEL_TORQUE_LIMIT,
         init_theta: float = 0.2,
         v_ref_range: float = 1.0,
@@ -101,7 +105,14 @@ class EnvConfig:
                 raise ValueError(f"{name} must be in [0, {hi:g}], got {val!r}")
         self.task: Literal["balance", "track"] = task  # type: ignore[assignment]
         self.plant, self.Ts, self.dt, self.n_sub = plant, float(Ts), float(dt), n_sub
-        self.max_steps = max(int(round(episode_seconds / Ts)), 1)
+        if max_episode_steps is not None and (
+            isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, int)
+            or not 1 <= max_episode_steps <= 10**9
+        ):  # fmt: skip
+            raise ValueError(f"max_episode_steps must be an integer in [1, 1e9], "
+                             f"got {max_episode_steps!r}")  # fmt: skip
+        self.max_steps = (max(int(round(episode_seconds / Ts)), 1) if max_episode_steps is None
+                          else max_episode_steps)  # fmt: skip
         self.max_torque, self.init_theta = float(max_torque), float(init_theta)
         self.v_ref_range, self.yaw_rate_ref_range = float(v_ref_range), float(yaw_rate_ref_range)
         self.disturbance = disturbance
@@ -188,6 +199,13 @@ class MwipEnv(gymnasium.Env[NDArray[np.float32], NDArray[np.float32]]):
     def __init__(
         self, *, sensor: Sensor | None = None, render_mode: str | None = None, **config: Any
     ) -> None:
+        for key in ("episode_seconds", "max_episode_steps"):
+            if key in config:
+                raise TypeError(
+                    f"MwipEnv does not end episodes by time ({key}): gymnasium.make("
+                    "'mwip/Balance-v0', max_episode_steps=N) adds Gymnasium's TimeLimit "
+                    "(default 2000 steps, 10 s), or wrap it in gymnasium.wrappers.TimeLimit"
+                )
         self.cfg = EnvConfig(**config)
         self.observation_space, self.action_space = self.cfg.spaces()  # type: ignore[assignment]
         self.metadata = {**self.metadata, "render_fps": int(round(1.0 / self.cfg.Ts / 10))}
@@ -247,7 +265,7 @@ class MwipEnv(gymnasium.Env[NDArray[np.float32], NDArray[np.float32]]):
             obs = np.nan_to_num(obs, nan=0.0, posinf=0.0, neginf=0.0)
         else:
             obs = self._obs()
-        truncated = self._k >= self.cfg.max_steps and not terminated
+        truncated = False  # the time limit is Gymnasium's TimeLimit (module docstring)
         info = {"state": self._y[0].copy(), "status": ("ok", "fell", "diverged")[int(status[0])]}
         return obs, rew, terminated, truncated, info
 

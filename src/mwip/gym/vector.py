@@ -1,12 +1,15 @@
 """The vectorised MWIP environment: N robots in one batch of the compiled engine.
 
-``gymnasium.make_vec("MwipBalance-v0", num_envs=N, vectorization_mode="vector_entry_point")``
+``gymnasium.make_vec("mwip/Balance-v0", num_envs=N, vectorization_mode="vector_entry_point")``
 (or :class:`MwipVectorEnv` directly) steps N robots with one call of the plant kernel per
 sample, the same code path as a Monte Carlo batch of :func:`mwip.sim.simulate`. Each robot may
 have its own parameters (``plant`` with array fields of shape (N,), e.g. varied +-20 %).
-Observations, rewards and episode ends are those of :class:`mwip.gym.env.MwipEnv`; robots whose
-episode ended are reset on the next call of :meth:`step` (Gymnasium's "next step" autoreset:
-that step's action is ignored for them and they return their new first observation).
+Observations, rewards and episode ends are those of :class:`mwip.gym.env.MwipEnv`, and an
+episode is truncated after ``max_episode_steps`` (``make_vec`` passes the registered 2000;
+directly: ``episode_seconds``, default 10 s): Gymnasium wraps no vector env in a time limit.
+Robots whose episode ended are reset on the next call of :meth:`step` (Gymnasium's "next
+step" autoreset: that step's action is ignored for them and they return their new first
+observation).
 
 Measurements are ideal, optionally with additive white Gaussian noise of standard deviation
 ``obs_noise`` (7,) on the observation (a per-robot sensor with memory, like the twin's IMU

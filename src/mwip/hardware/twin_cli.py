@@ -131,7 +131,7 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
     from mwip.identify.logs import read_log
     from mwip.identify.report import write_outputs
 
-    target = outdir.check(out, force)
+    target = outdir.check(out, force, command="twin fit")
     base = load_twin_option(twin_file)
     fixed: dict[str, float] = {}
     for item in fix:
@@ -157,7 +157,7 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
         at_prior = predict_error(held, prior, known, segment)
         result.validation = {"log": str(validate), "sha256": held.sha256,
                              "fitted": fitted, "prior_centre": at_prior}  # fmt: skip
-    outdir.claim(target)
+    outdir.claim(target, "twin fit")
     files = write_outputs(target, result, read, base)
     click.echo(f"wrote {', '.join(str(f) for f in files)}")
     for flag in result.flags:
@@ -171,8 +171,8 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
     from mwip import outdir
     from mwip.calibration.book import calibrate_book
 
-    target = outdir.check(out, force)
-    outdir.claim(target)
+    target = outdir.check(out, force, command="twin fit")
+    outdir.claim(target, "twin fit")
     res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration,
                          proposal_draws=stage2, note=lambda line: click.echo(line, err=True))
     # fmt: skip

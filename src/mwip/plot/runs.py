@@ -65,6 +65,9 @@ class Run:
     reference: float | None
     source: Path
     study: str | None = None
+    #: the drive's wheel-torque limit (N m) of the robot the run stands for; ``None``: the
+    #: default twin's (:func:`mwip.plot.run_figure.torque_limit`)
+    torque_limit: float | None = None
 
     @property
     def status(self) -> str:

@@ -14,12 +14,19 @@ __all__ = ["write_simulate_extras"]
 
 
 def write_simulate_extras(
-    res: SimResult, plant: Params, out: Path, *, plot: bool, reference: float | None = 0.0
+    res: SimResult,
+    plant: Params,
+    out: Path,
+    *,
+    plot: bool,
+    reference: float | None = 0.0,
+    torque_limit: float | None = None,
 ) -> list[Path]:
     """Write ``out/plant.toml`` and, if ``plot``, ``out/run.png``; returns the paths written.
 
     ``reference`` is the wheel-speed reference psi'_d (rad/s) drawn in the figure: the LQR of
-    ``simulate`` regulates the state to zero, so psi'_d = 0.
+    ``simulate`` regulates the state to zero, so psi'_d = 0. ``torque_limit``: the drive's
+    wheel-torque limit (N m) flagged in the figure (default: the default twin's).
     """
     save_params(plant, out / "plant.toml")
     written = [out / "plant.toml"]
@@ -28,6 +35,6 @@ def write_simulate_extras(
 
         run = Run(name="simulate", result=res.plant(0) if not res.batched else res,
                   params=plant, payload=False, reference=reference,
-                  source=out / "timeseries.npz")  # fmt: skip
+                  source=out / "timeseries.npz", torque_limit=torque_limit)  # fmt: skip
         written.append(write_run_figure(run, out / "run.png", title="mwip simulate"))
     return written

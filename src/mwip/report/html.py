@@ -411,7 +411,8 @@ def _study_section(res: StudyResult, compare: Comparison | None, note: Note = _n
     hb = sum(bool(c.get("holds")) for c in book)
     extra = [c for c in res.claims if not is_book(c)]
     he = sum(bool(c.get("holds")) for c in extra)
-    parts.append(f"<h2>{_e(res.name)}: {_e(title)}</h2>")
+    on = f" (on {res.robot})" if res.robot else ""  # not the book's robot (run.json)
+    parts.append(f"<h2>{_e(res.name)}: {_e(title)}{_e(on)}</h2>")
     parts.append(
         f'<p class="muted">Book source: {_e(src)} &middot; book claims reproducing: {hb}/'
         f"{len(book)} &middot; extras of ours holding: {he}/{len(extra)}"

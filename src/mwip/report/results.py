@@ -41,6 +41,9 @@ class StudyResult:
     wall_s: float | None = None
     info: dict[str, str] = field(default_factory=dict)
     settings: dict[str, Any] = field(default_factory=dict)
+    #: what the study ran on besides the book's robot (run.json ``robot``), e.g.
+    #: ``"robot examples/my_robot.toml"``; ``None``: the book's robot and the default twin
+    robot: str | None = None
 
     @property
     def claims(self) -> list[dict[str, Any]]:
@@ -142,6 +145,7 @@ def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]
             StudyResult(name=name, folder=folder, doc=doc, figures=figures, error=error,
                         wall_s=rec.get("wall_s"), info=study_texts(name),
                         settings=dict(rec.get("settings") or {}) if isinstance(
-                            rec.get("settings"), dict) else {})
+                            rec.get("settings"), dict) else {},
+                        robot=str(rec["robot"]) if rec.get("robot") else None)
         )  # fmt: skip
     return results

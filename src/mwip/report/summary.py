@@ -114,6 +114,8 @@ def summary_lines(
         mark = "[ok]" if hb == len(book) else "[no]"
         counted = f"book claims {hb}/{len(book)}" if book else "no book claim"
         head = f"{mark} {res.name} ({src}): {counted}, extras {he}/{len(extra)}; runs {runs or '-'}"
+        if res.robot:
+            head += f"; on {res.robot}"
         if res.error:
             head += f"; FAILED this time ({res.error}), earlier results shown"
         lines.append(_clip(head, width))

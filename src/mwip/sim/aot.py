@@ -150,28 +150,47 @@ def build(force: bool = False) -> Path:
     with _lock(target.parent / f"{_name(k)}.lock"):
         if target.is_file() and not force:
             return target
-        with warnings.catch_warnings():
-            # numba.pycc is "pending deprecation" in Numba (docs/engine.md): it is used here
-            # only, and a failed build falls back to the JIT loop (run_function)
-            warnings.simplefilter("ignore")
-            from numba.pycc import CC
+        _import_pycc()
+        from numba.pycc import CC
 
-            from mwip.sim import loop
+        from mwip.sim import loop
 
-            with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
-                cc = CC(_name(k))
-                cc.output_dir = tmp
-                cc.export("run", RUN_SIGNATURE)(loop.run.py_func)
-                try:
-                    with open(os.devnull, "w") as null, contextlib.redirect_stdout(null):
-                        cc.compile()
-                except Exception as exc:  # noqa: BLE001 - the toolchain's many failure types
-                    raise RuntimeError(f"ahead-of-time build failed: {exc}") from exc
-                built = Path(tmp) / target.name
-                if not built.is_file():
-                    raise RuntimeError(f"ahead-of-time build wrote no {target.name}")
-                os.replace(built, target)
+        with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
+            cc = CC(_name(k))
+            cc.output_dir = tmp
+            cc.export("run", RUN_SIGNATURE)(loop.run.py_func)
+            try:
+                with (open(os.devnull, "w") as null, contextlib.redirect_stdout(null),
+                      warnings.catch_warnings()):  # fmt: skip
+                    warnings.simplefilter("ignore")  # the toolchain's chatter (not pycc's news)
+                    cc.compile()
+            except Exception as exc:  # noqa: BLE001 - the toolchain's many failure types
+                raise RuntimeError(f"ahead-of-time build failed: {exc}") from exc
+            built = Path(tmp) / target.name
+            if not built.is_file():
+                raise RuntimeError(f"ahead-of-time build wrote no {target.name}")
+            os.replace(built, target)
     return target
+
+
+def _import_pycc() -> None:
+    """Import :mod:`numba.pycc` and say once, on stderr (:mod:`mwip.notice`), that Numba marks
+    it pending deprecation: Python's default filters hide a ``PendingDeprecationWarning``, and
+    the user should know what the ahead-of-time build stands on (pyproject.toml bounds Numba
+    to the versions tested; without pycc the JIT loop runs)."""
+    from mwip.notice import once
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", PendingDeprecationWarning)
+        import numba.pycc  # noqa: F401
+    for w in caught:
+        if issubclass(w.category, PendingDeprecationWarning) and "pycc" in str(w.message):
+            (numba_version,) = versions(["numba"])
+            text = str(w.message).splitlines()[0]
+            once("pycc", f"Numba {numba_version}: {text} mwip builds its ahead-of-time loop "
+                 "with numba.pycc (pyproject.toml bounds Numba to the versions tested); "
+                 "should it go, the JIT loop runs instead (MWIP_AOT=off)")  # fmt: skip
+            break
 
 
 def run_function() -> Callable[..., int] | None:
@@ -183,6 +202,13 @@ def run_function() -> Callable[..., int] | None:
         return None
     mod = load()
     if mod is None and mode == "on" and LAST_ERROR is None:
+        from mwip.notice import once
+
+        once(
+            "aot",
+            f"building the compiled simulation loop into {module_path().parent} (first use "
+            "after installing or changing mwip; it happens once, ~10 s or more)",
+        )
         try:
             build()
         except (RuntimeError, OSError, ImportError) as exc:

@@ -490,6 +490,7 @@ def _run_compiled(
             old = numba.set_parallel_chunksize(max(1, n // (16 * numba.get_num_threads())))
         else:
             fn = loop.run
+        _compile_notice(fn, "the threaded batch loop" if n >= PARALLEL_MIN else "the loop")
     try:
         _call(fn, law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, states, us,
               log_arr, status, t_end)  # fmt: skip
@@ -500,6 +501,22 @@ def _run_compiled(
     for name, w in law.log_names:
         logs[name] = log_arr[:, :, col : col + w]
         col += w
+
+
+def _compile_notice(fn: Any, what: str) -> None:
+    """Say so before Numba compiles ``fn`` (a :mod:`mwip.sim.loop` dispatcher): not compiled in
+    this process and no entry in Numba's on-disk cache (:mod:`mwip.jit_cache`) -- the first
+    run after installing or editing mwip (:mod:`mwip.notice`)."""
+    from mwip.notice import once
+
+    try:
+        if fn.signatures or fn._cache._cache_file._load_index():
+            return
+    except Exception:  # noqa: BLE001 - Numba internals: when unsure, say nothing
+        return
+    once(f"jit:{fn.__name__}", f"compiling {what} of the simulation with Numba (first use "
+         "after installing or changing mwip; it happens once and is cached, minutes on a "
+         "slow machine)")  # fmt: skip
 
 
 def _call(fn, law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, states, us,  # noqa: ANN001, ANN202, PLR0913

@@ -33,7 +33,7 @@ import scipy
 from mwip.hardware.twin import Twin
 from mwip.hardware.twin_config import twin_to_toml
 from mwip.io import write_json_atomic, write_text_atomic
-from mwip.outdir import MARKER, MARKER_TEXT
+from mwip.outdir import MARKER, marker_text, owner
 from mwip.params import Params
 from mwip.report.html import write_report
 from mwip.report.posters import draw_poster
@@ -42,7 +42,7 @@ from mwip.report.staging import Staging, signals_held
 from mwip.sim.engine import RUN_END_HOOKS
 from mwip.studies import registry, settings
 
-__all__ = ["StudyOutcome", "run_studies"]
+__all__ = ["StudyOutcome", "expected_runs", "run_studies"]
 
 #: (name, metrics document or None, error or None, wall time in s)
 StudyOutcome = tuple[str, dict[str, Any] | None, str | None, float]
@@ -127,6 +127,47 @@ def _drain(q: Any, on_run: Callable[[str], None] | None) -> None:
             on_run(study)
 
 
+def _counts_file() -> Path:
+    """Where the studies' run counts are kept (:func:`expected_runs`)."""
+    from mwip.cache import cache_dir
+
+    return cache_dir() / "study-runs.json"
+
+
+def expected_runs(names: list[str], quick: bool) -> dict[str, int | None]:
+    """How many simulation runs each study of ``names`` made the last time it ran on this
+    machine in this mode (``quick`` or not): the total of its progress display. ``None``
+    where it has not run yet (the count is kept in :func:`mwip.cache.cache_dir`, derived data
+    like the rest of that folder; a study's run count does not depend on the robot)."""
+    import json
+
+    try:
+        known = json.loads(_counts_file().read_text())
+    except (OSError, ValueError):
+        known = {}
+    out: dict[str, int | None] = {}
+    for name in names:
+        n = known.get(f"{name}|{'quick' if quick else 'full'}") if isinstance(known, dict) else None
+        out[name] = n if isinstance(n, int) and n > 0 else None
+    return out
+
+
+def _remember_runs(counts: dict[str, int], quick: bool) -> None:
+    """Keep ``counts`` (study -> runs made) for :func:`expected_runs`; never fails a run."""
+    import json
+
+    path = _counts_file()
+    try:
+        known = json.loads(path.read_text()) if path.is_file() else {}
+        known = known if isinstance(known, dict) else {}
+        mode = "quick" if quick else "full"
+        known.update({f"{n}|{mode}": c for n, c in counts.items() if c > 0})
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(path, dict(sorted(known.items())))
+    except (OSError, ValueError):
+        pass
+
+
 def _environment() -> dict[str, Any]:
     return {
         "mwip_version": version("mwip"),
@@ -151,6 +192,8 @@ def run_studies(
     on_run: Callable[[str], None] | None = None,
     damping: str = "units",
     twin: Twin | None = None,
+    command: str | None = None,
+    robot: dict[str, str] | None = None,
 ) -> dict[str, Any]:
     """Run ``names`` into ``out``; returns the run record (also written to ``out/run.json``).
 
@@ -160,7 +203,12 @@ def run_studies(
     the book's tables the robot was built with (recorded in ``run.json``). ``twin``: the
     Chapter 6 studies' twin configuration (default: the default twin; recorded in ``run.json``
     as its twin file). ``on_done`` is called as each study ends, ``on_run(study)`` as each of
-    its simulation runs ends (for a progress display).
+    its simulation runs ends (for a progress display; :func:`expected_runs` gives the totals).
+    Each study's number of runs is recorded in ``run.json`` (``runs``), and ``robot[name]``,
+    when given, says what study ``name`` ran on other than the book's robot (e.g.
+    ``"--params my_robot.toml"``; the report's section title shows it). ``command`` names the
+    command that owns ``out`` in its marker (:mod:`mwip.outdir`; a folder already owned keeps
+    its owner).
     """
     order = registry.names()
     for name in names:
@@ -171,6 +219,12 @@ def run_studies(
     started = datetime.now(UTC).isoformat(timespec="seconds")
     t0 = time.perf_counter()
     outcomes: dict[str, StudyOutcome] = {}
+    counts = dict.fromkeys(names, 0)
+
+    def one_run(study: str) -> None:
+        counts[study] = counts.get(study, 0) + 1
+        if on_run is not None:
+            on_run(study)
 
     def done(outcome: StudyOutcome) -> None:
         outcomes[outcome[0]] = outcome
@@ -181,7 +235,7 @@ def run_studies(
         assert stage.path is not None
         if jobs <= 1 or len(names) == 1:
             for name in names:
-                hook = _counting_hook(name, on_run)
+                hook = _counting_hook(name, one_run)
                 try:
                     done(_run_one(name, stage.path, quick, plant, nominal, overrides.get(name),
                                   twin))  # fmt: skip
@@ -202,10 +256,10 @@ def run_studies(
                 }
                 while pending:
                     finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
-                    _drain(queue, on_run)
+                    _drain(queue, one_run)
                     for fut in finished:
                         done(fut.result())
-                _drain(queue, on_run)
+                _drain(queue, one_run)
             except BaseException:
                 _stop_pool(pool)
                 raise
@@ -215,8 +269,10 @@ def run_studies(
             studies = dict(record.get("studies", {}))
             for name in names:
                 _, doc, error, wall = outcomes[name]
-                studies[name] = {"wall_s": round(wall, 3), "error": error,
+                studies[name] = {"wall_s": round(wall, 3), "error": error, "runs": counts[name],
                                  "settings": settings_of(name, overrides.get(name))}  # fmt: skip
+                if (robot or {}).get(name):
+                    studies[name]["robot"] = robot[name]  # type: ignore[index]
             record.update(_environment())
             record.update({
                 "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
@@ -226,7 +282,8 @@ def run_studies(
                 "twin_status": twin_status(twin),
             })  # fmt: skip
             write_json_atomic(stage.path / RUN_RECORD, record)
-            write_text_atomic(stage.path / MARKER, MARKER_TEXT)
+            _remember_runs({n: counts[n] for n in names if outcomes[n][1] is not None}, quick)
+            write_text_atomic(stage.path / MARKER, marker_text(owner(out) or command))
             ok = [n for n in names if outcomes[n][1] is not None]
             _stage_report(stage.path, out, ok)
             # the old report goes first, the new one last, after the run record it was made
