@@ -75,3 +75,11 @@ def test_the_report_headline_states_the_twins_status(tmp_path) -> None:
     assert text.startswith(f"Chapter 6, judged across the identified twins: {c['holds']} ")
     assert f"{c['fails']} fail, {c['undecided']} undecided" in text
     assert twin_headline({}) == ""
+
+
+def test_the_drive_limit_reported_by_simulate_is_the_default_twins() -> None:
+    from mwip.hardware.identified import wheel_torque_limit
+
+    tw = default_twin()
+    assert wheel_torque_limit() == pytest.approx(tw.drive.wheel_torque_limit(tw.motor),
+                                                 rel=1e-12)  # fmt: skip

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from mwip.cli import main
+from mwip.hardware.identified import default_twin, wheel_torque_limit
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +53,9 @@ def test_panels_at_physical_size_and_none_empty(run):
 def test_torque_beyond_the_limit_is_flagged_in_the_figure(run):
     from mwip.plot.run_figure import run_figure, torque_limit
 
-    assert torque_limit(run) == pytest.approx(23 * 0.75 * 4.0 * 0.0239, rel=0.05)  # N eta k_t I
+    v = default_twin().values()  # the identified twin's drive: N eta k_t I_max
+    n_eta_kt_i = v["drive.gear_ratio"] * 0.75 * 0.0239 * v["drive.current_limit"]
+    assert torque_limit(run) == pytest.approx(n_eta_kt_i, rel=0.05)
     peak = float(np.max(np.abs(run.result.u)))
     fig = run_figure(dataclasses.replace(run, torque_limit=peak / 10))
     torque = _panels(fig)["wheel torque (N m)"]
@@ -67,9 +70,10 @@ def test_torque_beyond_the_limit_is_flagged_in_the_summary(tmp_path, capsys):
     args = ["simulate", "--mode", "continuous", "--theta0", "0.1745", "--duration", "0.3"]
     assert main([*args, "--out", str(tmp_path / "o"), "--plot"]) == 0
     out = capsys.readouterr().out
-    assert "x the drive's limit of 1.65 N m per wheel" in out
+    limit = wheel_torque_limit()  # the identified default twin's (0.72 N m)
+    assert f"x the drive's limit of {limit:.3g} N m per wheel" in out
     doc = json.loads((tmp_path / "o" / "summary.json").read_text())
-    assert doc["over_torque_limit"] is True and doc["torque_limit"] == pytest.approx(1.654, 1e-3)
+    assert doc["over_torque_limit"] is True and doc["torque_limit"] == pytest.approx(limit)
     assert doc["max_abs_u"] > 10 * doc["torque_limit"]
     assert main(["simulate", "--theta0", "0.05", "--duration", "0.3", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)

@@ -358,10 +358,10 @@ def simulate(
         dt=res.settings["dt"],
         design="continuous" if mode == "continuous" else f"sampled Ts={Ts:g}",
     )
-    from mwip.hardware.motor import RE25, DriveSpec  # the drive's limit (not the whole twin)
+    from mwip.hardware.identified import wheel_torque_limit  # the drive's, not the twin
 
     tw = sc.twin_config
-    limit = float(DriveSpec().wheel_torque_limit(RE25) if tw is None
+    limit = float(wheel_torque_limit() if tw is None
                   else tw.drive.wheel_torque_limit(tw.motor))  # fmt: skip
     peak = float(summary.get("max_abs_u") or 0.0)
     over = math.isfinite(peak) and peak > limit

@@ -95,3 +95,16 @@ def status(twin: Any = None) -> dict[str, Any]:
             "used": p.get("used", []), "dropped": p.get("dropped", []),
             "conflicts": p.get("conflicts", []), "standing": stand,
             "claim_counts": counts, "claims": claims}  # fmt: skip
+
+
+def wheel_torque_limit() -> float:
+    """The default twin's largest wheel torque (N m per wheel,
+    :meth:`~mwip.hardware.motor.DriveSpec.wheel_torque_limit`), from ``book-twin.json`` alone
+    (no twin file is parsed: ``mwip simulate`` reports it for every run and stays fast; a test
+    checks it against :func:`default_twin`)."""
+    from mwip.hardware.motor import RE25, DriveSpec
+
+    v = _posterior().get("map_values", {})
+    drive = DriveSpec(gear_ratio=float(v.get("drive.gear_ratio", 23.0)),
+                      current_limit=float(v.get("drive.current_limit", 4.0)))  # fmt: skip
+    return drive.wheel_torque_limit(RE25)

@@ -51,13 +51,13 @@ MIN_SPAN = {"rad": 0.02, "rad/s": 0.1, "N m": 0.1, "rad/s^2": 0.1, "m": 0.1}
 
 def torque_limit(run: Run) -> float:
     """The largest wheel torque the robot's drive gives (N m per wheel): ``run.torque_limit``
-    when set (the run's twin), else the default twin's (RE25 at its 4 A current limit through
-    the 23:1 gear, :meth:`mwip.hardware.motor.DriveSpec.wheel_torque_limit`)."""
+    when set (the run's twin), else the identified default twin's
+    (:func:`mwip.hardware.identified.wheel_torque_limit`)."""
     if run.torque_limit is not None:
         return float(run.torque_limit)
-    from mwip.hardware.motor import DriveSpec
+    from mwip.hardware.identified import wheel_torque_limit
 
-    return float(DriveSpec().wheel_torque_limit())
+    return float(wheel_torque_limit())
 
 
 def _min_span(ax: Axes, unit: str, *series: Any, axis: str = "y") -> None:
