@@ -120,9 +120,8 @@ def run_block(campaign: Campaign, block: int) -> Any:
 
     studies = claim_studies(campaign)
     rows: list[dict[str, Any]] = []
-    for i in range(block * campaign.block, (block + 1) * campaign.block):
-        if not studies:
-            break
+    units = campaign.samples * len(studies)  # the last block is cut at what was asked
+    for i in range(block * campaign.block, min((block + 1) * campaign.block, units)):
         study, sample = studies[i % len(studies)], i // len(studies)
         drawn = draw_settings(study, sample_rng(campaign.seed, i))
         doc, error = None, None

@@ -56,10 +56,10 @@ class RunSummary:
     wall_s: float
 
 
-def n_blocks(campaign: Campaign) -> int:
-    """Blocks needed to cover the campaign's N samples (claims: N per study with open
-    settings, interleaved; see :mod:`mwip.campaign.claims`)."""
-    units = campaign.samples
+def n_units(campaign: Campaign) -> int:
+    """The campaign's units of work: its N samples (claims: N per study with open settings,
+    interleaved; see :mod:`mwip.campaign.claims`)."""
+    units = int(campaign.samples)
     if campaign.kind == "claims":
         from mwip.campaign.claims import claim_studies
 
@@ -67,7 +67,12 @@ def n_blocks(campaign: Campaign) -> int:
         if not studies:
             raise ValueError("campaign.studies: none of them declares open settings ([open])")
         units *= len(studies)
-    return math.ceil(units / campaign.block)
+    return units
+
+
+def n_blocks(campaign: Campaign) -> int:
+    """Blocks needed to cover :func:`n_units` (the last one cut at it)."""
+    return math.ceil(n_units(campaign) / campaign.block)
 
 
 def _chunk_name(first: int, last: int) -> str:
@@ -244,15 +249,20 @@ def run_campaign(
         else max(1, math.ceil(len(todo) / (_CHUNKS_PER_WORKER * workers)))
     )
     chunks = _chunks(todo, per)
-    samples_total = total * campaign.block
-    samples_done = [len(done & set(range(total))) * campaign.block]
+    units = n_units(campaign)
+
+    def size(b: int) -> int:  # units in block b (the last one cut at what was asked)
+        return max(0, min((b + 1) * campaign.block, units) - b * campaign.block)
+
+    samples_total = sum(size(b) for b in range(total))
+    samples_done = [sum(size(b) for b in done & set(range(total)))]
     dask = _connect(workers, scheduler) if chunks and (scheduler or workers > 1) else None
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "campaign.json", _record(campaign))
 
     def finished(blocks: list[int], df: Any) -> None:
         _write_chunk(out, blocks, df)
-        samples_done[0] += len(blocks) * campaign.block
+        samples_done[0] += sum(size(b) for b in blocks)
         if progress is not None:
             progress(samples_done[0], samples_total, time.perf_counter() - t0)
 
