@@ -854,6 +854,10 @@ def _execute(
                           damping=damping, compare=cmp)  # fmt: skip
     for line in lines if summary else [f"{out.name}: {lines[0]}"]:
         click.echo(line, err=not summary)
+    from mwip.report.html import twin_headline
+
+    if summary and (twin_line := twin_headline(record)):
+        click.echo(twin_line)
     click.echo(f"{len(names) - len(failed)}/{len(names)} studies done in "
                f"{record['wall_s']:.1f} s; report: {out / 'index.html'}",
                err=not summary)  # fmt: skip
@@ -1121,6 +1125,10 @@ def report(out: Path, compare: Path | None, claims_campaign: Path | None, verbos
                               damping=load_run_record(out).get("damping"),
                               compare=cmp):  # fmt: skip
         click.echo(line)
+    from mwip.report.html import twin_headline
+
+    if twin_line := twin_headline(load_run_record(out)):
+        click.echo(twin_line)
     click.echo(f"report: {path}")
     bad = [r.error for r in results if r.doc is None and r.error and "metrics.json" in r.error]
     for message in bad:
