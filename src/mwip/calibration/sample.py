@@ -39,8 +39,8 @@ def run_block(campaign: Any, block: int) -> Any:
 
     from mwip.calibration.runs import run_batch
 
-    idx = list(range(block * campaign.block,
-                     min((block + 1) * campaign.block, campaign.samples)))  # only what was asked
+    # only what was asked: each twin's runs are independent of its batch (common noise)
+    idx = list(range(block * campaign.block, min((block + 1) * campaign.block, campaign.samples)))
     values = draw(campaign.seed, idx)
     cap = campaign.duration if campaign.duration > 0 else None
     cols = run_batch(values, duration=cap)

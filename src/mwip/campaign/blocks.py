@@ -31,11 +31,8 @@ __all__ = ["build_controllers", "run_block", "block_samples"]
 
 
 def block_samples(campaign: Campaign, block: int) -> NDArray[np.int64]:
-    """The sample indices of ``block``: ``block * B`` up to ``(block + 1) * B``, the last
-    block cut at the campaign's ``samples`` (a sample's draw depends on its index alone, so
-    the cut changes no row; only what was asked is run)."""
-    hi = min((block + 1) * campaign.block, max(int(campaign.samples), block * campaign.block))
-    return np.arange(block * campaign.block, hi, dtype=np.int64)
+    """The sample indices of ``block`` (whole blocks; rows >= N are dropped later)."""
+    return np.arange(block * campaign.block, (block + 1) * campaign.block, dtype=np.int64)
 
 
 def build_controllers(campaign: Campaign) -> dict[str, Controller]:

@@ -120,7 +120,7 @@ def run_block(campaign: Campaign, block: int) -> Any:
 
     studies = claim_studies(campaign)
     rows: list[dict[str, Any]] = []
-    units = campaign.samples * len(studies)  # the last block is cut at what was asked
+    units = campaign.samples * len(studies)  # each unit one study run: only what was asked
     for i in range(block * campaign.block, min((block + 1) * campaign.block, units)):
         study, sample = studies[i % len(studies)], i // len(studies)
         drawn = draw_settings(study, sample_rng(campaign.seed, i))

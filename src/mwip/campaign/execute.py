@@ -251,7 +251,8 @@ def run_campaign(
     chunks = _chunks(todo, per)
     units = n_units(campaign)
 
-    def size(b: int) -> int:  # units in block b (the last one cut at what was asked)
+    def size(b: int) -> int:  # units asked in block b (the last block is run whole, and the
+        # rows beyond what was asked are dropped: a block's noise depends on its size)
         return max(0, min((b + 1) * campaign.block, units) - b * campaign.block)
 
     samples_total = sum(size(b) for b in range(total))
