@@ -311,11 +311,15 @@ def _run_dask(
 
     futures: list[Any] = []
     try:
-        camp = client.scatter(campaign, broadcast=True)
+        # the campaign travels inside each task (a few kB), not as scattered data: a scattered
+        # value is a dependency with a content-hashed key, and the next run on the same
+        # scheduler scatters the same key while the previous client's release of it is still
+        # in flight (or a worker holding it is removed under load): its tasks then fail with
+        # "lost dependencies". A task without dependencies is simply rerun elsewhere.
         where = {}
         for blocks in chunks:
             key = f"mwip-campaign-{blocks[0]}-{uuid.uuid4().hex}"
-            fut = client.submit(compute_chunk, camp, blocks, pure=False, key=key)
+            fut = client.submit(compute_chunk, campaign, blocks, pure=False, key=key)
             where[fut.key] = blocks
             futures.append(fut)
         for fut in as_completed(futures):
