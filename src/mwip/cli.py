@@ -337,7 +337,8 @@ def simulate(
         sc = sc.with_overrides(initial=initial, **changes)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
-    cost = estimate(sc.duration, sc.Ts, sc.dt if sc.dt is not None else min(sc.Ts, DEFAULT_DT))
+    cost = estimate(sc.duration, sc.Ts, sc.dt if sc.dt is not None else min(sc.Ts, DEFAULT_DT),
+                    mode=sc.mode)  # fmt: skip
     budget.check(cost, "this simulation")
     long = cost.seconds() > 5.0
     if long:

@@ -67,7 +67,19 @@ def n_blocks(campaign: Campaign) -> int:
         if not studies:
             raise ValueError("campaign.studies: none of them declares open settings ([open])")
         units *= len(studies)
-    return math.ceil(units / campaign.block)
+    from mwip.campaign.spec import MAX_BLOCKS
+
+    blocks = math.ceil(units / campaign.block)
+    if blocks > MAX_BLOCKS:
+        raise ValueError(f"campaign.samples: {blocks} blocks of campaign.block = "
+                         f"{campaign.block} samples; at most {MAX_BLOCKS} (fewer samples or "
+                         "larger blocks)")  # fmt: skip
+    return blocks
+
+
+def max_jobs() -> int:
+    """The most worker processes a local run starts: 4 per CPU."""
+    return 4 * (os.cpu_count() or 1)
 
 
 def _chunk_name(first: int, last: int) -> str:
@@ -223,8 +235,9 @@ def run_campaign(
     ``status="interrupted"``; the next run continues.
     """
     t0 = time.perf_counter()
-    if jobs is not None and jobs < 1:
-        raise ValueError(f"--jobs must be an integer >= 1, got {jobs!r}")
+    if jobs is not None and not 1 <= jobs <= max_jobs():
+        raise ValueError(f"--jobs must be an integer in [1, {max_jobs()}] (4 per CPU), "
+                         f"got {jobs!r}")  # fmt: skip
     if chunk is not None and chunk < 1:
         raise ValueError(f"--chunk must be an integer >= 1, got {chunk!r}")
     out = Path(out)

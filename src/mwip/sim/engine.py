@@ -303,7 +303,7 @@ def simulate(
     q0, qdot0, pos0 = (finite_array(k, v) for k, v in (("q0", q0), ("qdot0", qdot0),
                                                          ("pos0", pos0)))  # fmt: skip
     n, batched = _batch_size(plant, [q0, qdot0, pos0])
-    budget.check(estimate(duration, Ts, dt, n, record_every), "simulate")
+    budget.check(estimate(duration, Ts, dt, n, record_every, mode), "simulate")
     n_samples = max(int(round(duration / Ts)), 1)
     duration = n_samples * Ts
 
