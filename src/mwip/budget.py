@@ -107,9 +107,13 @@ DEFAULT = Budget()
 def estimate(duration: float, Ts: float, dt: float, n: int = 1, record_every: int = 1,
              mode: str = "sampled") -> Cost:  # fmt: skip
     """The :class:`Cost` of ``n`` plants over ``duration`` (see the module docstring)."""
-    samples = max(round(duration / Ts), 1)
-    n_sub = max(round(Ts / dt), 1)
-    rows = math.ceil(samples / max(record_every, 1)) + 1
+
+    def whole(x: float) -> float:  # round(), but inf for a ratio that overflows (Ts = 1e-320)
+        return float(max(round(x), 1)) if math.isfinite(x) else math.inf
+
+    samples = whole(duration / Ts)
+    n_sub = whole(Ts / dt)
+    rows = whole(samples / max(record_every, 1)) + 1
     weight = STEPS_PER_S / STEPS_PER_S_CONTINUOUS if mode == "continuous" else 1.0
     return Cost(steps=float(n) * samples * n_sub, samples=float(samples),
                 bytes=float(n) * rows * ROW_BYTES, weight=weight)  # fmt: skip

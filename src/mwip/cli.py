@@ -373,11 +373,11 @@ def simulate(
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:
-        st = summary["settling_time"]
+        st, umax = summary["settling_time"], summary["max_abs_u"]  # None: not finite
         click.echo(
             f"status: {summary['status']}  t_end: {summary['t_end']:.3f} s  "
             f"settling time: {'n/a' if st is None else f'{st:.3f} s'}  "
-            f"max |u|: {summary['max_abs_u']:.4g} N m"
+            f"max |u|: {'n/a' if umax is None else f'{umax:.4g} N m'}"
         )
         if out is not None:
             click.echo(f"wrote {out / 'timeseries.csv'}, {out / 'timeseries.npz'}, "
@@ -1036,6 +1036,9 @@ def report(out: Path, compare: Path | None, claims_campaign: Path | None, verbos
                                  param_hint="--claims")  # fmt: skip
     path = write_report(out, names, compare, claims_campaign)
     cmp = load_comparison(compare) if compare is not None else None
+    for problem in cmp.unreadable if cmp is not None else ():
+        click.echo(f"mwip: notice: --compare: {_cut(problem, 200)}; that study is left out of "
+                   "the comparison", err=True)  # fmt: skip
     results = load_results(out, names)
     for line in summary_lines(results, verbose=verbose,
                               damping=load_run_record(out).get("damping"),
@@ -1082,10 +1085,10 @@ def _main(argv: list[str] | None) -> int:
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
     except click.UsageError as exc:
-        click.echo(f"mwip: error: {exc.format_message()}", err=True)
+        click.echo(f"mwip: error: {_cut(exc.format_message())}", err=True)
         return 2
     except click.ClickException as exc:  # a failure that is not bad input (e.g. a solver)
-        click.echo(f"mwip: error: {exc.format_message()}", err=True)
+        click.echo(f"mwip: error: {_cut(exc.format_message())}", err=True)
         return exc.exit_code
     except click.Abort:
         click.echo("mwip: interrupted; earlier results are left as they were", err=True)
@@ -1098,9 +1101,15 @@ def _main(argv: list[str] | None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     except OSError as exc:  # the file system said no (permissions, full disk, ...)
-        where = f" {exc.filename!r}" if exc.filename else ""
-        click.echo(f"mwip: error:{where} {exc.strerror or exc}", err=True)
-        return 2 if isinstance(exc, PermissionError | IsADirectoryError) else 1
+        import errno
+
+        where = f" {_cut(repr(exc.filename), 80)}" if exc.filename else ""
+        click.echo(f"mwip: error:{where} {exc.strerror or _one_line(exc)}", err=True)
+        # a path the user gave that cannot be used is bad input; a full disk or an I/O
+        # error is the machine's
+        bad_path = {errno.EACCES, errno.EPERM, errno.EISDIR, errno.ENOTDIR, errno.ENAMETOOLONG,
+                    errno.ELOOP, errno.EEXIST, errno.EROFS, errno.ENOENT}  # fmt: skip
+        return 2 if exc.errno in bad_path else 1
     except SystemExit as exc:
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     except (MemoryError, RecursionError) as exc:
@@ -1117,7 +1126,14 @@ def _main(argv: list[str] | None) -> int:
 
 
 def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split()) or type(exc).__name__
+    return _cut(str(exc)) or type(exc).__name__
+
+
+def _cut(text: str, limit: int = 400) -> str:
+    """``text`` on one line, at most ``limit`` characters (a huge bad value is quoted in
+    part)."""
+    text = " ".join(text.split())
+    return text if len(text) <= limit else f"{text[: limit - 40]} ... ({len(text)} characters)"
 
 
 @contextmanager

@@ -36,6 +36,8 @@ def status_cmd(as_json: bool) -> None:
         state = "built (verified against its manifest)"
     elif info["state"] == "missing":
         state = "not built (the next single run builds it)"
+    elif info["state"].startswith("unusable"):
+        state = f"not built: {info['state']} (MWIP_CACHE_DIR; simulations use Numba's JIT)"
     else:
         state = f"{info['state']} (the next single run rebuilds it; or 'mwip kernels build')"
     click.echo(f"compiled loop: {state}\nmodule: {info['module']}\nkey: {info['key']}\n"
@@ -50,6 +52,10 @@ def build_cmd(force: bool) -> None:
     then use Numba's JIT)."""
     from mwip.sim import aot
 
+    problem = aot.folder_problem()
+    if problem is not None:
+        raise click.UsageError(f"the cache folder cannot be used: {problem} (set MWIP_CACHE_DIR "
+                               "to a writable folder)")  # fmt: skip
     t0 = time.perf_counter()
     try:
         path = aot.build(force=force)

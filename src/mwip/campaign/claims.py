@@ -213,7 +213,13 @@ def load_claim_robustness(folder: str | Path) -> dict[tuple[str, str], ClaimRobu
     """:func:`claim_robustness` of ``folder/results.parquet`` (a finished claims campaign)."""
     import pandas as pd
 
-    return claim_robustness(pd.read_parquet(Path(folder) / "results.parquet"))
+    df = pd.read_parquet(Path(folder) / "results.parquet")
+    missing = {"study", "claim", "book", "holds", "error"} - set(df.columns)
+    if missing:
+        raise ValueError(f"--claims: {str(folder)!r} holds no claims campaign (its table lacks "
+                         f"{', '.join(sorted(missing))}); give `mwip campaign run claims`'s "
+                         "folder")  # fmt: skip
+    return claim_robustness(df)
 
 
 def robustness_text(

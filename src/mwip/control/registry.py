@@ -51,13 +51,26 @@ def _fmt(x: float) -> str:
     return "inf" if math.isinf(x) else ("-inf" if x == -math.inf else f"{x:g}")
 
 
+#: The largest magnitude of any numeric setting whose range is otherwise open-ended: beyond it
+#: the designs overflow (``Tf = 1e308``, ``epsilon = 1e308``) or the solvers give up after long
+#: searches (``rho = 1e12``), and no setting of the book comes near it.
+MAGNITUDE = 1e6
+
+
+def _excerpt(value: Any, n: int = 60) -> str:
+    """``repr(value)``, cut to ``n`` characters (an error line quotes a short excerpt)."""
+    text = repr(value)
+    return text if len(text) <= n else f"{text[: n - 15]}... ({len(text)} characters)"
+
+
 @dataclass(frozen=True)
 class Setting:
     """One setting of a controller: its name, the book's default, meaning and allowed values.
 
     A number (``size = 0``), ``size`` numbers (a vector, written ``a,b,c`` on the command
     line), or a word from ``choices``. ``optional``: may be unset (``None``, "none").
-    Numbers must lie in ``lo .. hi`` (open or closed ends).
+    Numbers must lie in ``lo .. hi`` (open or closed ends), an open-ended side within
+    :data:`MAGNITUDE`.
     """
 
     name: str
@@ -76,14 +89,15 @@ class Setting:
         if self.choices:
             text = "one of " + ", ".join(self.choices)
         else:
-            lo = f"{'(' if self.lo_open or math.isinf(self.lo) else '['}{_fmt(self.lo)}"
-            hi = f"{_fmt(self.hi)}{')' if self.hi_open or math.isinf(self.hi) else ']'}"
+            lo_v, hi_v = max(self.lo, -MAGNITUDE), min(self.hi, MAGNITUDE)
+            lo = f"{'(' if self.lo_open and lo_v == self.lo else '['}{_fmt(lo_v)}"
+            hi = f"{_fmt(hi_v)}{')' if self.hi_open and hi_v == self.hi else ']'}"
             what = "a number" if self.size == 0 else f"{self.size} numbers"
             text = f"{what} in {lo}, {hi}"
         return text + (" or none" if self.optional else "")
 
     def _in_range(self, x: float) -> bool:
-        if not math.isfinite(x):
+        if not math.isfinite(x) or abs(x) > MAGNITUDE:
             return False
         above = x > self.lo if self.lo_open else x >= self.lo
         below = x < self.hi if self.hi_open else x <= self.hi
@@ -99,7 +113,7 @@ class Setting:
         def bad() -> ValueError:
             who = f"controller {owner!r}: " if owner else ""
             return ValueError(f"{who}setting {self.name!r} must be {self.allowed()}, "
-                              f"got {value!r}")  # fmt: skip
+                              f"got {_excerpt(value)}")  # fmt: skip
 
         if self.choices:
             word = str(value).strip()
@@ -397,7 +411,7 @@ register(ControllerSpec(
         Setting("D", 0.4, "input-gain uncertainty bound D = d I, ||D|| < 1 (4.29), "
                 "(Sec. 4.4.2)", lo=0.0, hi=1.0, hi_open=True),
         Setting("Ftilde_ratio", 0.8, "F~ = ratio |F^| (4.28) (Sec. 4.4.2)", lo=0.0),
-        Setting("Tf", 1.0, "convergence time T_f of (4.43), s (Sec. 4.4.2)", lo=0.0, lo_open=True),
+        Setting("Tf", 1.0, "convergence time T_f of (4.43), s (Sec. 4.4.2)", lo=1e-3),
         Setting("switching", "sat", "sat(s/phi) (Sec. 4.4.2) or sign",
                 choices=("sat", "sign")),
         Setting("phi", 0.05, "boundary layer of sat (ours)", lo=0.0, lo_open=True),

@@ -60,7 +60,7 @@ from mwip.cache import cache_dir, versions
 
 __all__ = [
     "SOURCES", "RUN_SIGNATURE", "key", "module_path", "manifest_path", "verify", "load",
-    "build", "run_function", "status", "LAST_ERROR",
+    "build", "run_function", "status", "folder_problem", "LAST_ERROR",
 ]  # fmt: skip
 
 #: The source files compiled into :func:`mwip.sim.loop.run`, relative to the package
@@ -165,7 +165,7 @@ def verify(k: str | None = None) -> str | None:
     path = module_path(k)
     try:
         mode = os.lstat(path).st_mode
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):
         return "missing"
     except OSError as exc:
         return f"corrupt: cannot read the module ({exc.strerror or exc})"
@@ -322,11 +322,28 @@ def _warn(why: str) -> None:
         warnings.warn(f"mwip: {why}; using the JIT loop", stacklevel=3)
 
 
+def folder_problem() -> str | None:
+    """Why the cache folder (:func:`mwip.cache.cache_dir`) cannot hold a module (it, or the
+    first of its parents that exists, is not a writable folder), or ``None``."""
+    folder = cache_dir()
+    for p in (folder, *folder.absolute().parents):
+        if p.exists():
+            if not p.is_dir():
+                return f"{str(p)!r} is not a folder"
+            if not os.access(p, os.W_OK | os.X_OK):
+                return f"{str(p)!r} is not writable"
+            return None
+    return None
+
+
 def status() -> dict[str, Any]:
     """What ``mwip kernels status`` prints: key, file, whether it is built (and sound), its
-    state (``built``, ``missing`` or ``corrupt: ...``), mode, last error."""
+    state (``built``, ``missing``, ``corrupt: ...`` or ``unusable cache folder: ...``), mode,
+    last error."""
     path = module_path()
     problem = verify()
+    if problem == "missing" and folder_problem():
+        problem = f"unusable cache folder: {folder_problem()}"
     return {
         "key": key(),
         "module": str(path),
