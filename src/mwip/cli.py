@@ -944,11 +944,12 @@ def reproduce(
     _out_ok(out, force)
     plant, design = _robot(params_file, nominal_file, damping)
     twin = None if twin_file is None else load_twin_option(twin_file)
+    from mwip.outdir import claim, hold
+
+    claim(out)  # OUT holds the staging (and the comparison) from now on: mark it as mwip's
+    click.get_current_context().with_resource(hold(out))  # a second reproduce is refused
     code = 0
     if compare:  # first the other reading, so that the main report finds it
-        from mwip.outdir import claim
-
-        claim(out)  # OUT holds the comparison (and its staging) from now on: mark it as mwip's
         other = next(d for d in DAMPING_READINGS if d != damping)
         click.echo(f"under the {other} damping reading, into {out / f'compare-{other}'}:",
                    err=True)  # fmt: skip

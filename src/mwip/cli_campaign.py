@@ -84,6 +84,12 @@ def run_cmd(
                                  f"{jobs}", param_hint="--jobs")  # fmt: skip
     if chunk is not None and chunk < 1:
         raise click.BadParameter(f"must be an integer >= 1, got {chunk}", param_hint="--chunk")
+    from mwip.campaign.execute import n_blocks
+    from mwip.outdir import hold
+
+    n_blocks(camp)  # the sizes are refused before anything is created
+    if not out.exists() or out.is_dir():  # (else run_campaign names the problem)
+        click.get_current_context().with_resource(hold(out))  # a second run here is refused
     res = run_campaign(camp, out, jobs=jobs, scheduler=scheduler, chunk=chunk)
     if res.status == "finished-before":
         click.echo(f"campaign already finished: {res.path} ({res.rows} rows); nothing to do")

@@ -36,6 +36,7 @@ from typing import Any
 
 from mwip.campaign.spec import Campaign
 from mwip.io import write_atomic, write_json_atomic
+from mwip.outdir import LOCK
 
 __all__ = ["RunSummary", "compute_chunk", "run_campaign", "assemble", "done_blocks", "n_blocks"]
 
@@ -179,7 +180,7 @@ def _check_out(campaign: Campaign, out: Path) -> None:
             old = {}
         if old.get("identity") != campaign.identity():
             raise ValueError(f"--out: {str(out)!r} holds a different campaign; use another folder")
-    elif out.is_dir() and any(out.iterdir()):
+    elif out.is_dir() and any(p.name != LOCK for p in out.iterdir()):  # (LOCK: ours, held)
         raise ValueError(f"--out: {str(out)!r} is not empty and holds no campaign")
 
 
@@ -305,10 +306,36 @@ def _connect(workers: int, scheduler: str | None) -> tuple[Any, Any]:
             return Client(scheduler, timeout=10), None
         except (OSError, TimeoutError) as exc:
             raise ValueError(f"--scheduler: cannot reach {scheduler!r}: {exc}") from None
-    cluster = LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+    cluster = _quiet_workers(
+        lambda: LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        )
     )
     return Client(cluster), cluster
+
+
+def _quiet_workers(start: Callable[[], Any]) -> Any:
+    """``start()`` with SIGINT ignored and Dask's log at ``error``, both inherited by the
+    worker processes it spawns: Ctrl-C (sent to the whole terminal process group) reaches only
+    this process, which stops them in order (:func:`_run_dask`'s ``finally``), instead of each
+    worker printing a ``KeyboardInterrupt`` traceback and warnings about its cancelled task."""
+    import signal
+    import threading
+
+    env_key = "DASK_LOGGING__DISTRIBUTED"
+    env_old = os.environ.get(env_key)
+    os.environ[env_key] = "error"
+    main = threading.current_thread() is threading.main_thread()
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        return start()
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, old)
+        if env_old is None:
+            os.environ.pop(env_key, None)
+        else:
+            os.environ[env_key] = env_old
 
 
 def _run_dask(
