@@ -26,6 +26,7 @@ protocol) and one :func:`register` call with its spec; see docs/extending.md.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -185,9 +186,18 @@ class ControllerSpec:
     ) -> Controller:
         """The controller designed on ``nominal`` with ``settings`` (validated) for sample
         period ``Ts`` (default: :attr:`Ts`; ``None``: continuous mode)."""
-        period = self.Ts if Ts == "default" else Ts
-        if period is not None and not (math.isfinite(period) and period > 0):
-            raise ValueError(f"Ts must be finite and in (0, inf), got {period!r}")
+        if not isinstance(nominal, Params):
+            raise TypeError(f"nominal must be a mwip.params.Params, got {type(nominal).__name__}")
+        if settings is not None and not isinstance(settings, Mapping):
+            raise TypeError(f"settings must be a mapping of setting names to values, got "
+                            f"{type(settings).__name__}")  # fmt: skip
+        period = self.Ts if isinstance(Ts, str) and Ts == "default" else Ts
+        if period is not None and (isinstance(period, bool)
+                                   or not isinstance(period, numbers.Real)):
+            raise TypeError(f"Ts must be a number (s), None or 'default', got "
+                            f"{type(period).__name__}")  # fmt: skip
+        if period is not None and not (math.isfinite(period) and 0 < period <= 1.0):
+            raise ValueError(f"Ts must be in (0, 1] s, got {period!r}")
         return self.factory(nominal, self.resolve(settings), period)
 
 
@@ -225,6 +235,8 @@ def build(
     Ts: float | None | Literal["default"] = "default",
 ) -> Controller:
     """Shorthand for ``get(name).build(nominal, settings, Ts)``."""
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a registered controller's name, got {type(name).__name__}")
     return get(name).build(nominal, settings, Ts)
 
 
