@@ -72,6 +72,13 @@ def test_observer_params_and_ts_are_named():
         SecondOrderDO(NOMINAL, 10.0, 20.0, math.inf)
 
 
+def test_huge_weights_and_gains_are_refused_not_overflowed():
+    with pytest.raises(ValueError, match="Q must have entries"):
+        design_lqr(NOMINAL, Q=np.eye(5) * 1e300)  # was OverflowError
+    with pytest.raises(ValueError, match="gains must be finite"):
+        FirstOrderDO(NOMINAL, 1e300, 0.005)  # was LinAlgError naming no argument
+
+
 def test_good_arguments_still_work():
     """The checks keep every form the library itself uses (numbers broadcast, tuples)."""
     ASTA(NOMINAL, K=10.0, rate=(5.0, 5.0), Gamma0=0.0)

@@ -128,6 +128,20 @@ def test_report_claims_of_a_robustness_campaign_is_refused(robustness_run, tmp_p
     assert "no claims campaign" in _err_line(capsys)
 
 
+def test_plot_and_animate_a_one_record_run(tmp_path, capsys):
+    import numpy as np
+
+    assert main(["simulate", "--duration", "0.005", "--out", str(tmp_path / "r")]) == 0
+    z = dict(np.load(tmp_path / "r" / "timeseries.npz", allow_pickle=False))
+    n = z["t"].shape[0]
+    one = {k: (v[..., :1, :] if v.ndim >= 2 and v.shape[-2] == n else
+               v[:1] if v.ndim == 1 and v.shape[0] == n else v) for k, v in z.items()}  # fmt: skip
+    np.savez(tmp_path / "one.npz", **one)
+    assert main(["plot", str(tmp_path / "one.npz"), "--out", str(tmp_path / "p.png")]) == 0
+    assert main(["animate", str(tmp_path / "one.npz"), "--out", str(tmp_path / "a.gif")]) == 0
+    assert "internal error" not in capsys.readouterr().err
+
+
 # ---- 6. input that used to be ignored silently --------------------------------------------------
 def test_case_without_the_twin_is_refused(capsys, tmp_path):
     assert main(["simulate", "--case", "2", "--duration", "0.1", "--out", str(tmp_path)]) == 2

@@ -189,6 +189,9 @@ class HighOrderDO:
         if f_g is not None and not callable(f_g):
             raise TypeError(f"f_g must be callable or None, got {type(f_g).__name__}")
         self.gains: tuple[NDArray[np.float64], ...] = as_gain_matrices(gains)
+        if any(not np.all(np.isfinite(g)) or np.any(np.abs(g) > 1e9) for g in self.gains):
+            raise ValueError("gains must be finite with entries in [-1e9, 1e9] (beyond, the "
+                             "observer's matrix exponential overflows)")  # fmt: skip
         D, _ = error_dynamics(self.gains)
         lam = np.linalg.eigvals(D)
         if not np.max(lam.real) < 0:
