@@ -459,7 +459,7 @@ def _fuzzy_factory(kind: str) -> Factory:
 def _fuzzy_settings() -> tuple[Setting, ...]:
     return (
         Setting("epsilon", 0.2, "radius of Lemma 5.2's ball ||x0|| <= epsilon (rad; Sec. 5.4)",
-                lo=0.0, lo_open=True),
+                lo=0.0, lo_open=True, hi=10.0),  # as `mwip design it2 --epsilon`
         Setting("rho", 20.0, "input bound of Lemma 5.2 (N m; Sec. 5.4)", lo=0.0, lo_open=True),
         Setting("uncertainty", 0.0, "0: Lemma 5.1/5.2 on the nominal TS model (the book); "
                 "u > 0: also on r, mb, l scaled by 1 +- u (ours, docs/fuzzy.md)",
