@@ -146,3 +146,29 @@ def test_a_truncated_module_is_not_imported(cache, good):
                          text=True, env=env, timeout=120)  # fmt: skip
     assert res.returncode == 0, res
     assert res.stdout.strip() == "True" and "corrupt" in res.stderr
+
+
+def test_a_damaged_numba_cache_entry_is_a_miss(tmp_path):
+    """Numba's own cache of mwip's kernels: a truncated index or a garbage data file raised
+    ``UnpicklingError`` from inside every later run (an internal error); it is now a miss, the
+    kernel compiled again and the entry rewritten."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "nb"))
+    code = ("from mwip.fuzzy._fig53_kernel import _tri; "
+            "print(_tri(0.5, 0.0, 1.0, 2.0), sum(_tri.stats.cache_hits.values()))")  # fmt: skip
+
+    def run() -> list[str]:
+        res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             env=env, timeout=300)  # fmt: skip
+        assert res.returncode == 0, res.stderr[-2000:]
+        return res.stdout.split()
+
+    assert run()[0] == "0.5"
+    (index,) = (tmp_path / "nb").rglob("_fig53_kernel._tri-*.nbi")
+    assert run() == ["0.5", "1"]  # a hit
+    index.write_bytes(index.read_bytes()[:10])
+    assert run() == ["0.5", "0"]  # a miss, not an UnpicklingError
+    assert run() == ["0.5", "1"]  # and written again
+    for data in (tmp_path / "nb").rglob("_fig53_kernel._tri-*.nbc"):
+        data.write_bytes(b"garbage")
+    assert run() == ["0.5", "0"]
+    assert run() == ["0.5", "1"]

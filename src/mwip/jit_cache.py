@@ -9,11 +9,18 @@ cache entry with :func:`mwip.sim.aot.key` as well, the hash of every source comp
 loop (and of the Python, NumPy and Numba versions): any change recompiles. Other code's
 caches are untouched.
 
+A damaged entry of mwip's (a truncated index, a garbage data file: Numba raises
+``UnpicklingError`` from inside the call, on every run) is a cache miss instead: the index is
+removed, the function compiled again and the entry rewritten (:func:`_tolerant`).
+
 Imported by every module that defines a compiled kernel, right after ``import numba``.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -64,3 +71,26 @@ LOCATORS = (UserProvidedLocator, InTreeLocator, UserWideLocator)
 _IMPL: Any = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")  # noqa: B009
 if LOCATORS[0] not in _IMPL._locator_classes:
     _IMPL._locator_classes[0:0] = list(LOCATORS)
+
+_GUARD = caching.Cache._guard_against_spurious_io_errors
+
+
+@contextlib.contextmanager
+def _tolerant(self: Any) -> Iterator[None]:
+    """Numba's guard around loading and saving a cache entry; for mwip's own entries, any
+    failure (a damaged index or data file) is swallowed as a miss and the index removed, so
+    that the recompiled function writes a fresh entry."""
+    if not isinstance(getattr(self._impl, "_locator", None), LOCATORS):
+        with _GUARD(self):
+            yield
+        return
+    try:
+        with _GUARD(self):
+            yield
+    except Exception:  # noqa: BLE001 - pickle, EOF, attribute errors of a damaged file alike
+        with contextlib.suppress(OSError):
+            os.unlink(self._cache_file._index_path)
+
+
+if getattr(caching.Cache._guard_against_spurious_io_errors, "__name__", "") != "_tolerant":
+    caching.Cache._guard_against_spurious_io_errors = _tolerant  # type: ignore[method-assign]
