@@ -57,22 +57,22 @@ def test_new_own_and_forced_folders_are_written(tmp_path, capsys):
 
 
 @pytest.mark.parametrize(
-    "sets, single",
+    "sets, single, why",
     [
-        (["rate=1e40,1e40"], True),  # the issue's case: overflows float
-        (["rate=1e20,1"], True),
-        (["rate=1e300,1e300"], False),  # double: its square overflows
-        (["rate=1e-320,1"], False),  # subnormal
-        (["rate=1e-40,1"], True),  # flushed to zero in float
+        (["rate=1e40,1e40"], True, "1e+06"),  # the issue's case (now beyond the setting's range)
+        (["rate=1e20,1"], True, "1e+06"),
+        (["rate=1e300,1e300"], False, "1e+06"),
+        (["rate=1e-320,1"], False, "C constant"),  # subnormal
+        (["rate=1e-40,1"], True, "C constant"),  # flushed to zero in float
     ],
 )
-def test_constants_c_cannot_hold_are_refused_naming_the_setting(sets, single, tmp_path,
+def test_constants_c_cannot_hold_are_refused_naming_the_setting(sets, single, why, tmp_path,
                                                                  capsys):  # fmt: skip
     argv = ["export", "c", "--controller", "asta", "--out", str(tmp_path / "b")]
     argv += [a for s in sets for a in ("--set", s)] + (["--float"] if single else [])
     assert main(argv) == 2
     line = _err_line(capsys)
-    assert "--set" in line and "rate" in line and "C constant" in line
+    assert "--set" in line and "rate" in line and why in line
     assert not (tmp_path / "b").exists()
 
 
@@ -82,18 +82,24 @@ def test_c_literal_and_generate_c_refuse_what_c_cannot_hold():
         with pytest.raises(ValueError, match="C"):
             c_literal(x, p)
     assert c_literal(0.0, "float") == "0.0f"
-    ctrl = get("asta").build(NOMINAL, {"rate": "1e30,1e30"}, 0.005)  # a derived constant too
+    from mwip.control.asta import ASTA
+
+    ctrl = ASTA(NOMINAL, rate=(1e30, 1e30), Ts=0.005)  # the API allows what --set does not
     with pytest.raises(ExportError, match="float C constant"):
         generate_c(ctrl, precision="float")
 
 
 @pytest.mark.skipif(not HAVE_CC, reason="needs a C compiler")
 def test_accepted_float_settings_compile_with_werror(tmp_path):
-    """The largest accepted float constant compiles under -Werror (the check is the C rule)."""
+    """A constant near the largest accepted one compiles under -Werror (the check is the C
+    rule), as does the largest value --set accepts."""
+    from mwip.control.asta import ASTA
     from mwip.export.sil import compile_c
 
-    ctrl = get("asta").build(NOMINAL, {"rate": "1e18,1e18"}, 0.005)
-    compile_c(generate_c(ctrl, prefix="big", precision="float"), tmp_path)
+    compile_c(generate_c(ASTA(NOMINAL, rate=(1e18, 1e18), Ts=0.005), prefix="big",
+                         precision="float"), tmp_path / "a")  # fmt: skip
+    ctrl = get("asta").build(NOMINAL, {"rate": "1e6,1e6"}, 0.005)
+    compile_c(generate_c(ctrl, prefix="big", precision="float"), tmp_path / "b")
 
 
 @pytest.mark.skipif(not HAVE_CC, reason="needs a C compiler")
