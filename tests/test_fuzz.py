@@ -363,11 +363,14 @@ def test_cli_bad_study_settings(which, data):
 
 @FUZZ
 @given(
-    cmd=st.sampled_from([["simulate"], ["run", "lqr-gain"], ["reproduce"]]),
+    cmd=st.sampled_from([["simulate"], ["run", "lqr-gain"], ["reproduce"],
+                         ["export", "c", "--controller", "lqr"]]),  # fmt: skip
     where=st.sampled_from(["", "index.html", "lqr-gain", ".", "./"]),
     extra=st.sampled_from([[], ["--quick"]]),
 )
 def test_cli_out_into_a_users_folder_or_file(cmd, where, extra):
+    if cmd[0] == "export":
+        extra = []
     argv = [*cmd, "--out", where, *(["--duration", "0.1"] if cmd == ["simulate"] else extra)]
     _run_in_sandbox(lambda root: argv, "out-folder", "--out")
 

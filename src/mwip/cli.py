@@ -339,7 +339,8 @@ def simulate(
         sc = sc.with_overrides(initial=initial, **changes)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
-    cost = estimate(sc.duration, sc.Ts, sc.dt if sc.dt is not None else min(sc.Ts, DEFAULT_DT))
+    cost = estimate(sc.duration, sc.Ts, sc.dt if sc.dt is not None else min(sc.Ts, DEFAULT_DT),
+                    mode=sc.mode)  # fmt: skip
     budget.check(cost, "this simulation")
     long = cost.seconds() > 5.0
     if long:
@@ -382,11 +383,11 @@ def simulate(
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:
-        st = summary["settling_time"]
+        st, umax = summary["settling_time"], summary["max_abs_u"]  # None: not finite
         click.echo(
             f"status: {summary['status']}  t_end: {summary['t_end']:.3f} s  "
             f"settling time: {'n/a' if st is None else f'{st:.3f} s'}  "
-            f"max |u|: {summary['max_abs_u']:.4g} N m"
+            f"max |u|: {'n/a' if umax is None else f'{umax:.4g} N m'}"
         )
         if over:
             click.echo(f"torque: max |u| {peak:.4g} N m is {peak / limit:.1f}x the drive's limit "
@@ -1026,11 +1027,12 @@ def reproduce(
     plant, design = _robot(params_file, nominal_file, damping)
     twin = None if twin_file is None else load_twin_option(twin_file)
     notes = _robot_notes(study_names(), params_file, nominal_file, twin_file)
+    from mwip.outdir import claim, hold
+
+    claim(out, "reproduce")  # OUT holds the staging (and the comparison) from now on
+    click.get_current_context().with_resource(hold(out))  # a second reproduce is refused
     code = 0
     if compare:  # first the other reading, so that the main report finds it
-        from mwip.outdir import claim
-
-        claim(out, "reproduce")  # OUT holds the comparison (and its staging) from now on
         other = next(d for d in DAMPING_READINGS if d != damping)
         click.echo(f"under the {other} damping reading, into {out / f'compare-{other}'}:",
                    err=True)  # fmt: skip
@@ -1120,6 +1122,9 @@ def report(out: Path, compare: Path | None, claims_campaign: Path | None, verbos
                                  param_hint="--claims")  # fmt: skip
     path = write_report(out, names, compare, claims_campaign)
     cmp = load_comparison(compare) if compare is not None else None
+    for problem in cmp.unreadable if cmp is not None else ():
+        click.echo(f"mwip: notice: --compare: {_cut(problem, 200)}; that study is left out of "
+                   "the comparison", err=True)  # fmt: skip
     results = load_results(out, names)
     for line in summary_lines(results, verbose=verbose,
                               damping=load_run_record(out).get("damping"),
@@ -1170,10 +1175,10 @@ def _main(argv: list[str] | None) -> int:
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
     except click.UsageError as exc:
-        click.echo(f"mwip: error: {exc.format_message()}", err=True)
+        click.echo(f"mwip: error: {_cut(exc.format_message())}", err=True)
         return 2
     except click.ClickException as exc:  # a failure that is not bad input (e.g. a solver)
-        click.echo(f"mwip: error: {exc.format_message()}", err=True)
+        click.echo(f"mwip: error: {_cut(exc.format_message())}", err=True)
         return exc.exit_code
     except click.Abort:
         click.echo("mwip: interrupted; earlier results are left as they were", err=True)
@@ -1186,9 +1191,15 @@ def _main(argv: list[str] | None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     except OSError as exc:  # the file system said no (permissions, full disk, ...)
-        where = f" {exc.filename!r}" if exc.filename else ""
-        click.echo(f"mwip: error:{where} {exc.strerror or exc}", err=True)
-        return 2 if isinstance(exc, PermissionError | IsADirectoryError) else 1
+        import errno
+
+        where = f" {_cut(repr(exc.filename), 80)}" if exc.filename else ""
+        click.echo(f"mwip: error:{where} {exc.strerror or _one_line(exc)}", err=True)
+        # a path the user gave that cannot be used is bad input; a full disk or an I/O
+        # error is the machine's
+        bad_path = {errno.EACCES, errno.EPERM, errno.EISDIR, errno.ENOTDIR, errno.ENAMETOOLONG,
+                    errno.ELOOP, errno.EEXIST, errno.EROFS, errno.ENOENT}  # fmt: skip
+        return 2 if exc.errno in bad_path else 1
     except SystemExit as exc:
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     except (MemoryError, RecursionError) as exc:
@@ -1205,7 +1216,14 @@ def _main(argv: list[str] | None) -> int:
 
 
 def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split()) or type(exc).__name__
+    return _cut(str(exc)) or type(exc).__name__
+
+
+def _cut(text: str, limit: int = 400) -> str:
+    """``text`` on one line, at most ``limit`` characters (a huge bad value is quoted in
+    part)."""
+    text = " ".join(text.split())
+    return text if len(text) <= limit else f"{text[: limit - 40]} ... ({len(text)} characters)"
 
 
 @contextmanager

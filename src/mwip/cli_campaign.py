@@ -69,20 +69,27 @@ def run_cmd(
     chunk: int | None,
 ) -> None:
     """Run (or continue) campaign NAME (built-in) or FILE.toml into --out."""
-    from mwip.campaign.execute import run_campaign
-    from mwip.campaign.spec import load_campaign
+    from mwip.campaign.execute import max_jobs, run_campaign
+    from mwip.campaign.spec import MAX_SAMPLES, load_campaign
 
     camp = load_campaign(campaign_name)
     if samples is not None:
-        if samples < 1:
+        if not 1 <= samples <= MAX_SAMPLES:
             raise click.BadParameter(
-                f"must be an integer >= 1, got {samples}", param_hint="--samples"
+                f"must be an integer in [1, {MAX_SAMPLES}], got {samples}", param_hint="--samples"
             )
         camp = camp.with_samples(samples)
-    if jobs is not None and jobs < 1:
-        raise click.BadParameter(f"must be an integer >= 1, got {jobs}", param_hint="--jobs")
+    if jobs is not None and not 1 <= jobs <= max_jobs():
+        raise click.BadParameter(f"must be an integer in [1, {max_jobs()}] (4 per CPU), got "
+                                 f"{jobs}", param_hint="--jobs")  # fmt: skip
     if chunk is not None and chunk < 1:
         raise click.BadParameter(f"must be an integer >= 1, got {chunk}", param_hint="--chunk")
+    from mwip.campaign.execute import n_blocks
+    from mwip.outdir import hold
+
+    n_blocks(camp)  # the sizes are refused before anything is created
+    if not out.exists() or out.is_dir():  # (else run_campaign names the problem)
+        click.get_current_context().with_resource(hold(out))  # a second run here is refused
     res = run_campaign(camp, out, jobs=jobs, scheduler=scheduler, chunk=chunk)
     if res.status == "finished-before":
         click.echo(f"campaign already finished: {res.path} ({res.rows} rows); nothing to do")

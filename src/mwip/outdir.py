@@ -12,16 +12,24 @@ refused.
 
 :func:`check` decides without writing anything (so a refused run changes nothing);
 :func:`claim` creates the folder and its marker when the results are about to be written.
+
+A command that rewrites the whole folder (``mwip reproduce``, ``mwip campaign run``) holds it
+for its run (:func:`hold`): an exclusive lock on the file :data:`LOCK` in the folder, which
+holds the owner's process id. A second such command on the same folder is refused with the
+first one's id; the lock goes with the process that holds it (also when it is killed), so a
+lock file left by a process that no longer runs is stale and simply taken over.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+from collections.abc import Iterator
 from pathlib import Path
 
 from mwip.io import write_text_atomic
 
-__all__ = ["MARKER", "check", "claim", "is_owned", "marker_text", "owner"]
+__all__ = ["MARKER", "LOCK", "check", "claim", "is_owned", "hold", "marker_text", "owner"]
 
 #: The marker file: its presence says the folder is mwip's output folder.
 MARKER = ".mwip-output"
@@ -37,6 +45,10 @@ _OWNER = "command: mwip "
 def marker_text(command: str | None = None) -> str:
     """The marker file's text, naming ``command`` (e.g. ``"reproduce"``) as the folder's owner."""
     return MARKER_TEXT + (f"{_OWNER}{command}\n" if command else "")
+
+
+#: The lock file of a folder held by a running command (:func:`hold`).
+LOCK = ".mwip-lock"
 
 
 def is_owned(out: Path) -> bool:
@@ -97,7 +109,7 @@ def check(
             )
         return path
     try:
-        entries = [e for e in os.listdir(path) if e != MARKER]
+        entries = [e for e in os.listdir(path) if e not in (MARKER, LOCK)]
     except OSError as exc:
         raise ValueError(f"{option}: cannot read {text!r}: {exc.strerror or exc}") from None
     if entries:
@@ -121,3 +133,51 @@ def claim(out: Path, command: str | None = None) -> Path:
     except OSError as exc:
         raise ValueError(f"--out: cannot write into {str(out)!r}: {exc.strerror or exc}") from None
     return out
+
+
+@contextlib.contextmanager
+def hold(out: Path, option: str = "--out") -> Iterator[Path]:
+    """Hold ``out`` (created if needed) for the duration of the block: an exclusive
+    ``flock`` of ``out/.mwip-lock``, which records this process's id and is removed on exit.
+
+    Raises ``ValueError`` naming ``option`` and the holder's process id when another process
+    holds it. A lock file that no live process holds (its writer was killed) is taken over. A
+    folder created here is removed again if it is still empty at the end.
+    """
+    import fcntl
+
+    out = Path(out)
+    created = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / LOCK
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            with contextlib.suppress(OSError, ValueError):
+                os.lseek(fd, 0, os.SEEK_SET)
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise ValueError(
+                f"{option}: {str(out)!r} is in use by another mwip run (process {holder}); "
+                "wait for it to finish, or give another folder"
+            ) from None
+        try:  # the file may have been removed by its previous holder meanwhile: lock anew
+            same = os.fstat(fd).st_ino == os.stat(path).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)
+    try:
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        yield out
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(path)  # while still holding it: a waiting process then locks anew
+        os.close(fd)
+        if created:  # a run refused before writing anything leaves no empty folder
+            with contextlib.suppress(OSError):
+                out.rmdir()

@@ -401,6 +401,9 @@ def _params_from_file_data(data: dict[str, Any], base: Params | None) -> Params:
         body = data["params"]
     else:
         body = {k: v for k, v in data.items() if k != "base"}
+    if not body and "base" not in data:
+        raise ValueError("holds no parameters (an empty file would silently mean the default "
+                         "robot); give at least one field, or base = 'real'")  # fmt: skip
     for key, value in body.items():
         if key in _RANGES and (isinstance(value, bool) or not isinstance(value, int | float)):
             raise ValueError(

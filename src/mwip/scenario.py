@@ -140,6 +140,9 @@ class Scenario:
             raise ValueError(f"[scenario] case must be 1, 2 or 3, got {self.case!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"[scenario] seed must be an integer >= 0, got {self.seed!r}")
+        if self.case != 1 and not self.twin:
+            raise ValueError(f"[scenario] case = {self.case} runs on the digital twin: it needs "
+                             "twin = true (CLI: --twin)")  # fmt: skip
         if self.twin and self.mode != "sampled":
             raise ValueError("[scenario] mode must be 'sampled' on the twin (twin = true)")
         if self.mode not in ("sampled", "continuous"):

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["real", "interval_text", "finite_array", "integer"]
+__all__ = ["real", "interval_text", "finite_array", "integer", "vector", "choice", "params_arg"]
 
 
 def interval_text(lo: float, hi: float, lo_closed: bool = False, hi_closed: bool = True) -> str:
@@ -81,3 +81,39 @@ def finite_array(name: str, value: Any) -> NDArray[np.float64]:
     if not np.all(np.isfinite(out)):
         raise ValueError(f"{name} must be finite, got {value!r}")
     return out
+
+
+def vector(name: str, value: Any, n: int, lo: float = -math.inf, hi: float = math.inf, *,
+           lo_closed: bool = True, hi_closed: bool = True) -> NDArray[np.float64]:  # fmt: skip
+    """``value`` as ``n`` floats: one number (the same for each) or exactly ``n`` numbers, finite
+    and in the interval; otherwise ``TypeError``/``ValueError`` naming ``name``."""
+    arr = finite_array(name, value)
+    if arr.shape not in ((), (n,)):
+        raise ValueError(f"{name} must be a number or {n} numbers, got shape {arr.shape}")
+    out = np.broadcast_to(arr, (n,)).copy()
+    below = out < lo if lo_closed else out <= lo
+    above = out > hi if hi_closed else out >= hi
+    if np.any(below) or np.any(above):
+        raise ValueError(f"{name} must be in {interval_text(lo, hi, lo_closed, hi_closed)}, "
+                         f"got {out.tolist()}")  # fmt: skip
+    return out
+
+
+def choice(name: str, value: Any, allowed: tuple[str, ...]) -> str:
+    """``value`` if it is one of the words ``allowed``; otherwise a ``ValueError`` naming
+    ``name`` (an array or a number is never compared element-wise)."""
+    if not isinstance(value, str) or value not in allowed:
+        shown = repr(value) if isinstance(value, str) else type(value).__name__
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {shown}")
+    return value
+
+
+def params_arg(name: str, value: Any) -> Any:
+    """``value`` if it is a :class:`mwip.params.Params`; otherwise a ``TypeError`` naming
+    ``name``."""
+    from mwip.params import Params
+
+    if not isinstance(value, Params):
+        raise TypeError(f"{name} must be a mwip.params.Params (e.g. mwip.NOMINAL), got "
+                        f"{type(value).__name__}")  # fmt: skip
+    return value

@@ -36,6 +36,7 @@ from typing import Any
 
 from mwip.campaign.spec import Campaign
 from mwip.io import write_atomic, write_json_atomic
+from mwip.outdir import LOCK
 
 __all__ = ["RunSummary", "compute_chunk", "run_campaign", "assemble", "done_blocks", "n_blocks"]
 
@@ -72,7 +73,19 @@ def n_units(campaign: Campaign) -> int:
 
 def n_blocks(campaign: Campaign) -> int:
     """Blocks needed to cover :func:`n_units` (the last one cut at it)."""
-    return math.ceil(n_units(campaign) / campaign.block)
+    from mwip.campaign.spec import MAX_BLOCKS
+
+    blocks = math.ceil(n_units(campaign) / campaign.block)
+    if blocks > MAX_BLOCKS:
+        raise ValueError(f"campaign.samples: {blocks} blocks of campaign.block = "
+                         f"{campaign.block} samples; at most {MAX_BLOCKS} (fewer samples or "
+                         "larger blocks)")  # fmt: skip
+    return blocks
+
+
+def max_jobs() -> int:
+    """The most worker processes a local run starts: 4 per CPU."""
+    return 4 * (os.cpu_count() or 1)
 
 
 def _chunk_name(first: int, last: int) -> str:
@@ -172,7 +185,7 @@ def _check_out(campaign: Campaign, out: Path) -> None:
             old = {}
         if old.get("identity") != campaign.identity():
             raise ValueError(f"--out: {str(out)!r} holds a different campaign; use another folder")
-    elif out.is_dir() and any(out.iterdir()):
+    elif out.is_dir() and any(p.name != LOCK for p in out.iterdir()):  # (LOCK: ours, held)
         raise ValueError(f"--out: {str(out)!r} is not empty and holds no campaign")
 
 
@@ -228,8 +241,9 @@ def run_campaign(
     ``status="interrupted"``; the next run continues.
     """
     t0 = time.perf_counter()
-    if jobs is not None and jobs < 1:
-        raise ValueError(f"--jobs must be an integer >= 1, got {jobs!r}")
+    if jobs is not None and not 1 <= jobs <= max_jobs():
+        raise ValueError(f"--jobs must be an integer in [1, {max_jobs()}] (4 per CPU), "
+                         f"got {jobs!r}")  # fmt: skip
     if chunk is not None and chunk < 1:
         raise ValueError(f"--chunk must be an integer >= 1, got {chunk!r}")
     out = Path(out)
@@ -303,10 +317,36 @@ def _connect(workers: int, scheduler: str | None) -> tuple[Any, Any]:
             return Client(scheduler, timeout=10), None
         except (OSError, TimeoutError) as exc:
             raise ValueError(f"--scheduler: cannot reach {scheduler!r}: {exc}") from None
-    cluster = LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+    cluster = _quiet_workers(
+        lambda: LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        )
     )
     return Client(cluster), cluster
+
+
+def _quiet_workers(start: Callable[[], Any]) -> Any:
+    """``start()`` with SIGINT ignored and Dask's log at ``error``, both inherited by the
+    worker processes it spawns: Ctrl-C (sent to the whole terminal process group) reaches only
+    this process, which stops them in order (:func:`_run_dask`'s ``finally``), instead of each
+    worker printing a ``KeyboardInterrupt`` traceback and warnings about its cancelled task."""
+    import signal
+    import threading
+
+    env_key = "DASK_LOGGING__DISTRIBUTED"
+    env_old = os.environ.get(env_key)
+    os.environ[env_key] = "error"
+    main = threading.current_thread() is threading.main_thread()
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        return start()
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, old)
+        if env_old is None:
+            os.environ.pop(env_key, None)
+        else:
+            os.environ[env_key] = env_old
 
 
 def _run_dask(
@@ -322,11 +362,15 @@ def _run_dask(
 
     futures: list[Any] = []
     try:
-        camp = client.scatter(campaign, broadcast=True)
+        # the campaign travels inside each task (a few kB), not as scattered data: a scattered
+        # value is a dependency with a content-hashed key, and the next run on the same
+        # scheduler scatters the same key while the previous client's release of it is still
+        # in flight (or a worker holding it is removed under load): its tasks then fail with
+        # "lost dependencies". A task without dependencies is simply rerun elsewhere.
         where = {}
         for blocks in chunks:
             key = f"mwip-campaign-{blocks[0]}-{uuid.uuid4().hex}"
-            fut = client.submit(compute_chunk, camp, blocks, pure=False, key=key)
+            fut = client.submit(compute_chunk, campaign, blocks, pure=False, key=key)
             where[fut.key] = blocks
             futures.append(fut)
         for fut in as_completed(futures):

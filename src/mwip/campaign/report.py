@@ -259,10 +259,19 @@ def write_campaign_report(out: str | Path) -> Path:
 
     out = Path(out)
     df = pd.read_parquet(out / "results.parquet")
-    rec: dict[str, Any] = {}
-    if (out / "campaign.json").exists():
-        rec = json.loads((out / "campaign.json").read_text(encoding="utf-8"))
-    title = rec.get("campaign", {}).get("campaign", {}).get("title", "") or out.name
+    rec: Any = {}
+    path = out / "campaign.json"
+    if path.exists():
+        try:
+            rec = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            raise ValueError(f"{str(path)!r} is not a campaign record (not JSON: {exc})") from None
+    spec = rec.get("campaign", {}) if isinstance(rec, dict) else None
+    camp = spec.get("campaign", {}) if isinstance(spec, dict) else None
+    if not isinstance(camp, dict):
+        raise ValueError(f"{str(path)!r} is not a campaign record (no campaign table); rerun "
+                         "`mwip campaign run` into a new folder")  # fmt: skip
+    title = str(camp.get("title", "")) or out.name
     parts = [
         f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
         f"</title><style>{_CSS}</style></head><body><h1>{html.escape(title)}</h1>"

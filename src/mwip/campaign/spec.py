@@ -51,6 +51,12 @@ grid point ``i mod G`` (G = the number of grid points), so ``samples = G`` cover
 
 Any unknown key, a value of the wrong type, a distribution reaching outside a parameter's
 valid range, or zero samples is a one-line ``ValueError`` naming the field.
+
+Sizes are bounded before anything starts (the same one-line error, naming the field and the
+allowed range): ``samples`` in [1, :data:`MAX_SAMPLES`], ``block`` in [1, :data:`MAX_BLOCK`]
+(and one robustness block within the run budget of :mod:`mwip.budget`), a grid axis and the
+whole grid at most :data:`MAX_GRID` points; the blocks of a run at most
+:data:`MAX_BLOCKS` (:func:`mwip.campaign.execute.n_blocks`).
 """
 
 from __future__ import annotations
@@ -178,9 +184,7 @@ class Campaign:
     source: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def with_samples(self, n: int) -> Campaign:
-        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-            raise ValueError(f"samples must be an integer >= 1, got {n!r}")
-        return replace(self, samples=n)
+        return replace(self, samples=_integer(n, "samples", 1, MAX_SAMPLES))
 
     @property
     def grid_axes(self) -> list[tuple[str, Dist]]:
@@ -206,6 +210,13 @@ class Campaign:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+#: Upper bounds of a campaign's sizes (module docstring).
+MAX_SAMPLES = 10_000_000
+MAX_BLOCK = 10_000
+MAX_GRID = 1_000_000
+MAX_BLOCKS = 1_000_000
+
+
 def _where(*parts: str) -> str:
     return ".".join(parts)
 
@@ -229,9 +240,12 @@ def _number(
     return float(value)
 
 
-def _integer(value: Any, where: str, lo: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < lo:
-        raise ValueError(f"{where} must be an integer >= {lo}, got {value!r}")
+def _integer(value: Any, where: str, lo: int, hi: int | None = None) -> int:
+    if (isinstance(value, bool) or not isinstance(value, int) or value < lo
+            or (hi is not None and value > hi)):  # fmt: skip
+        allowed = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
+        shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:37] + "..."
+        raise ValueError(f"{where} must be an integer {allowed}, got {shown}")
     return int(value)
 
 
@@ -264,7 +278,7 @@ def _dist(value: Any, where: str, relative: bool) -> Dist:
     if not (isinstance(arg, list) and len(arg) == 3):
         raise ValueError(f"{sub} must be [lo, hi, n], got {arg!r}")
     lo, hi = _number(arg[0], sub), _number(arg[1], sub)
-    n = _integer(arg[2], f"{sub}[2]", 1)
+    n = _integer(arg[2], f"{sub}[2]", 1, MAX_GRID)
     if lo > hi:
         raise ValueError(f"{sub} must have lo <= hi, got {arg!r}")
     return Dist(kind, (lo, hi, float(n)))
@@ -360,9 +374,10 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
     title = camp.get("title", "")
     if not isinstance(title, str):
         raise ValueError("campaign.title must be text")
-    samples = _integer(camp.get("samples", 100), "campaign.samples", 1)
-    seed = _integer(camp.get("seed", 0), "campaign.seed", 0)
-    block = _integer(camp.get("block", 100 if kind == "robustness" else 1), "campaign.block", 1)
+    samples = _integer(camp.get("samples", 100), "campaign.samples", 1, MAX_SAMPLES)
+    seed = _integer(camp.get("seed", 0), "campaign.seed", 0, 2**63 - 1)
+    block = _integer(camp.get("block", 100 if kind == "robustness" else 1), "campaign.block", 1,
+                     MAX_BLOCK)  # fmt: skip
     if kind == "calibration":
         cap = _number(camp.get("duration", 0.0), "campaign.duration", 0.0, 3600.0)
         return Campaign("calibration", title, samples, seed, block, duration=cap, source=data)
@@ -439,6 +454,14 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
                 f"got values from {lo:g} to {hi:g}"
             )
         initial.append((key, d))
+    n_grid = math.prod(int(d.args[2]) for _, d in [*uncertainty, *initial] if d.is_grid)
+    if n_grid > MAX_GRID:
+        raise ValueError(f"robot.uncertainty/initial: the grid has {n_grid:.3g} points; at most "
+                         f"{MAX_GRID} (fewer points per grid axis)")  # fmt: skip
+    from mwip.budget import DEFAULT, estimate
+
+    DEFAULT.check(estimate(duration, 0.005, 0.005, n=block), "one block of the campaign",
+                  f"lower campaign.block (in [1, {MAX_BLOCK}]) or campaign.duration")  # fmt: skip
     return Campaign(
         "robustness",
         title,

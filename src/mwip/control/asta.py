@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 from mwip.core import LAW_ASTA, CompiledLaw, Measurement
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
+from mwip.validate import params_arg, real, vector
 
 __all__ = [
     "check_constraints",
@@ -172,11 +173,17 @@ class _AdaptiveSliding:
         alpha_ref: float = 0.0,
         Ts: float = 0.0005,
     ) -> None:
-        self.params = params
-        self.lam = np.asarray(lam, dtype=float).reshape(3)
-        self.K = np.broadcast_to(np.asarray(K, dtype=float), (2,)).copy()
-        self.rate = np.broadcast_to(np.asarray(rate, dtype=float), (2,)).copy()
-        self.Gamma0 = np.broadcast_to(np.asarray(Gamma0, dtype=float), (2,)).copy()
+        self.params = params_arg("params", params)
+        self.lam = vector("lam", lam, 3)
+        if np.ndim(lam) == 0:
+            raise ValueError(f"lam must be 3 numbers [lambda_1, lambda_2, lambda_3], got {lam!r}")
+        self.K = vector("K", K, 2, 0.0, lo_closed=False)
+        self.rate = vector("rate", rate, 2, 0.0)
+        self.Gamma0 = vector("Gamma0", Gamma0, 2, 0.0)
+        eps = real("eps", eps, 0.0, lo_closed=True)
+        psi_dot_ref, theta_ref, alpha_ref = (real(n, v) for n, v in (
+            ("psi_dot_ref", psi_dot_ref), ("theta_ref", theta_ref), ("alpha_ref", alpha_ref)))
+        Ts = real("Ts", Ts, 0.0, 1.0)
         if not check_constraints(params, self.lam):
             raise ValueError(f"lambda = {self.lam.tolist()} violates the constraints (4.2)")
         if np.any(self.K <= 0) or np.any(self.rate < 0) or np.any(self.Gamma0 < 0):

@@ -171,6 +171,10 @@ def design_lqr(
     if Ts is not None:
         Ts = real("Ts", Ts, 0.0, 1e3)
     Qa, Ra = finite_array("Q", Q), finite_array("R", R)
+    for name, M in (("Q", Qa), ("R", Ra)):  # beyond, the Riccati iteration overflows
+        if np.any(np.abs(M) > 1e12):
+            raise ValueError(f"{name} must have entries in [-1e12, 1e12], got max |{name}| = "
+                             f"{np.max(np.abs(M)):.3g}")  # fmt: skip
     A, B = linearize(params)
     K, _, poles = lqr(A, B, Qa, Ra) if Ts is None else lqr_sampled(A, B, Qa, Ra, Ts)
     return LQRDesign(K=K, Ts=Ts, Q=Qa, R=Ra, poles=poles, params=params)

@@ -26,6 +26,7 @@ protocol) and one :func:`register` call with its spec; see docs/extending.md.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -51,13 +52,26 @@ def _fmt(x: float) -> str:
     return "inf" if math.isinf(x) else ("-inf" if x == -math.inf else f"{x:g}")
 
 
+#: The largest magnitude of any numeric setting whose range is otherwise open-ended: beyond it
+#: the designs overflow (``Tf = 1e308``, ``epsilon = 1e308``) or the solvers give up after long
+#: searches (``rho = 1e12``), and no setting of the book comes near it.
+MAGNITUDE = 1e6
+
+
+def _excerpt(value: Any, n: int = 60) -> str:
+    """``repr(value)``, cut to ``n`` characters (an error line quotes a short excerpt)."""
+    text = repr(value)
+    return text if len(text) <= n else f"{text[: n - 15]}... ({len(text)} characters)"
+
+
 @dataclass(frozen=True)
 class Setting:
     """One setting of a controller: its name, the book's default, meaning and allowed values.
 
     A number (``size = 0``), ``size`` numbers (a vector, written ``a,b,c`` on the command
     line), or a word from ``choices``. ``optional``: may be unset (``None``, "none").
-    Numbers must lie in ``lo .. hi`` (open or closed ends).
+    Numbers must lie in ``lo .. hi`` (open or closed ends), an open-ended side within
+    :data:`MAGNITUDE`.
     """
 
     name: str
@@ -76,14 +90,15 @@ class Setting:
         if self.choices:
             text = "one of " + ", ".join(self.choices)
         else:
-            lo = f"{'(' if self.lo_open or math.isinf(self.lo) else '['}{_fmt(self.lo)}"
-            hi = f"{_fmt(self.hi)}{')' if self.hi_open or math.isinf(self.hi) else ']'}"
+            lo_v, hi_v = max(self.lo, -MAGNITUDE), min(self.hi, MAGNITUDE)
+            lo = f"{'(' if self.lo_open and lo_v == self.lo else '['}{_fmt(lo_v)}"
+            hi = f"{_fmt(hi_v)}{')' if self.hi_open and hi_v == self.hi else ']'}"
             what = "a number" if self.size == 0 else f"{self.size} numbers"
             text = f"{what} in {lo}, {hi}"
         return text + (" or none" if self.optional else "")
 
     def _in_range(self, x: float) -> bool:
-        if not math.isfinite(x):
+        if not math.isfinite(x) or abs(x) > MAGNITUDE:
             return False
         above = x > self.lo if self.lo_open else x >= self.lo
         below = x < self.hi if self.hi_open else x <= self.hi
@@ -99,7 +114,7 @@ class Setting:
         def bad() -> ValueError:
             who = f"controller {owner!r}: " if owner else ""
             return ValueError(f"{who}setting {self.name!r} must be {self.allowed()}, "
-                              f"got {value!r}")  # fmt: skip
+                              f"got {_excerpt(value)}")  # fmt: skip
 
         if self.choices:
             word = str(value).strip()
@@ -171,9 +186,18 @@ class ControllerSpec:
     ) -> Controller:
         """The controller designed on ``nominal`` with ``settings`` (validated) for sample
         period ``Ts`` (default: :attr:`Ts`; ``None``: continuous mode)."""
-        period = self.Ts if Ts == "default" else Ts
-        if period is not None and not (math.isfinite(period) and period > 0):
-            raise ValueError(f"Ts must be finite and in (0, inf), got {period!r}")
+        if not isinstance(nominal, Params):
+            raise TypeError(f"nominal must be a mwip.params.Params, got {type(nominal).__name__}")
+        if settings is not None and not isinstance(settings, Mapping):
+            raise TypeError(f"settings must be a mapping of setting names to values, got "
+                            f"{type(settings).__name__}")  # fmt: skip
+        period = self.Ts if isinstance(Ts, str) and Ts == "default" else Ts
+        if period is not None and (isinstance(period, bool)
+                                   or not isinstance(period, numbers.Real)):
+            raise TypeError(f"Ts must be a number (s), None or 'default', got "
+                            f"{type(period).__name__}")  # fmt: skip
+        if period is not None and not (math.isfinite(period) and 0 < period <= 1.0):
+            raise ValueError(f"Ts must be in (0, 1] s, got {period!r}")
         return self.factory(nominal, self.resolve(settings), period)
 
 
@@ -211,6 +235,8 @@ def build(
     Ts: float | None | Literal["default"] = "default",
 ) -> Controller:
     """Shorthand for ``get(name).build(nominal, settings, Ts)``."""
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a registered controller's name, got {type(name).__name__}")
     return get(name).build(nominal, settings, Ts)
 
 
@@ -397,7 +423,7 @@ register(ControllerSpec(
         Setting("D", 0.4, "input-gain uncertainty bound D = d I, ||D|| < 1 (4.29), "
                 "(Sec. 4.4.2)", lo=0.0, hi=1.0, hi_open=True),
         Setting("Ftilde_ratio", 0.8, "F~ = ratio |F^| (4.28) (Sec. 4.4.2)", lo=0.0),
-        Setting("Tf", 1.0, "convergence time T_f of (4.43), s (Sec. 4.4.2)", lo=0.0, lo_open=True),
+        Setting("Tf", 1.0, "convergence time T_f of (4.43), s (Sec. 4.4.2)", lo=1e-3),
         Setting("switching", "sat", "sat(s/phi) (Sec. 4.4.2) or sign",
                 choices=("sat", "sign")),
         Setting("phi", 0.05, "boundary layer of sat (ours)", lo=0.0, lo_open=True),
@@ -433,7 +459,7 @@ def _fuzzy_factory(kind: str) -> Factory:
 def _fuzzy_settings() -> tuple[Setting, ...]:
     return (
         Setting("epsilon", 0.2, "radius of Lemma 5.2's ball ||x0|| <= epsilon (rad; Sec. 5.4)",
-                lo=0.0, lo_open=True),
+                lo=0.0, lo_open=True, hi=10.0),  # as `mwip design it2 --epsilon`
         Setting("rho", 20.0, "input bound of Lemma 5.2 (N m; Sec. 5.4)", lo=0.0, lo_open=True),
         Setting("uncertainty", 0.0, "0: Lemma 5.1/5.2 on the nominal TS model (the book); "
                 "u > 0: also on r, mb, l scaled by 1 +- u (ours, docs/fuzzy.md)",

@@ -39,6 +39,7 @@ from mwip.control.switching import Switching
 from mwip.core import LAW_SMC, CompiledLaw, Measurement, Observer
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
+from mwip.validate import params_arg, real
 
 __all__ = [
     "SMCGains",
@@ -125,8 +126,17 @@ class SlidingModeController:
         q3d: float = 0.0,
         check: bool = True,
     ) -> None:
-        if not (np.isfinite(Ts) and Ts > 0):
-            raise ValueError(f"Ts must be finite and in (0, inf), got {Ts!r}")
+        if not isinstance(gains, SMCGains):
+            raise TypeError(f"gains must be an SMCGains, got {type(gains).__name__}")
+        params_arg("params", params)
+        Ts = real("Ts", Ts, 0.0, 1.0)
+        q1d_dot, q3d = real("q1d_dot", q1d_dot), real("q3d", q3d)
+        if observer is not None and not callable(getattr(observer, "update", None)):
+            raise TypeError(f"observer must be a mwip observer or None, got "
+                            f"{type(observer).__name__}")  # fmt: skip
+        if switching is not None and not isinstance(switching, Switching):
+            raise TypeError(f"switching must be a Switching or None, got "
+                            f"{type(switching).__name__}")  # fmt: skip
         if observer is not None and abs(observer.Ts - Ts) > 1e-12:
             raise ValueError(f"observer Ts={observer.Ts:g} differs from the controller's {Ts:g}")
         self.gains = gains

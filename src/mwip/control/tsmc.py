@@ -57,6 +57,7 @@ from mwip.core import LAW_TSMC, CompiledLaw, Measurement
 from mwip.models.reduced import coefficients
 from mwip.models.steady import lean_for_speed
 from mwip.params import NOMINAL, Params
+from mwip.validate import choice, finite_array, params_arg, real, vector
 
 __all__ = [
     "cubic_coefficients",
@@ -134,11 +135,25 @@ class TSMC:
         theta_max: float = 0.5,
         Ts: float | None = None,
     ) -> None:
-        self.params = params
-        self.C = np.broadcast_to(np.asarray(C, dtype=float), (2,)).copy()
-        self.Gamma = np.broadcast_to(np.asarray(Gamma, dtype=float), (2,)).copy()
-        D = np.asarray(D, dtype=float)
-        self.D = D * np.eye(2) if D.ndim == 0 else D.reshape(2, 2)
+        self.params = params_arg("params", params)
+        self.C = vector("C", C, 2, 0.0, lo_closed=False)
+        self.Gamma = vector("Gamma", Gamma, 2, 0.0, lo_closed=False)
+        D = finite_array("D", D)
+        if D.shape not in ((), (2, 2)):
+            raise ValueError(f"D must be a number d (D = d I) or a 2x2 matrix, got shape {D.shape}")
+        self.D = D * np.eye(2) if D.ndim == 0 else D
+        Ftilde_ratio = real("Ftilde_ratio", Ftilde_ratio, 0.0, lo_closed=True)
+        Tf = real("Tf", Tf, 1e-3, 1e6, lo_closed=True)  # beyond: (4.43)'s 1/Tf^3 over/underflows
+        theta_ref, alpha_ref, alpha_dot_ref, v_ref = (real(n, v) for n, v in (
+            ("theta_ref", theta_ref), ("alpha_ref", alpha_ref), ("alpha_dot_ref", alpha_dot_ref),
+            ("v_ref", v_ref)))  # fmt: skip
+        theta_max = real("theta_max", theta_max, 0.0, np.pi / 2, hi_closed=False)
+        speed = choice("speed", speed, ("none", "lean"))  # type: ignore[assignment]
+        if switching is not None and not isinstance(switching, Switching):
+            raise TypeError(f"switching must be a Switching or None, got "
+                            f"{type(switching).__name__}")  # fmt: skip
+        if Ts is not None:
+            Ts = real("Ts", Ts, 0.0, 1.0)
         if np.any(self.C <= 0) or np.any(self.Gamma <= 0):
             raise ValueError("C and Gamma must be positive")
         if np.any(self.D < 0) or np.linalg.norm(self.D, 2) >= 1.0:

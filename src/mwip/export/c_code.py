@@ -585,7 +585,12 @@ def generate_c(controller: Any, *, prefix: str = "mwip_ctrl", precision: str = "
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,40}", prefix):
         raise ValueError(f"prefix must be a C identifier (letters, digits, _), got {prefix!r}")
     w = _W(precision)
-    fields, code, kind = _dispatch(controller, w, prefix)
+    try:
+        fields, code, kind = _dispatch(controller, w, prefix)
+    except ExportError:
+        raise
+    except ValueError as exc:  # a constant C cannot hold (transpile.check_constant)
+        raise ExportError(f"{type(controller).__name__}: {exc}") from None
     Ts = getattr(controller, "Ts", None)
     header = _header(prefix, precision, fields, doc or kind, Ts)
     is_float = "1" if precision == "float" else "0"

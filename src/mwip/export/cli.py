@@ -55,9 +55,9 @@ def export() -> None:
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
     required=True,
-    help="Folder for PREFIX.h and PREFIX.c (required; not a results folder of another "
-    "mwip command).",
+    help="Folder for PREFIX.h and PREFIX.c: new, empty or mwip's own (as for every command).",
 )
+@click.option("--force", is_flag=True, help="Write into --out even if it holds other files.")
 @click.option(
     "--verify",
     is_flag=True,
@@ -81,7 +81,7 @@ def export() -> None:
 @click.option("--twin", is_flag=True, help="With --verify: run on the digital twin (Chapter 6).")
 def export_c(
     name: str, sets: tuple[str, ...], params_file: str | None, nominal_file: str | None,
-    Ts: float | None, single: bool, prefix: str | None, out: Path, verify: bool,
+    Ts: float | None, single: bool, prefix: str | None, out: Path, force: bool, verify: bool,
     duration: float, theta0: float, twin: bool,
 ) -> None:  # fmt: skip
     """Write OUT/PREFIX.h and OUT/PREFIX.c: the controller's init and step functions with its
@@ -93,14 +93,27 @@ def export_c(
     """
     import math
 
+    from mwip import outdir
     from mwip.cli_controllers import parse_sets
     from mwip.control.registry import get
     from mwip.export.c_code import ExportError, generate_c
+    from mwip.export.transpile import check_constant
     from mwip.io import write_text_atomic
     from mwip.params import book_params, load_params
 
     given = parse_sets(name, sets)
     spec = get(name)
+    precision = "float" if single else "double"
+    resolved = spec.resolve(given)
+    for key in given:  # a setting that C cannot hold, named before anything is designed
+        for x in _numbers(resolved[key]):
+            why = check_constant(x, precision)
+            if why is not None:
+                raise click.BadParameter(f"{key}: {why}", param_hint="--set")
+    try:
+        out = outdir.check(out, force=force, command="export c")
+    except ValueError as exc:
+        raise click.BadParameter(str(exc).removeprefix("--out: "), param_hint="--out") from None
     if Ts is not None and not (math.isfinite(Ts) and 0 < Ts <= 1.0):
         raise click.BadParameter(f"must be in (0, 1] s, got {Ts!r}", param_hint="--Ts")
     if not (math.isfinite(duration) and 0 < duration <= 600):
@@ -127,20 +140,12 @@ def export_c(
     def build() -> Any:
         return spec.build(design, given, period)
 
-    precision = "float" if single else "double"
     try:
         code = generate_c(build(), prefix=prefix, precision=precision,
                           doc=f"{spec.title} ({spec.source})")  # fmt: skip
     except ExportError as exc:
-        raise click.BadParameter(str(exc), param_hint="--controller") from None
-    if out.exists() and not out.is_dir():
-        raise click.BadParameter(f"{str(out)!r} exists and is not a folder", param_hint="--out")
-    from mwip.outdir import owner
-
-    held = owner(out) if out.is_dir() else None
-    if held is not None:  # another command's results folder (mwip.outdir)
-        raise click.BadParameter(f"{str(out)!r} holds the results of `mwip {held}`; give "
-                                 "another folder for the C files", param_hint="--out")  # fmt: skip
+        raise click.BadParameter(str(exc), param_hint="--controller/--set") from None
+    outdir.claim(out, "export c")
     for fname, text in code.files().items():
         write_text_atomic(out / fname, text)
     click.echo(f"wrote {out / (prefix + '.h')}, {out / (prefix + '.c')} "
@@ -178,3 +183,16 @@ def _default_twin() -> Any:
     from mwip.hardware.identified import default_twin
 
     return default_twin()
+
+
+def _numbers(value: Any) -> list[float]:
+    """The numbers in a resolved setting (a number, a tuple or an array; others: none)."""
+    import numpy as np
+
+    if isinstance(value, bool):
+        return []
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return []
+    return [float(x) for x in arr.ravel()]

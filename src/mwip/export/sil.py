@@ -72,7 +72,11 @@ class CController:
         self.code = code
         self.Ts = code.Ts
         self.static = static
-        self._lib = ctypes.CDLL(str(compile_c(code, folder)))
+        if folder is None:  # built in a temporary folder, removed once the library is loaded
+            with tempfile.TemporaryDirectory(prefix="mwip-sil-") as tmp:
+                self._lib = ctypes.CDLL(str(compile_c(code, tmp)))
+        else:
+            self._lib = ctypes.CDLL(str(compile_c(code, folder)))
         self._dtype = np.float32 if code.precision == "float" else np.float64
         real = ctypes.c_float if code.precision == "float" else ctypes.c_double
         p = code.prefix

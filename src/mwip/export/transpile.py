@@ -18,21 +18,43 @@ from __future__ import annotations
 
 import ast
 import inspect
+import math
 import textwrap
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["to_c_function", "c_literal"]
+__all__ = ["to_c_function", "c_literal", "check_constant", "CONSTANT_RANGE"]
 
 _FUNCS = {"sin": "SIN", "cos": "COS", "sqrt": "SQRT", "abs": "FABS", "fabs": "FABS"}
 _OPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/"}
 
 
+#: The magnitudes a nonzero exported constant may have, by precision: at least the smallest
+#: normal number and at most the square root of the largest (a constant below would be
+#: flushed or truncated to zero, one above overflows -- in a literal, ``-Werror`` fails the
+#: float build -- or does in the first product with another constant).
+CONSTANT_RANGE = {"float": (1.1754944e-38, 1.8e19), "double": (2.2250738585072014e-308, 1.3e154)}
+
+
+def check_constant(x: float, precision: str = "double") -> str | None:
+    """Why ``x`` cannot be a C constant of ``precision`` (see :data:`CONSTANT_RANGE`), or
+    ``None`` when it can."""
+    lo, hi = CONSTANT_RANGE[precision]
+    if not math.isfinite(x):
+        return f"the non-finite constant {x!r} cannot be written to C"
+    if abs(x) > hi or (x != 0 and abs(x) < lo):
+        return (f"the constant {x:.6g} is outside what a {precision} C constant may hold "
+                f"(0 or {lo:.3g} <= |x| <= {hi:.3g})")  # fmt: skip
+    return None
+
+
 def c_literal(x: float, precision: str = "double") -> str:
-    """A C floating literal that round-trips ``x`` (17 significant digits; ``f`` for float)."""
+    """A C floating literal that round-trips ``x`` (17 significant digits; ``f`` for float).
+    A constant outside :data:`CONSTANT_RANGE` (or not finite) is a ``ValueError``."""
+    why = check_constant(float(x), precision if precision in CONSTANT_RANGE else "double")
+    if why is not None:
+        raise ValueError(why)
     text = repr(float(x))
-    if "inf" in text or "nan" in text:
-        raise ValueError(f"cannot write the non-finite constant {x!r} to C")
     if "." not in text and "e" not in text:
         text += ".0"
     return text + ("f" if precision == "float" else "")

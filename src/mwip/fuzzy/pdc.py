@@ -75,8 +75,9 @@ BOOK_G1 = (-3.19e4, -807.0, 90.5, -28.6)
 BOOK_G2 = (-1.8e5, -1.6e3, 734.6, 89.9)
 
 
-class PDCInfeasibleError(RuntimeError):
-    """The LMIs of Lemma 5.1 (and 5.2) have no solution, or the solver failed."""
+class PDCInfeasibleError(RuntimeError, ValueError):
+    """The LMIs of Lemma 5.1 (and 5.2) have no solution, or the solver failed (also a
+    ``ValueError``: the settings asked for admit no design; the CLI answers exit 2)."""
 
 
 @dataclass(frozen=True)

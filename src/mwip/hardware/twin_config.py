@@ -78,7 +78,7 @@ SOURCES: dict[str, str] = {
     "drive.gear_efficiency": "MAXON GP 32 A catalogue, 2 stages (75 %)",
     "drive.supply_voltage": "V; battery, Sec. 2.5",
     "drive.current_limit": "A; ASSUMED driver limit (4x the RE25's continuous current)",
-    "drive.pwm_levels": "duty steps; ASSUMED (LM3S2965 PWM counter at ~20 kHz)",
+    "drive.pwm_levels": "duty steps (0: not quantised); ASSUMED (LM3S2965 PWM counter at ~20 kHz)",
     "drive.mode": "'voltage': PWM duty from the control signal (Sec. 6.1), or 'torque'",
     "drive.deadband": "duty; ASSUMED 0.5 us dead time / minimum pulse at 20 kHz",
     "drive.supply_resistance": "Ohm; ASSUMED battery + wiring resistance (voltage sag)",
@@ -129,6 +129,15 @@ def _build(cls: type, data: Mapping[str, Any], table: str, base: Any) -> Any:
     unknown = sorted(set(data) - set(names))
     if unknown:
         raise ValueError(f"twin.{table}: unknown key {unknown[0]!r}; allowed: {', '.join(names)}")
+    for key, value in data.items():  # the type of the default (a word for a number is no number)
+        old = getattr(base, key)
+        kinds = ((bool, "true or false") if isinstance(old, bool) else
+                 ((int, float), "a number") if isinstance(old, int | float) else
+                 (str, "text") if isinstance(old, str) else (None, ""))  # fmt: skip
+        if kinds[0] is not None and (not isinstance(value, kinds[0])
+                                     or (kinds[0] is not bool and isinstance(value, bool))):
+            shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:37] + "..."
+            raise ValueError(f"twin.{table}.{key} must be {kinds[1]}, got {shown}")
     try:
         return replace(base, **dict(data))
     except (TypeError, ValueError) as exc:
@@ -176,6 +185,10 @@ def load_twin(path: str | os.PathLike[str], base: Twin | None = None) -> Twin:
     data = read_toml(path, "twin file")
     if "twin" not in data:
         raise ValueError(f"twin file {str(path)!r} has no [twin] table")
+    extra = sorted(set(data) - {"twin"})
+    if extra:
+        raise ValueError(f"twin file {str(path)!r}: unknown table or key {extra[0]!r}; a twin "
+                         "file holds only [twin] and its sub-tables")  # fmt: skip
     return twin_from_dict(data["twin"], base)
 
 

@@ -70,6 +70,7 @@ from mwip.core import HOLD_CODES
 from mwip.numerics import expm
 from mwip.observers.design import GainsLike, as_gain_matrices, error_dynamics, stacked_gain
 from mwip.params import Params
+from mwip.validate import choice, integer, params_arg, real
 
 __all__ = ["HighOrderDO", "HODO", "FGFunction", "discretize_observer", "euler_substeps_needed"]
 
@@ -180,7 +181,17 @@ class HighOrderDO:
         model_hold: ModelHold = "end",
         f_g: FGFunction | None = None,
     ) -> None:
+        params_arg("params", params)
+        Ts = real("Ts", Ts, 0.0, 1.0)
+        choice("discretization", discretization, ("exact", "euler"))
+        choice("model_hold", model_hold, ("start", "end", "trapezoid"))
+        substeps = integer("substeps", substeps, 1, 10**6)
+        if f_g is not None and not callable(f_g):
+            raise TypeError(f"f_g must be callable or None, got {type(f_g).__name__}")
         self.gains: tuple[NDArray[np.float64], ...] = as_gain_matrices(gains)
+        if any(not np.all(np.isfinite(g)) or np.any(np.abs(g) > 1e9) for g in self.gains):
+            raise ValueError("gains must be finite with entries in [-1e9, 1e9] (beyond, the "
+                             "observer's matrix exponential overflows)")  # fmt: skip
         D, _ = error_dynamics(self.gains)
         lam = np.linalg.eigvals(D)
         if not np.max(lam.real) < 0:

@@ -81,6 +81,8 @@ class Comparison:
     damping: str | None
     verdicts: dict[tuple[str, str], bool]
     results: tuple[StudyResult, ...] = ()
+    #: why a study there was left out (its metrics.json unreadable): said, never dropped silently
+    unreadable: tuple[str, ...] = ()
 
     @property
     def label(self) -> str:
@@ -94,10 +96,14 @@ class Comparison:
 def load_comparison(folder: Path) -> Comparison:
     """The verdicts in ``folder`` (a results folder of ``mwip reproduce``/``run``)."""
     folder = Path(folder)
-    results = [r for r in load_results(folder) if r.doc is not None]
+    loaded = load_results(folder)
+    results = [r for r in loaded if r.doc is not None]
+    unreadable = tuple(str(r.error) for r in loaded
+                       if r.doc is None and r.error and "unreadable" in r.error)  # fmt: skip
     verdicts = {claim_key(r.name, c): bool(c.get("holds")) for r in results for c in r.claims}
     damping = load_run_record(folder).get("damping")
-    return Comparison(folder=folder, damping=damping, verdicts=verdicts, results=tuple(results))
+    return Comparison(folder=folder, damping=damping, verdicts=verdicts, results=tuple(results),
+                      unreadable=unreadable)  # fmt: skip
 
 
 def find_compare(out: Path) -> Path | None:

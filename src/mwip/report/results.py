@@ -97,6 +97,8 @@ def _shape_problem(doc: Any) -> str | None:
     """What makes ``doc`` unusable as a metrics document (SPEC.md section 6), if anything."""
     if not isinstance(doc, dict):
         return f"a JSON {type(doc).__name__}, not an object"
+    if "claims" not in doc and "metrics" not in doc:
+        return "no 'claims' and no 'metrics' (an empty metrics document)"
     for key in ("metrics", "published", "runs", "settings"):
         if key in doc and not isinstance(doc[key], dict):
             return f"'{key}' must be an object, got a {type(doc[key]).__name__}"

@@ -63,11 +63,12 @@ class ClaimRobustness:
 
 
 def claim_robustness(results: Any) -> dict[tuple[str, str], ClaimRobustness]:
-    """Per (study, claim id): the verdicts of a claims campaign's table (errors excluded)."""
-    df = results[results["error"] == ""]
+    """Per (study, claim id): the verdicts of a claims campaign's table (errors excluded:
+    rows with an ``error`` or no ``holds``)."""
+    df = results[(results["error"] == "") & results["holds"].notna()]
     out: dict[tuple[str, str], ClaimRobustness] = {}
     for (study, claim), g in df.groupby(["study", "claim"], sort=False):
-        k, n = int(g["holds"].sum()), int(len(g))
+        k, n = int(g["holds"].astype(bool).sum()), int(len(g))
         lo, hi = wilson(k, n)
         out[(str(study), str(claim))] = ClaimRobustness(
             str(study), str(claim), str(g["book"].iloc[0]), k, n, k / n, lo, hi
@@ -79,7 +80,13 @@ def load_claim_robustness(folder: str | Path) -> dict[tuple[str, str], ClaimRobu
     """:func:`claim_robustness` of ``folder/results.parquet`` (a finished claims campaign)."""
     import pandas as pd
 
-    return claim_robustness(pd.read_parquet(Path(folder) / "results.parquet"))
+    df = pd.read_parquet(Path(folder) / "results.parquet")
+    missing = {"study", "claim", "book", "holds", "error"} - set(df.columns)
+    if missing:
+        raise ValueError(f"--claims: {str(folder)!r} holds no claims campaign (its table lacks "
+                         f"{', '.join(sorted(missing))}); give `mwip campaign run claims`'s "
+                         "folder")  # fmt: skip
+    return claim_robustness(df)
 
 
 def robustness_text(

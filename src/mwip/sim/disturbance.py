@@ -31,7 +31,7 @@ def _vec3(name: str, value: Sequence[float] | float) -> tuple[float, float, floa
     what = f"disturbance {name!r} must be a number or 3 numbers (N m, rad/s or rad)"
     try:
         raw = np.asarray(value)
-        if raw.dtype.kind not in "iuf":
+        if raw.dtype.kind not in "iuf" or raw.shape not in ((), (3,)):  # not [x]: 1 or 3
             raise ValueError
         arr = np.broadcast_to(raw.astype(float), (3,))
     except (TypeError, ValueError):
@@ -113,6 +113,8 @@ def disturbance_from_dict(data: Mapping[str, Any]) -> Disturbance:
     kind_value = d.pop("kind", "")
     kind = kind_value.lower() if isinstance(kind_value, str) else repr(kind_value)
     if kind == "book":
+        if d:
+            raise ValueError(f"disturbance 'book' takes no other keys, got {sorted(d)[0]!r}")
         return BOOK_SINUSOIDS
     if kind not in kinds:
         raise ValueError(f"disturbance 'kind' must be one of book, pulse, sinusoid; got {kind!r}")

@@ -258,8 +258,20 @@ def simulate(
     Bad arguments raise ``TypeError`` (wrong kind) or ``ValueError`` (out of range) naming
     the argument, before any work is done.
     """
-    if mode not in ("sampled", "continuous"):
-        raise ValueError(f"mode must be 'sampled' or 'continuous', got {mode!r}")
+    for name, value, allowed in (("mode", mode, ("sampled", "continuous")),
+                                 ("integrator", integrator, ("auto", "rk4", "ros2w"))):  # fmt: skip
+        if not isinstance(value, str) or value not in allowed:
+            shown = repr(value) if isinstance(value, str) else type(value).__name__
+            raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {shown}")
+    if compiled is not None and not isinstance(compiled, bool | np.bool_):
+        raise TypeError(f"compiled must be True, False or None, got {type(compiled).__name__}")
+    if disturbance is not None and not callable(disturbance):
+        raise TypeError(f"disturbance must be callable (t -> (K, 3) torques) or None, got "
+                        f"{type(disturbance).__name__}")  # fmt: skip
+    for name, part, needs in (("sensor", sensor, ("reset",)), ("actuator", actuator, ("reset",))):
+        if part is not None and not (callable(part) and all(hasattr(part, m) for m in needs)):
+            raise TypeError(f"{name} must be a mwip {name} (callable with reset()) or None, "
+                            f"got {type(part).__name__}")  # fmt: skip
     if not isinstance(plant, Params):
         raise TypeError(f"plant must be a mwip.params.Params, got {type(plant).__name__}")
     if not callable(controller) or not hasattr(controller, "reset"):
@@ -303,7 +315,7 @@ def simulate(
     q0, qdot0, pos0 = (finite_array(k, v) for k, v in (("q0", q0), ("qdot0", qdot0),
                                                          ("pos0", pos0)))  # fmt: skip
     n, batched = _batch_size(plant, [q0, qdot0, pos0])
-    budget.check(estimate(duration, Ts, dt, n, record_every), "simulate")
+    budget.check(estimate(duration, Ts, dt, n, record_every, mode), "simulate")
     n_samples = max(int(round(duration / Ts)), 1)
     duration = n_samples * Ts
 

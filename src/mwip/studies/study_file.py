@@ -124,6 +124,22 @@ def _parse(path: Path, data: dict[str, Any], damping: str | None) -> StudyFile:
             f"[ranges] is the study's own table of allowed values and cannot be changed; "
             f"remove it or copy it unchanged from `mwip scenario {name}`"
         )
+    if "open" in data:
+        import tomllib
+
+        from mwip.studies.settings import packaged_text
+
+        packaged = tomllib.loads(packaged_text(name)).get("open", {})
+        for key in data["open"]:
+            if key not in packaged:
+                raise ValueError(f"[open] {key}: not an open setting of {name!r} "
+                                 f"(open: {', '.join(sorted(packaged)) or 'none'})")  # fmt: skip
+        if data["open"] != packaged:
+            raise ValueError(
+                "[open] documents the study's open settings (the claims campaign draws them "
+                f"from the packaged file) and cannot be changed; remove it or copy it "
+                f"unchanged from `mwip scenario {name}`"
+            )
     overrides = validate(name, data.get("settings", {}))
     return StudyFile(path=path, name=name, quick=quick, plant=plant, nominal=nominal,
                      settings=overrides, twin=_twin(robot.get("twin"), data.get("twin"),
