@@ -15,11 +15,14 @@ import subprocess
 import sys
 import tempfile
 import warnings
+from pathlib import Path
 
 import pytest
 
 from mwip.cli import main
 from mwip.sim import aot
+
+SRC = str(Path(__file__).resolve().parent.parent / "src")
 
 
 @pytest.fixture(scope="module")
@@ -140,7 +143,7 @@ def test_a_truncated_module_is_not_imported(cache, good):
     """The issue's case exactly: ``truncate -s 1000`` made every run die by SIGBUS (exit 135).
     In a subprocess, so that a regression cannot take the test session down with it."""
     _corrupt("truncated", good[0])
-    env = dict(os.environ, MWIP_AOT="load")
+    env = dict(os.environ, MWIP_AOT="load", PYTHONPATH=SRC)
     code = "from mwip.sim import aot; print(aot.run_function() is None)"
     res = subprocess.run([sys.executable, "-W", "always", "-c", code], capture_output=True,
                          text=True, env=env, timeout=120)  # fmt: skip
@@ -148,11 +151,12 @@ def test_a_truncated_module_is_not_imported(cache, good):
     assert res.stdout.strip() == "True" and "corrupt" in res.stderr
 
 
+@pytest.mark.slow
 def test_a_damaged_numba_cache_entry_is_a_miss(tmp_path):
     """Numba's own cache of mwip's kernels: a truncated index or a garbage data file raised
     ``UnpicklingError`` from inside every later run (an internal error); it is now a miss, the
     kernel compiled again and the entry rewritten."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "nb"))
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "nb"), PYTHONPATH=SRC)
     code = ("from mwip.fuzzy._fig53_kernel import _tri; "
             "print(_tri(0.5, 0.0, 1.0, 2.0), sum(_tri.stats.cache_hits.values()))")  # fmt: skip
 
@@ -162,13 +166,26 @@ def test_a_damaged_numba_cache_entry_is_a_miss(tmp_path):
         assert res.returncode == 0, res.stderr[-2000:]
         return res.stdout.split()
 
-    assert run()[0] == "0.5"
+    assert run() == ["0.5", "0"]  # compiled and written
     (index,) = (tmp_path / "nb").rglob("_fig53_kernel._tri-*.nbi")
-    assert run() == ["0.5", "1"]  # a hit
     index.write_bytes(index.read_bytes()[:10])
-    assert run() == ["0.5", "0"]  # a miss, not an UnpicklingError
-    assert run() == ["0.5", "1"]  # and written again
+    assert run() == ["0.5", "0"]  # a miss, not an UnpicklingError; written again
     for data in (tmp_path / "nb").rglob("_fig53_kernel._tri-*.nbc"):
         data.write_bytes(b"garbage")
-    assert run() == ["0.5", "0"]
-    assert run() == ["0.5", "1"]
+    assert run() == ["0.5", "0"]  # a miss again
+    assert run() == ["0.5", "1"]  # and a hit: the rewritten entry is sound
+
+
+def test_the_cli_says_the_fallback_in_one_line(tmp_path):
+    """An unusable cache folder: the run works on the JIT loop and says so in one line (not
+    Python's warning with its file, line number and source line)."""
+    (tmp_path / "file").write_text("x")
+    env = dict(os.environ, MWIP_CACHE_DIR=str(tmp_path / "file" / "cache"), MWIP_AOT="on",
+               PYTHONPATH=SRC)
+    res = subprocess.run([sys.executable, "-m", "mwip", "simulate", "--duration", "0.1",
+                          "--out", str(tmp_path / "o")], capture_output=True, text=True,
+                         env=env, timeout=300)  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("mwip: warning:"), lines
+    assert "using the JIT loop" in lines[0] and "UserWarning" not in lines[0]

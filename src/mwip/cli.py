@@ -1159,12 +1159,26 @@ def main(argv: list[str] | None = None) -> int:
     is being handled ends the process at once), any other failure one line and exit 1
     (``MWIP_TRACEBACK=1`` shows the traceback).
     """
-    with _interrupts():
-        try:
-            return _main(argv)
-        except KeyboardInterrupt:  # raised outside click's own handling (start-up, clean-up)
-            click.echo("mwip: interrupted; earlier results are left as they were", err=True)
-            return 130
+    import warnings
+
+    fmt, warnings.formatwarning = warnings.formatwarning, _warning_line
+    try:
+        with _interrupts():
+            try:
+                return _main(argv)
+            except KeyboardInterrupt:  # raised outside click's own handling (start-up, clean-up)
+                click.echo("mwip: interrupted; earlier results are left as they were", err=True)
+                return 130
+    finally:
+        warnings.formatwarning = fmt
+
+
+def _warning_line(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  line: str | None = None) -> str:  # fmt: skip
+    """A warning shown by the CLI: one line, ``mwip: warning: ...`` (not Python's file, line
+    number and source line)."""
+    text = _cut(str(message), 300).removeprefix("mwip: ")
+    return f"mwip: warning: {text}\n"
 
 
 def _main(argv: list[str] | None) -> int:
