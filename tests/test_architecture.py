@@ -64,7 +64,7 @@ def _module_name(path: Path) -> str:
 
 def _is_cli(module: str) -> bool:
     last = module.rsplit(".", 1)[-1]
-    return (module in ("mwip.cli", "mwip.__main__") or last.startswith("cli_")
+    return (module in ("mwip.cli", "mwip.__main__", "mwip.console") or last.startswith("cli_")
             or last == "cli" or last.endswith("_cli"))  # fmt: skip
 
 
