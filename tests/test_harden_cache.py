@@ -156,7 +156,7 @@ def test_a_damaged_numba_cache_entry_is_a_miss(tmp_path):
     """Numba's own cache of mwip's kernels: a truncated index or a garbage data file raised
     ``UnpicklingError`` from inside every later run (an internal error); it is now a miss, the
     kernel compiled again and the entry rewritten."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "nb"), PYTHONPATH=SRC)
+    env = dict(os.environ, MWIP_CACHE_DIR=str(tmp_path / "nb"), PYTHONPATH=SRC)
     code = ("from mwip.fuzzy._fig53_kernel import _tri; "
             "print(_tri(0.5, 0.0, 1.0, 2.0), sum(_tri.stats.cache_hits.values()))")  # fmt: skip
 

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from mwip import numerics
-from mwip.control.lqr import dlqr, lqr, zoh
+from mwip.control.lqr import lqr, lqr_sampled, zoh
 from mwip.observers.design import impulse_to_energy_gain
 from mwip.observers.hodo import discretize_observer
 
@@ -56,7 +56,7 @@ def test_continuous_gains_agree_with_the_former_solver(case):
 
 @pytest.mark.parametrize("case", OLD["dlqr"], ids=lambda c: f"Ts={c['Ts']}-K0={c['K'][0][0]:.4g}")
 def test_sampled_gains_agree_with_the_former_solver(case):
-    K = dlqr(case["A"], case["B"], case["Q"], case["R"], case["Ts"])[0]
+    K = lqr_sampled(case["A"], case["B"], case["Q"], case["R"], case["Ts"])[0]
     assert _rel(K, case["K"]) < GAIN_RTOL
 
 

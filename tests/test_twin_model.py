@@ -21,6 +21,7 @@ from mwip.hardware.drivetrain import (
     relative_mobility,
 )
 from mwip.hardware.elements import ELEMENTS
+from mwip.hardware.identified import default_twin
 from mwip.hardware.imu import Imu, ImuNoise
 from mwip.hardware.motor import RE25, RPM, DriveActuator, DriveSpec
 from mwip.hardware.sensitivity import input_gains, payload_sensitivity, pitch_pole
@@ -235,7 +236,7 @@ def test_pitch_pole_and_payload_geometry() -> None:
 def test_twin_file_round_trip_and_errors(tmp_path: object) -> None:
     tw = Twin(delay=1.0, drive=DriveSpec(mode="torque"), elements={"motor", "delay"})
     assert twin_from_dict(tomllib.loads(twin_to_toml(tw))["twin"]) == tw
-    assert twin_from_dict(tomllib.loads(twin_to_toml())["twin"]) == Twin()
+    assert twin_from_dict(tomllib.loads(twin_to_toml())["twin"]) == default_twin()
     with pytest.raises(ValueError, match=r"twin\.drive: unknown key 'gear'"):
         twin_from_dict({"drive": {"gear": 3}})
     with pytest.raises(ValueError, match="delay"):
@@ -257,7 +258,7 @@ def test_cli_twin_show_and_bad_file(tmp_path: object, capsys: pytest.CaptureFixt
 
     assert main(["twin", "show"]) == 0
     text = capsys.readouterr().out
-    assert twin_from_dict(tomllib.loads(text)["twin"]) == Twin()
+    assert twin_from_dict(tomllib.loads(text)["twin"]) == default_twin()
     assert "Table 2.1" in text
     f = tmp_path / "bad.toml"  # type: ignore[operator]
     f.write_text("[twin.imu]\naccel_sigma = -1.0\n")

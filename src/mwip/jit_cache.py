@@ -13,14 +13,20 @@ right after, and Numba's cache of other code stays where the user put it. A cach
 cannot be written turns caching off for mwip's kernels (they compile in each process) rather
 than falling back to ``__pycache__``, where a stale kernel could be found.
 
+A damaged entry of mwip's (a truncated index, a garbage data file; Numba would raise
+``UnpicklingError`` from inside every later call) is dropped before Numba sees it
+(:func:`drop_damaged`): the function compiles again and its entry is rewritten.
+
 Ground floor: imports neither Numba (until :func:`njit` is called) nor the engine; the
 ahead-of-time loop (:mod:`mwip.sim.aot`) names its module after the same :data:`SOURCES`.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
+import pickle
 import platform
 import sys
 from collections.abc import Callable
@@ -29,7 +35,7 @@ from typing import Any
 
 from mwip.cache import cache_dir, versions
 
-__all__ = ["SOURCES", "key", "folder", "njit"]
+__all__ = ["SOURCES", "key", "folder", "njit", "drop_damaged"]
 
 #: The source files compiled into :func:`mwip.sim.loop.run`, relative to the package
 #: (tests/test_aot.py checks that every mwip module the loop imports is listed).
@@ -101,6 +107,7 @@ def njit(*args: Any, **options: Any) -> Any:
         path = folder()
         if path is None:
             return numba.njit(**options)(fn)
+        drop_damaged(path, fn)
         old = config.CACHE_DIR
         config.CACHE_DIR = str(path)
         try:  # Numba picks the cache folder here, when caching is enabled for the function
@@ -109,3 +116,34 @@ def njit(*args: Any, **options: Any) -> Any:
             config.CACHE_DIR = old
 
     return decorate
+
+
+def _sound_pickle(data: bytes) -> bool:
+    """A cheap structural check of a pickle: protocol 2+ header and the STOP opcode at the
+    end (a truncated or overwritten file fails it)."""
+    return len(data) > 3 and data[:1] == b"\x80" and data[-1:] == b"."
+
+
+def drop_damaged(path: Path, fn: Callable[..., Any]) -> None:
+    """Remove ``fn``'s cache index under ``path`` when it, or a data file it names, is damaged.
+
+    Numba's index (``<file>.<qualname>-<line>.py<ver>.nbi``) is a pickled version followed by a
+    pickled ``(stamp, overloads)``; each overload names a data file (``.nbc``, a pickle). The
+    index is read as Numba reads it, the data files checked structurally; on any failure the
+    index goes, so Numba sees a miss, compiles and writes a sound entry."""
+    code = getattr(fn, "__code__", None)
+    if code is None:
+        return
+    stem = f"{Path(code.co_filename).stem}.{fn.__qualname__}-"
+    for index in path.rglob(f"{stem}*.nbi"):
+        try:
+            with open(index, "rb") as fh:
+                pickle.load(fh)  # Numba's version stamp
+                _stamp, overloads = pickle.loads(fh.read())
+            names = list(overloads.values())
+            ok = all(_sound_pickle((index.parent / str(n)).read_bytes()) for n in names)
+        except Exception:  # noqa: BLE001 - pickle, EOF, OS and shape errors alike
+            ok = False
+        if not ok:
+            with contextlib.suppress(OSError):
+                index.unlink()

@@ -11,7 +11,7 @@ controller never sees the plant), the validated settings and the sample period i
 (20.0, 15.0)
 >>> get("smc").resolve({"phi": -1})
 Traceback (most recent call last):
-ValueError: controller 'smc': setting 'phi' must be a number in (0, inf), got -1
+ValueError: controller 'smc': setting 'phi' must be a number in (0, 1e+06], got -1
 
 Defaults: the book's values. Where the book gives a set for the 5 ms robot loop (Chapter 6,
 Tables 6.3 and 6.7) that set is the default, since every controller runs at the robot's 5 ms
