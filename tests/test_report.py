@@ -451,3 +451,20 @@ def test_study_figures_are_drawn_for_the_width_the_report_shows(tmp_path):
         sizes = [t.get_fontsize() * dpi / 72 / shrink for t in fig.findobj(Text) if t.get_text()]
         assert min(sizes) >= 10.0 - 1e-9
         assert max(sizes) == pytest.approx(12 * dpi / 72 / shrink)  # larger text untouched
+
+
+def test_an_evidence_text_is_shown_once_per_study() -> None:
+    """Issue 25: the same evidence paragraph repeated six times per study; now once, and the
+    later claims refer to it."""
+    from types import SimpleNamespace
+
+    from mwip.report.html import _claims_table
+
+    text = "Every run fell within 0.4 s on the twin: no number to compare."
+    claims = [{"id": f"c{i}", "text": f"claim {i}", "book": True, "holds": False,
+               "cause": "twin", "evidence": text} for i in range(3)]  # fmt: skip
+    claims.append({"id": "c3", "text": "claim 3", "book": True, "holds": False,
+                   "cause": "twin", "evidence": "another text"})  # fmt: skip
+    html_ = _claims_table(SimpleNamespace(name="exp-x", claims=claims), None)
+    assert html_.count(text) == 1 and html_.count("(the same evidence as above)") == 2
+    assert "another text" in html_

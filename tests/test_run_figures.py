@@ -78,3 +78,21 @@ def test_torque_beyond_the_limit_is_flagged_in_the_summary(tmp_path, capsys):
     assert main(["simulate", "--theta0", "0.05", "--duration", "0.3", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["over_torque_limit"] is False
+
+
+def test_a_study_figure_marks_a_fall_and_names_its_cause() -> None:
+    """Issue 25: a study figure of a run that fell showed the fall with no word why."""
+    from types import SimpleNamespace
+
+    from matplotlib.figure import Figure
+
+    from mwip.hardware.ablation import mark_fall
+
+    axes = Figure().subplots(3, 1)
+    fell = SimpleNamespace(status=np.array(["fell"]), t_end=np.array([0.42]))
+    label = mark_fall(axes, fell, "SMC", "tab:blue", scale=10.0)
+    assert label == "SMC: fell at t = 0.42 s (|theta| beyond the fall limit)"
+    for ax in axes:  # the stop time on every panel, in the figure's time unit (0.1 s)
+        assert [line.get_xdata()[0] for line in ax.get_lines()] == [pytest.approx(4.2)]
+    stood = SimpleNamespace(status=np.array(["ok"]), t_end=np.array([20.0]))
+    assert mark_fall(axes, stood, "ASTA", "tab:red") == "ASTA"

@@ -42,7 +42,8 @@ from mwip.params import Params
 from mwip.sim.result import SimResult
 
 __all__ = [
-    "board_signals", "ablation_steps", "rms_metrics", "run_ablation", "Ablation", "MetricFn"]
+    "board_signals", "mark_fall", "ablation_steps", "rms_metrics", "run_ablation", "Ablation",
+    "MetricFn"]
 
 #: ``metrics(result, run, case) -> {quantity: value}`` for one (unbatched) twin run.
 MetricFn = Callable[[SimResult, str, int], Mapping[str, float]]
@@ -77,6 +78,23 @@ def board_signals(res: SimResult) -> tuple[Any, Any]:
     if meas is None:
         return res.theta, res.q_dot[:, 0]
     return meas[:, 1], meas[:, 3]
+
+
+def mark_fall(axes: Any, res: SimResult, label: str, color: str, scale: float = 1.0) -> str:
+    """On a study figure, a run that stopped early: a dashed line at its stop time on every
+    axis in ``axes`` (time in units of ``1 / scale`` s) and the legend label with its status and
+    cause, e.g. ``"SMC: fell at t = 0.42 s (|theta| beyond the fall limit)"`` (issue 25: a
+    fall drawn with no word why). Returns the label to use (``label`` itself for a run that
+    stood)."""
+    status = str(res.status[0])
+    if status == "ok":
+        return label
+    t_end = float(res.t_end[0])
+    for ax in axes:
+        ax.axvline(t_end * scale, color=color, ls="--", lw=0.8)
+    why = {"fell": "|theta| beyond the fall limit",
+           "diverged": "the state left its numeric range"}.get(status, status)  # fmt: skip
+    return f"{label}: {status} at t = {t_end:.2f} s ({why})"
 
 
 def rms_metrics(window: tuple[float, float], q1d_dot: float = 0.0) -> MetricFn:

@@ -137,11 +137,18 @@ def _values(c: dict[str, Any]) -> str:
     return ", ".join(f"{_e(k)} = {format_number(v)}" for k, v in values.items())
 
 
-def _why(c: dict[str, Any]) -> str:
-    """Evidence (with the deciding numbers) for a failing book claim; the numbers otherwise."""
+def _why(c: dict[str, Any], seen: set[str] | None = None) -> str:
+    """Evidence (with the deciding numbers) for a failing book claim; the numbers otherwise.
+    ``seen``: the evidence texts already shown in this table for the same study; a repeat is
+    shown once (issue 25: the same paragraph six times per study), later rows refer to it."""
     parts = []
-    if c.get("evidence"):
-        parts.append(_e(c["evidence"]))
+    ev = c.get("evidence")
+    if ev and seen is not None and ev in seen:
+        parts.append('<span class="muted">(the same evidence as above)</span>')
+    elif ev:
+        parts.append(_e(ev))
+        if seen is not None:
+            seen.add(ev)
     vals = _values(c)
     if vals:
         parts.append(f'<span class="muted">{vals}</span>')
@@ -177,6 +184,7 @@ def _claims_table(res: StudyResult, compare: Comparison | None, note: Note = _no
         return '<p class="muted">No claims.</p>'
     other = f"<th>{_e(compare.label)}</th>" if compare else ""
     body = ""
+    seen: set[str] = set()
     for c in res.claims:
         kind = "book" if is_book(c) else "ours"
         cause = _e(c.get("cause", "")) if is_book(c) and not c.get("holds") else ""
@@ -187,7 +195,7 @@ def _claims_table(res: StudyResult, compare: Comparison | None, note: Note = _no
         if compare:
             body += (f"<td data-label='{_e(compare.label)}'>"
                      f"{_verdict(compare.verdict(res.name, c))}</td>")  # fmt: skip
-        body += f"<td data-label='evidence'>{_why(c)}</td></tr>"
+        body += f"<td data-label='evidence'>{_why(c, seen)}</td></tr>"
     return (
         '<div class="scroll"><table class="claims"><tr class="head"><th>by</th><th>claim</th>'
         f"<th>verdict</th><th>cause</th>{other}<th>evidence and deciding numbers</th></tr>"
@@ -211,6 +219,8 @@ def _book_claims_section(
     other = f"<th>{_e(compare.label)}</th>" if compare else ""
     ncol = 4 + bool(compare)
 
+    seen: dict[str, set[str]] = {}  # per study: evidence texts shown in this table
+
     def row(r: StudyResult, c: dict[str, Any]) -> str:
         cells = (
             f"<tr><td><a href='#{_e(r.name)}'>{_e(r.name)}</a></td><td>{_e(c.get('text', ''))}"
@@ -220,7 +230,8 @@ def _book_claims_section(
         if compare:
             cells += (f"<td data-label='{_e(compare.label)}'>"
                       f"{_verdict(compare.verdict(r.name, c))}</td>")  # fmt: skip
-        return cells + f"<td data-label='evidence'>{_why(c)}</td></tr>"
+        why = _why(c, seen.setdefault(r.name, set()))
+        return cells + f"<td data-label='evidence'>{why}</td></tr>"
 
     held = [(r, c) for r, c in claims if c.get("holds")]
     body = (

@@ -36,7 +36,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from mwip.control.asta import ASMC, ASTA
-from mwip.hardware.ablation import Ablation, board_signals, rms_metrics, run_ablation
+from mwip.hardware.ablation import Ablation, board_signals, mark_fall, rms_metrics, run_ablation
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
 from mwip.params import Params
@@ -277,7 +277,8 @@ def _figure(runs: dict[str, SimResult], plant: Params) -> Figure:
             res = runs[f"{kind}.case{case}"]
             s = res.series()
             t = res.t * 10.0
-            kw = {"color": colors[kind], "lw": 0.9, "label": kind.upper()}
+            label = mark_fall(axes[:, j], res, kind.upper(), colors[kind], scale=10.0)
+            kw = {"color": colors[kind], "lw": 0.9, "label": label}
             axes[0, j].plot(t, res.theta, **kw)
             axes[1, j].plot(t, s["sigma"][:, 0], **kw)
             axes[2, j].plot(t, s["Gamma"][:, 0], **kw)
@@ -286,7 +287,8 @@ def _figure(runs: dict[str, SimResult], plant: Params) -> Figure:
         for ax, lab in zip(axes[:, j], ("Angle [rad]", "S1", "gain", "Torque [N.m]"), strict=True):
             ax.set_ylabel(lab)
         axes[3, j].set_xlabel("Time [0.1s]")
-    axes[0, 0].legend(fontsize=8)
+    for ax in axes[0]:
+        ax.legend(fontsize=8)
     fig.suptitle(f"exp-asta on the digital twin ({robot_label(plant)})")
     return fig
 

@@ -55,7 +55,14 @@ from matplotlib.figure import Figure
 
 from mwip.control.smc import SMCDesignWarning, make_smc
 from mwip.control.switching import Switching
-from mwip.hardware.ablation import Ablation, MetricFn, board_signals, rms_metrics, run_ablation
+from mwip.hardware.ablation import (
+    Ablation,
+    MetricFn,
+    board_signals,
+    mark_fall,
+    rms_metrics,
+    run_ablation,
+)
 from mwip.hardware.obstacle import StickObstacle
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
@@ -595,7 +602,8 @@ def _figure(
         for kind in KINDS:
             res = runs[f"{kind}{case}"]
             t = res.t * 10.0
-            kw = {"color": colors[kind], "lw": 0.9, "label": LABEL[kind]}
+            label = mark_fall(axes[:, j], res, LABEL[kind], colors[kind], scale=10.0)
+            kw = {"color": colors[kind], "lw": 0.9, "label": label}
             axes[0, j].plot(t, res.theta, **kw)
             axes[1, j].plot(t, res.q_dot[:, 0], **kw)
             axes[2, j].plot(t, res.series()["u_applied"][:, 0], **kw)
@@ -606,7 +614,8 @@ def _figure(
         axes[1, j].set_ylabel("Speed [rad/s]")
         axes[2, j].set_ylabel("Torque [N.m] (right wheel, applied)")
         axes[2, j].set_xlabel("Time [0.1s]")
-    axes[0, 0].legend(fontsize=8)
+    for ax in axes[0]:
+        ax.legend(fontsize=8)
     fig.suptitle(f"{title} on the digital twin ({robot_label(plant)})")
     return fig
 
