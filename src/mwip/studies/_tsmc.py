@@ -114,17 +114,20 @@ def state_figure(
     ]
     for j, (key, series, label) in enumerate(panels):
         ax = fig.add_subplot(gs[j // 2, j % 2])
-        ax.plot(res.t, series, "k", lw=1.2)
+        ax.plot(res.t, series, "k", lw=1.2, label="run")
         if key in targets:
-            ax.plot(res.t, np.broadcast_to(targets[key], res.t.shape), "r", lw=1.0)
+            ax.plot(res.t, np.broadcast_to(targets[key], res.t.shape), "r", lw=1.0,
+                    label="target")  # fmt: skip
         ax.set_ylabel(label)
         ax.set_xlabel("time [s]")
+        ax.legend(loc="upper right", fontsize=8)
     ax = fig.add_subplot(gs[2, :])
-    ax.plot(res.t, res.v, "k", lw=1.2)
+    ax.plot(res.t, res.v, "k", lw=1.2, label="run")
     if "v" in targets:
-        ax.plot(res.t, np.broadcast_to(targets["v"], res.t.shape), "r", lw=1.0)
+        ax.plot(res.t, np.broadcast_to(targets["v"], res.t.shape), "r", lw=1.0, label="target")
     ax.set_ylabel("v [m/s]")
     ax.set_xlabel("time [s]")
+    ax.legend(loc="upper right", fontsize=8)
     ax = fig.add_subplot(gs[3, :])
     ax.plot(res.t, res.u[:, 0], "b", lw=1.0, label="tau_r")
     ax.plot(res.t, res.u[:, 1], "r--", lw=1.0, label="tau_l")
