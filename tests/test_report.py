@@ -468,3 +468,13 @@ def test_an_evidence_text_is_shown_once_per_study() -> None:
     html_ = _claims_table(SimpleNamespace(name="exp-x", claims=claims), None)
     assert html_.count(text) == 1 and html_.count("(the same evidence as above)") == 2
     assert "another text" in html_
+
+
+def test_the_twin_tables_give_every_column_a_unit() -> None:
+    from mwip.hardware.sensitivity import payload_sensitivity, stick_sensitivity
+    from mwip.params import REAL
+    from mwip.report.html import _unit
+
+    for rows in (payload_sensitivity(base=REAL), stick_sensitivity(plant=REAL.with_payload())):
+        for key in rows[0]:
+            assert _unit(key).startswith(" ["), key

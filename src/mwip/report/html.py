@@ -376,6 +376,18 @@ def _identified_section(record: dict[str, Any]) -> str:
     )  # fmt: skip
 
 
+#: Units of the twin's sensitivity tables' columns (issue 25: tables without units).
+_UNITS = {"mass": "kg", "rod_height": "m", "body_height": "m", "mb": "kg", "l": "m",
+          "Iby": "kg m^2", "Gb": "N m/rad", "Gb_over_nominal": "-", "pitch_pole": "1/s",
+          "height": "m", "climb_angle": "rad", "duration": "s", "torque": "N m",
+          "impulse": "N m s", "work": "J"}  # fmt: skip
+
+
+def _unit(key: str) -> str:
+    u = _UNITS.get(key)
+    return f" [{u}]" if u else ""
+
+
 def _twin_section(results: list[StudyResult], record: dict[str, Any]) -> str:
     """The digital twin's assumptions where the book prints none: the Case 2 payload and the
     Case 3 stick, as sensitivities of the robot that ran (issue 16 item 3)."""
@@ -390,7 +402,7 @@ def _twin_section(results: list[StudyResult], record: dict[str, Any]) -> str:
         base = REAL
 
     def table(rows: list[dict[str, Any]]) -> str:
-        head = "".join(f"<th>{_e(k)}</th>" for k in rows[0])
+        head = "".join(f"<th>{_e(k)}{_e(_unit(k))}</th>" for k in rows[0])
         body = "".join(
             "<tr>" + "".join(f"<td class='num'>{format_number(v)}</td>" for v in r.values())
             + "</tr>" for r in rows
