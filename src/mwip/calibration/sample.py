@@ -9,6 +9,7 @@ studies' noise seed for every row: each row sees the noise of the study's single
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
@@ -62,6 +63,22 @@ def calibration_campaign(samples: int, seed: int, block: int, duration: float = 
     return parse_campaign({"campaign": camp})
 
 
+def _init_worker(parent: int) -> None:
+    """A worker ignores Ctrl-C (the parent decides) and exits when its parent is gone (killed
+    outright), instead of computing twins for nobody."""
+    import signal
+    import threading
+    import time
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=watch, daemon=True).start()
+
+
 def _evaluate_chunk(args: tuple[dict[str, NDArray[np.float64]], float | None]) -> dict[str, Any]:
     from mwip.calibration.runs import run_batch
 
@@ -97,7 +114,8 @@ def evaluate(
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn")) as ex:
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
+                                 initializer=_init_worker, initargs=(os.getpid(),)) as ex:
             results = []
             for r in ex.map(_evaluate_chunk, chunks):
                 results.append(r)
