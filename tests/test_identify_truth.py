@@ -74,3 +74,14 @@ def test_fit_predicts_held_out_log_better_than_prior(fits: list) -> None:
         better += e_fit["enc_rms"] < e_pri["enc_rms"] and \
             e_fit["theta_rate_rms"] <= e_pri["theta_rate_rms"] * 1.001  # fmt: skip
     assert better == 8
+
+
+def test_the_fit_says_how_far_it_has_come() -> None:
+    """Issue 23: `mwip twin fit LOG` was silent for its whole run; it now reports every 100
+    model evaluations of each stage."""
+    t, duty, mode = excite.schedule(static=0.3, step=0.07, chirp=0.6)
+    lg = _log(synth.stand_log(synth.draw_truth(3), duty, mode, seed=3))
+    lines: list[str] = []
+    fit([lg], progress=lines.append)
+    assert lines and all(line.startswith("fit: stage ") for line in lines)
+    assert "model evaluations, residual RMS" in lines[0]

@@ -146,7 +146,8 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
     names = None if free is None else [n.strip() for n in free.split(",") if n.strip()]
     read = [read_log(p) for p in logs]
     held = read_log(validate) if validate is not None else None
-    result = fit(read, base, free=names, fixed=fixed, segment=segment)
+    result = fit(read, base, free=names, fixed=fixed, segment=segment,
+                 progress=lambda line: click.echo(line, err=True))  # fmt: skip
     if held is not None:
         from mwip.identify.model import Known
 

@@ -30,7 +30,7 @@ information matrix, residual RMS per signal and whiteness
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -229,8 +229,26 @@ class _Problem:
         return A.tocsr()
 
 
+def _counting(prob: _Problem, stage: str, progress: Callable[[str], None] | None) -> Any:
+    """``prob`` that says, every 100 evaluations, how far the stage has come."""
+    if progress is None:
+        return prob
+    n = [0]
+
+    def fun(x: NDArray) -> NDArray:
+        r = prob(x)
+        n[0] += 1
+        if n[0] % 100 == 0:
+            progress(f"fit: {stage}: {n[0]} model evaluations, residual RMS "
+                     f"{float(np.sqrt(np.mean(r**2))):.4g}")  # fmt: skip
+        return r
+
+    return fun
+
+
 def _fit_stand(
-    seg: Segments, known: Known, free: Sequence[str], values: Mapping[str, float], search: bool
+    seg: Segments, known: Known, free: Sequence[str], values: Mapping[str, float], search: bool,
+    progress: Callable[[str], None] | None = None,
 ) -> tuple[dict[str, float], NDArray, Any, NDArray, _Problem]:
     from dataclasses import replace
 
@@ -261,9 +279,10 @@ def _fit_stand(
     if known.pwm_levels > 0:
         stages.append((known, _STEP, "3-point", 40))
     res = None
-    for kn, step, scheme, nfev in stages:
+    for k, (kn, step, scheme, nfev) in enumerate(stages):
         prob = _Problem(seg, kn, free, values)
-        res = least_squares(prob, x0, bounds=(lb, ub), jac_sparsity=prob.sparsity(),
+        fun = _counting(prob, f"stage {k + 1} of {len(stages)}", progress)
+        res = least_squares(fun, x0, bounds=(lb, ub), jac_sparsity=prob.sparsity(),
                             method="trf", tr_solver="lsmr", x_scale=1.0, jac=scheme,
                             diff_step=step, xtol=1e-10, ftol=1e-10, gtol=1e-10,
                             max_nfev=nfev)  # fmt: skip
@@ -353,8 +372,10 @@ def fit(
     fixed: Mapping[str, float] | None = None,
     segment: int = 40,
     search: bool = True,
+    progress: Callable[[str], None] | None = None,
 ) -> FitResult:
-    """Fit the twin's parameters (:data:`mwip.identify.bounds.BOUNDS`) to ``logs``.
+    """Fit the twin's parameters (:data:`mwip.identify.bounds.BOUNDS`) to ``logs``
+    (``progress`` receives a line every 100 model evaluations of each stage).
 
     ``free``: the names to fit (default: every name an experiment present informs);
     ``fixed``: name -> value held (and not fitted). A free name no segment informs keeps its
@@ -404,7 +425,7 @@ def fit(
     cond: float | None = None
     stand_free = [n for n in STAND_PARAMS if n in want and n in informed]
     if seg is not None and stand_free:
-        p, x, J, r, prob = _fit_stand(seg, known, stand_free, values, search)
+        p, x, J, r, prob = _fit_stand(seg, known, stand_free, values, search, progress)
         g = len(stand_free)
         Jd = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
         norms = np.linalg.norm(Jd[:, :g], axis=0)
