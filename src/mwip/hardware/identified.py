@@ -86,7 +86,9 @@ def status(twin: Any = None) -> dict[str, Any]:
                                      "effective_n", "default_twin", "decided_by")}
               for c in doc.get("claims", [])]  # fmt: skip
     n_up, n_runs = sum(bool(v) for v in stand.values()), len(stand)
-    text = (f"the default twin is the most probable of {p.get('size', 0)} twins consistent with "
+    size = int(p.get("size", 0) or 0)
+    which = ("the only twin found" if size == 1 else f"the most probable of {size} twins")
+    text = (f"the default twin is {which} consistent with "
             f"the book's calibration evidence (effective {p.get('effective_size', 0):.0f}; "
             f"{len(p.get('used', []))} facts conditioned on, {len(p.get('dropped', []))} met "
             f"by no twin); {n_up} of {n_runs} Chapter 6 runs stand on it")  # fmt: skip
