@@ -77,6 +77,11 @@ def write_json_atomic(path: str | os.PathLike[str], data: Any) -> Path:
     return write_text_atomic(path, json.dumps(data, indent=2, allow_nan=True) + "\n")
 
 
+def write_parquet_atomic(path: str | os.PathLike[str], frame: Any) -> Path:
+    """Write the pandas DataFrame ``frame`` to ``path`` as Parquet (no index), atomically."""
+    return write_atomic(path, lambda fh: frame.to_parquet(fh, index=False))
+
+
 def read_toml(path: str | os.PathLike[str], what: str) -> dict[str, Any]:
     """Parse a TOML file; a missing, unreadable or malformed file is a one-line ``ValueError``.
 

@@ -53,6 +53,7 @@ from typing import Any, Literal
 from mwip.control.registry import CONTROLLERS as _REGISTRY
 from mwip.control.registry import get as _get_controller
 from mwip.core import Controller
+from mwip.hardware.identified import default_twin
 from mwip.io import read_toml
 from mwip.params import NOMINAL, REAL, Params, load_params
 from mwip.sim.disturbance import Disturbance, disturbance_from_dict
@@ -187,7 +188,7 @@ class Scenario:
         if self.twin:
             from mwip.hardware.twin import case_plant, run_on_twin
 
-            base = self.twin_config if self.twin_config is not None else _default_twin()
+            base = self.twin_config if self.twin_config is not None else default_twin()
             tw = replace(base, Ts=self.Ts, dt=base.dt if self.dt is None else self.dt)
             kwargs.pop("budget", None)  # the twin's fixed Ts, dt: the default budget applies
             return run_on_twin(
@@ -255,10 +256,3 @@ def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
         except (ValueError, TypeError) as exc:
             raise ValueError(f"[disturbance] {exc}") from None
     return Scenario(**kwargs)
-
-
-def _default_twin() -> Any:
-    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
-    from mwip.hardware.identified import default_twin
-
-    return default_twin()

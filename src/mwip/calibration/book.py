@@ -48,17 +48,14 @@ def _cols(table: Any) -> dict[str, np.ndarray]:
             if c not in ("evidence", "sample")}  # fmt: skip
 
 
-def analyse(table: Any, ev: Evidence, *, prior: Any = None, pool: Any = None,
-            prior_draws: Any = None, history: list[dict[str, Any]] | None = None,
-            ) -> BookCalibration:  # fmt: skip
-    """Condition the draws ``table`` (the prior draws of the calibration campaign, or stage
-    2's final population with its ``weight`` column, :mod:`mwip.calibration.pmc`) on the
-    evidence ``ev`` and judge the held-out claims and numbers. ``pool``: every twin evaluated
-    (the facts' conflicts and the largest consistent subset are searched over it; default
-    ``table``); ``prior_draws``: the plain prior draws (each run's standing rate in the
-    prior; default ``table``); ``history``: stage 2's generations, recorded."""
+def analyse(table: Any, ev: Evidence, *, prior: Any = None,
+            prior_draws: Any = None) -> BookCalibration:  # fmt: skip
+    """Condition the draws ``table`` (the prior draws of the calibration campaign, pooled
+    with stage 2's box draws and their ``weight`` column, :mod:`mwip.calibration.proposal`)
+    on the evidence ``ev`` and judge the held-out claims and numbers. ``prior_draws``: the
+    plain prior draws (each run's standing rate in the prior; default ``table``)."""
     from mwip.calibration.claims import claim_rows, judge
-    from mwip.calibration.posterior import condition, consistent_subset, facts, weighted_quantile
+    from mwip.calibration.posterior import condition, facts, weighted_quantile
     from mwip.calibration.runs import PUBLISHED, run_names
     from mwip.hardware.prior import PRIOR
     from mwip.hardware.twin import Twin
@@ -69,9 +66,8 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None, pool: Any = None,
     bounds = {n: (float(lo), float(hi)) for n, (lo, hi) in zip(pr.names, pr.bounds, strict=True)}
     names = run_names()
     f = facts(cols, names, ev)
-    subset = consistent_subset(facts(_cols(pool), names, ev)) if pool is not None else None
     weights = cols.get("weight")
-    post = condition(f, params, bounds, ev, weights=weights, subset=subset)
+    post = condition(f, params, bounds, ev, weights=weights)
     verdicts = claim_rows(cols)
     claims = judge(verdicts, post.accepted, params, post.map_index, ev.decided,
                    weights=post.weights)  # fmt: skip
@@ -122,8 +118,7 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None, pool: Any = None,
         "claims": claims,
         "claim_counts": counts,
         "numbers": numbers,
-        "refine": history or [],
-        "evaluated": int(len(pool)) if pool is not None else int(len(table)),
+        "evaluated": int(len(table)),
     }
     return BookCalibration(doc, twin, post.accepted)
 
@@ -137,7 +132,6 @@ def calibrate_book(
     jobs: int | None = 1,
     duration: float = 0.0,
     progress: Callable[[int, int, float], None] | None = None,
-    refine: Any = True,
     proposal: Any = True,
     proposal_draws: int | None = None,
     note: Callable[[str], None] | None = None,
@@ -145,7 +139,10 @@ def calibrate_book(
     """Run (or resume) the book calibration into ``out``; returns the result and writes
     ``posterior.json``, ``posterior.md``, ``twin.toml``, ``marginals.png`` (atomically).
     ``samples``, ``seed``, ``block`` default to the declaration's; ``duration`` > 0 caps every
-    run (a smoke test: its verdicts are not the book's experiments)."""
+    run (a smoke test: its verdicts are not the book's experiments). ``proposal``: stage 2's
+    box sample (:class:`mwip.calibration.proposal.BoxProposal`; ``True``: the declaration's,
+    ``None``: none), ``proposal_draws`` its size (a smoke test); ``note`` receives one line per
+    stage-2 block."""
     import pandas as pd
 
     from mwip.calibration.sample import calibration_campaign
@@ -162,8 +159,6 @@ def calibrate_book(
     if summary.status == "interrupted":
         raise KeyboardInterrupt
     table = pd.read_parquet(out / "prior-draws" / "results.parquet")
-    settings = (ev.refine if refine is True else (refine or None)) if ev.proposal is None or \
-        proposal is None else None
     box = (ev.proposal if proposal is True else proposal) if proposal is not None else None
     if box is not None and proposal_draws is not None:
         box = replace(box, draws=int(proposal_draws))
@@ -171,14 +166,7 @@ def calibrate_book(
     if box is not None:
         pop = box_sample(table, ev, box, out / "proposal", jobs=jobs or 1, duration=duration,
                          note=note)  # fmt: skip
-        res = analyse(pop, ev, prior_draws=table)
-    elif settings is None:
-        res = analyse(table, ev)
-    else:
-        pop, pool, history = refine_sample(table, ev, settings, out / "refine", seed=camp.seed,
-                                           jobs=jobs or 1, duration=duration,
-                                           note=note)  # fmt: skip
-        res = analyse(pop, ev, pool=pool, prior_draws=table, history=history)
+    res = analyse(pop, ev, prior_draws=table)
     res.doc["samples"] = camp.samples
     res.doc["seed"] = camp.seed
     res.doc["duration_cap"] = duration or None
@@ -189,10 +177,9 @@ def calibrate_book(
 
         write_text_atomic(out / "twin.toml", provenance(res.doc) + twin_to_toml(
             res.twin, identified="most probable twin of the book calibration (above)"))
-    post_tab = pop
     ok = res.accepted
-    w = post_tab["weight"].to_numpy(dtype=float) if "weight" in post_tab else np.ones(len(ok))
-    post = {n: post_tab[f"param.{n}"].to_numpy(dtype=float)[ok] for n in res.doc["prior"]["names"]}
+    w = pop["weight"].to_numpy(dtype=float) if "weight" in pop else np.ones(len(ok))
+    post = {n: pop[f"param.{n}"].to_numpy(dtype=float)[ok] for n in res.doc["prior"]["names"]}
     _figure(table, res.doc, post, w[ok], out / "marginals.png")
     return res
 
@@ -219,46 +206,6 @@ def box_sample(table: Any, ev: Evidence, box: Any, store: Path, *, jobs: int = 1
     pool["weight"] = mis_weights(inside(x, box.ranges(names, bounds)), len(table), len(extra),
                                  box.fraction(names, bounds))  # fmt: skip
     return pool
-
-
-def refine_sample(table: Any, ev: Evidence, settings: Any, store: Path, *, seed: int,
-                  jobs: int = 1, duration: float = 0.0,
-                  note: Callable[[str], None] | None = None,
-                  ) -> tuple[Any, Any, list[Any]]:  # fmt: skip
-    """Stage 2 (:mod:`mwip.calibration.pmc`): phase A toward every calibration fact, then,
-    if some facts are met by no twin evaluated, phase B toward the largest consistent subset
-    of them. Returns the final population, every twin evaluated and the generations."""
-    import pandas as pd
-
-    from mwip.calibration.pmc import refine
-    from mwip.calibration.posterior import consistent_subset, facts
-    from mwip.calibration.runs import RUNS, _cfg, run_names
-    from mwip.calibration.sample import evaluate
-    from mwip.hardware.prior import PRIOR
-    from mwip.hardware.twin import Twin
-
-    names = run_names()
-    tw = Twin()
-    durations = {r.name: float(_cfg(r.study, tw)["duration"]) for r in RUNS}
-    if duration > 0:
-        durations = {k: min(v, duration) for k, v in durations.items()}
-
-    def run(values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        return evaluate(values, jobs=jobs, block=ev.block, duration=duration)
-
-    kw: dict[str, Any] = dict(names=PRIOR.names, bounds=np.asarray(PRIOR.bounds, dtype=float),
-                              run_names=names, durations=durations, evaluate=run, seed=seed,
-                              store=store, progress=note)  # fmt: skip
-    pop, hist, pool = refine(table, ev, settings, phase="all", stream=0, **kw)
-    mask, _ = consistent_subset(facts(_cols(pool), names, ev))
-    fnames = [f"up:{r}" for r in names] + [f"num:{n.key}" for n in ev.numbers]
-    if not mask.all() or float(pop["distance"].max()) > 0:
-        use = frozenset(n for n, m in zip(fnames, mask, strict=True) if m)
-        pool = pool.drop(columns=["distance"])
-        pop, hist_b, pool = refine(pool, ev, settings, phase="subset", stream=100, use=use, **kw)
-        hist = hist + hist_b
-    pop = pop.drop(columns=["distance"])
-    return pop, pd.DataFrame(pool).drop(columns=["distance"], errors="ignore"), hist
 
 
 def provenance(doc: dict[str, Any]) -> str:

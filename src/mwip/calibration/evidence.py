@@ -42,7 +42,6 @@ class Evidence:
     seed: int
     block: int
     source: dict[str, Any]
-    refine: Any = None  # mwip.calibration.pmc.Refine, or None
     proposal: Any = None  # mwip.calibration.proposal.BoxProposal, or None
 
     @property
@@ -54,15 +53,6 @@ class Evidence:
     def kernel_scale(self) -> float:
         """``s = ln(tolerance) / 2`` of the ABC kernel."""
         return math.log(self.tolerance) / 2.0
-
-
-def _refine(entry: Any) -> Any:
-    from mwip.calibration.pmc import Refine
-
-    if entry is None:
-        return None
-    keys = ("keep", "propose", "generations", "min_acceptance", "local")
-    return Refine(**{k: entry[k] for k in keys if k in entry})
 
 
 def _proposal(entry: Any) -> Any:
@@ -97,7 +87,6 @@ def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
             seed=int(s["seed"]),
             block=int(s["block"]),
             source=data,
-            refine=_refine(data.get("refine")),
             proposal=_proposal(data.get("proposal")),
         )
     except (KeyError, TypeError, ValueError) as exc:

@@ -144,17 +144,13 @@ def consistent_subset(f: Facts) -> tuple[NDArray[np.bool_], list[list[str]]]:
 
 def condition(f: Facts, params: Mapping[str, NDArray[np.float64]],
               bounds: Mapping[str, tuple[float, float]], ev: Evidence, *,
-              weights: NDArray[np.float64] | None = None,
-              subset: tuple[NDArray[np.bool_], list[list[str]]] | None = None,
-              ) -> Posterior:  # fmt: skip
+              weights: NDArray[np.float64] | None = None) -> Posterior:  # fmt: skip
     """Condition the draws (their unknowns ``params``: name -> (N,), prior ``bounds``) on the
     facts ``f``; see the module docstring. ``weights`` are the draws' importance weights
-    against the prior (default 1: prior draws; :mod:`mwip.calibration.pmc`); ``subset`` the
-    facts to condition on and the conflicts, when found over a larger set of draws
-    (:func:`consistent_subset`)."""
+    against the prior (default 1: prior draws; :mod:`mwip.calibration.proposal`)."""
     S = f.S
     n = S.shape[0]
-    mask, conflicts = consistent_subset(f) if subset is None else subset
+    mask, conflicts = consistent_subset(f)
     w_all = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
     accepted = np.all(S[:, mask], axis=1) if n else np.zeros(0, dtype=bool)
     num_used = np.array([mask[len(f.names) - f.log_err.shape[1] + k]

@@ -24,7 +24,6 @@ deterministic for a seed and independent of blocks and jobs; each block is store
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -81,10 +80,6 @@ def inside(x: NDArray[np.float64], ranges: NDArray[np.float64]) -> NDArray[np.bo
     return np.all((x >= ranges[:, 0] - 1e-12) & (x <= ranges[:, 1] + 1e-12), axis=1)
 
 
-def _to_parquet(frame: Any, fh: Any) -> None:
-    frame.to_parquet(fh, index=False)
-
-
 def mis_weights(in_box: NDArray[np.bool_], n_prior: int, n_box: int, fraction: float
                 ) -> NDArray[np.float64]:  # fmt: skip
     """The balance-heuristic weights of the pooled draws (module docstring): ``in_box`` per
@@ -110,7 +105,7 @@ def sample_box(
     import pandas as pd
 
     from mwip.campaign.sampling import sample_rng
-    from mwip.io import write_atomic
+    from mwip.io import write_parquet_atomic
 
     r = proposal.ranges(names, bounds)
     parts = []
@@ -129,7 +124,7 @@ def sample_box(
                                **{f"param.{n}": v for n, v in values.items()}, **cols})  # fmt: skip
             if path is not None:
                 path.parent.mkdir(parents=True, exist_ok=True)
-                write_atomic(path, functools.partial(_to_parquet, df))
+                write_parquet_atomic(path, df)
             parts.append(df)
         if note is not None:
             note(f"proposal: block {b + 1}/{n_blocks} done ({len(idx)} twins)")

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from mwip.campaign.spec import Campaign
-from mwip.io import write_atomic, write_json_atomic
+from mwip.io import write_json_atomic, write_parquet_atomic
 from mwip.outdir import LOCK
 
 __all__ = ["RunSummary", "compute_chunk", "run_campaign", "assemble", "done_blocks", "n_blocks"]
@@ -140,7 +140,7 @@ def compute_chunk(campaign: Campaign, blocks: list[int]) -> Any:
 
 def _write_chunk(out: Path, blocks: list[int], df: Any) -> Path:
     path = out / "chunks" / _chunk_name(blocks[0], blocks[-1])
-    return write_atomic(path, lambda fh: df.to_parquet(fh, index=False))
+    return write_parquet_atomic(path, df)
 
 
 def _order_key(campaign: Campaign) -> tuple[str, list[str]]:
@@ -164,7 +164,7 @@ def assemble(campaign: Campaign, out: Path) -> Any:
     keys = ["_rank", "sample"] + (["claim_index"] if "claim_index" in df else [])
     df = df.assign(_rank=rank).sort_values(keys, kind="stable").drop(columns="_rank")
     df = df.reset_index(drop=True)
-    write_atomic(out / "results.parquet", lambda fh: df.to_parquet(fh, index=False))
+    write_parquet_atomic(out / "results.parquet", df)
     return df
 
 

@@ -162,7 +162,9 @@ def export_c(
     tw = None
     if twin:
 
-        tw = _default_twin()
+        from mwip.hardware.identified import default_twin
+
+        tw = default_twin()
     rep = run_verify(build(), cctrl, plant=plant, q0=(0.0, theta0, 0.0), duration=duration,
                      twin=tw)  # fmt: skip
     tol = 1e-9 if precision == "double" else math.inf
@@ -176,13 +178,6 @@ def export_c(
         click.echo(f"mwip: error: the C controller differs from the Python one by more than "
                    f"{tol:g}", err=True)  # fmt: skip
         sys.exit(1)
-
-
-def _default_twin() -> Any:
-    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
-    from mwip.hardware.identified import default_twin
-
-    return default_twin()
 
 
 def _numbers(value: Any) -> list[float]:

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from mwip.hardware.elements import ELEMENTS, REQUIRES, check_elements
+from mwip.hardware.identified import default_twin
 from mwip.hardware.twin import Twin, run_on_twin
 from mwip.metrics import rms
 from mwip.params import Params
@@ -216,7 +217,7 @@ def run_ablation(
     claims : ``(text, test)``: each test gets one step's metrics (keys
         ``<run>.case<k>.<quantity>``) and says whether the claim holds.
     """
-    tw = replace(_default_twin() if twin is None else twin, elements=frozenset(ELEMENTS),
+    tw = replace(default_twin() if twin is None else twin, elements=frozenset(ELEMENTS),
                  ideal_sensors=False, ideal_actuator=False)  # fmt: skip
     steps = ablation_steps(order, cumulative=cumulative)
     fn = metrics if metrics is not None else rms_metrics((2.0, 10.0))
@@ -244,10 +245,3 @@ def run_ablation(
         m = ab.step_metrics(step)
         ab.claims[step] = [_judge(test, m) for _, test in claims]
     return ab
-
-
-def _default_twin() -> Any:
-    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
-    from mwip.hardware.identified import default_twin
-
-    return default_twin()

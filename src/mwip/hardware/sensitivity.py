@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mwip.hardware.identified import default_twin
 from mwip.hardware.motor import DriveSpec
 from mwip.hardware.obstacle import StickObstacle
 from mwip.hardware.twin import Twin, run_on_twin
@@ -124,7 +125,7 @@ def gear_sensitivity(
     ``theta''/u_A`` of the twin's plant (reflected inertia on) over the nominal model's, the
     pitch pole, the back-EMF damping ``eta N^2 k_t k_e / R``, the wheel stall torque and the
     wheel no-load speed."""
-    tw = _default_twin() if twin is None else twin
+    tw = default_twin() if twin is None else twin
     g_nom = input_gains(nominal)[1]
     rows = []
     for n in ratios:
@@ -240,10 +241,3 @@ def tables_markdown(tables: dict[str, list[dict[str, Any]]]) -> str:
             out.append("| " + " | ".join(f"{r[k]:.4g}" for k in keys) + " |")
         out.append("")
     return "\n".join(out)
-
-
-def _default_twin() -> Any:
-    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
-    from mwip.hardware.identified import default_twin
-
-    return default_twin()

@@ -61,6 +61,7 @@ from mwip.hardware.elements import (
     element_mask,
 )
 from mwip.hardware.encoder import EncoderSpec, count, counts_to_angle
+from mwip.hardware.identified import default_twin
 from mwip.hardware.imu import FusionSpec, Imu, ImuNoise, TiltFilter, tilt_arctan
 from mwip.hardware.motor import RE25, DriveActuator, DriveSpec, MotorData
 from mwip.hardware.obstacle import StickObstacle, StickRows, StickSpec
@@ -399,7 +400,7 @@ class TwinSensor:
         masks: NDArray[np.bool_] | None = None, common_noise: bool = False,
         values: Mapping[str, Any] | None = None,
     ) -> None:  # fmt: skip
-        self.twin = twin if twin is not None else _default_twin()
+        self.twin = twin if twin is not None else default_twin()
         v = self.twin.values() if values is None else values
         self.masks = self.twin.masks() if masks is None else np.asarray(masks, dtype=bool)
         self.r = float(np.mean(plant.r))
@@ -592,7 +593,7 @@ def run_on_twin(
     voltage drive's back-EMF torque is in the plant's ``Db``). ``progress(k)`` is called as
     samples complete (as :func:`mwip.sim.engine.simulate`).
     """
-    tw = twin if twin is not None else _default_twin()
+    tw = twin if twin is not None else default_twin()
     rows = None if rows is None else [list(r) for r in rows]
     vals: dict[str, Any] | None = None
     n_batch = None if rows is None else len(rows)
@@ -661,10 +662,3 @@ def _batched(p: Params, n: int) -> Params:
 
     db: Any = np.broadcast_to(np.asarray(p.Db, dtype=float), (n,)).copy()
     return replace(p, Db=db)
-
-
-def _default_twin() -> Any:
-    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
-    from mwip.hardware.identified import default_twin
-
-    return default_twin()

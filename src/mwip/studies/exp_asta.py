@@ -37,6 +37,7 @@ from matplotlib.figure import Figure
 
 from mwip.control.asta import ASMC, ASTA
 from mwip.hardware.ablation import Ablation, board_signals, mark_fall, rms_metrics, run_ablation
+from mwip.hardware.identified import default_twin
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
 from mwip.params import Params
@@ -88,7 +89,7 @@ def run_one(
     base, nominal = book_robot(plant, nominal)
     plant = case_plant(case, base=base)
     if twin is None:
-        twin = _default_twin()
+        twin = default_twin()
     return run_on_twin(
         make_controller(kind, cfg, nominal), case, twin=twin,
         plant=plant, q0=(0.0, cfg["theta0"], 0.0),
@@ -294,10 +295,3 @@ def _figure(runs: dict[str, SimResult], plant: Params) -> Figure:
 
 
 STUDY = Study(NAME, SOURCE, run, place=(6, 9), cost=5)
-
-
-def _default_twin() -> Any:
-    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
-    from mwip.hardware.identified import default_twin
-
-    return default_twin()

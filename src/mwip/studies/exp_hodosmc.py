@@ -63,6 +63,7 @@ from mwip.hardware.ablation import (
     rms_metrics,
     run_ablation,
 )
+from mwip.hardware.identified import default_twin
 from mwip.hardware.obstacle import StickObstacle
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms, total_variation_rate
@@ -169,7 +170,7 @@ def run_one(
                              speed=cfg.get("stick_speed", -7.0),
                              mass=float(plant.mb + 2.0 * plant.mw), r=float(plant.r))  # fmt: skip
     return run_on_twin(
-        ctrl, 2 if payload else 1, twin=_default_twin() if twin is None else twin, plant=plant,
+        ctrl, 2 if payload else 1, twin=default_twin() if twin is None else twin, plant=plant,
         q0=(0.0, cfg["theta0"], 0.0), record_every=cfg["record_every"], seed=cfg["seed"],
         duration=cfg["duration"] if duration is None else duration, disturbance=dist,
     )  # fmt: skip
@@ -625,10 +626,3 @@ STUDIES = (
     Study(NAME_SPEED, SOURCE_SPEED, run_speed, place=(6, 6), cost=6),
     Study(NAME_OBSTACLE, SOURCE_OBSTACLE, run_obstacle, place=(6, 8), cost=6),
 )
-
-
-def _default_twin() -> Any:
-    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
-    from mwip.hardware.identified import default_twin
-
-    return default_twin()

@@ -78,6 +78,7 @@ from mwip.fuzzy.fig53 import Fig53Controller
 from mwip.fuzzy.pdc import PDCDesign, check_design, design_pdc, uncertainty_models
 from mwip.hardware.ablation import Ablation, ablation_steps, run_ablation
 from mwip.hardware.elements import ELEMENTS
+from mwip.hardware.identified import default_twin
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
 from mwip.metrics import rms
 from mwip.params import Params
@@ -177,7 +178,7 @@ def run_batch(
                            [r.p_d for r in rows], [r.alpha_d for r in rows],
                            params=nominal, Ts=c["Ts"])  # fmt: skip
     q0 = np.tile([0.0, c["theta0"], 0.0], (len(rows), 1))
-    res = run_on_twin(ctrl, 1, twin=_default_twin() if twin is None else twin, plant=plant,
+    res = run_on_twin(ctrl, 1, twin=default_twin() if twin is None else twin, plant=plant,
                       q0=q0, duration=c["duration"] if duration is None else duration,
                       record_every=c["record_every"],
                       seed=c["seed"] if seed is None else seed)  # fmt: skip
@@ -539,10 +540,3 @@ def _figure(
 
 
 STUDY = Study(NAME, SOURCE, run, place=(6, 17), cost=8)
-
-
-def _default_twin() -> Any:
-    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
-    from mwip.hardware.identified import default_twin
-
-    return default_twin()

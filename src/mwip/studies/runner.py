@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 import scipy
 
+from mwip.hardware.identified import default_twin
 from mwip.hardware.twin import Twin
 from mwip.hardware.twin_config import twin_to_toml
 from mwip.io import write_json_atomic, write_text_atomic
@@ -215,7 +216,7 @@ def run_studies(
         registry.get(name)  # ValueError naming the studies if unknown
     overrides = {n: settings.validate(n, o) for n, o in (overrides or {}).items()}
     plant, nominal = registry.robot(plant, nominal)
-    twin = twin if twin is not None else _default_twin()
+    twin = twin if twin is not None else default_twin()
     started = datetime.now(UTC).isoformat(timespec="seconds")
     t0 = time.perf_counter()
     outcomes: dict[str, StudyOutcome] = {}
@@ -340,10 +341,3 @@ def twin_status(twin: Any) -> dict[str, Any]:
     from mwip.hardware.identified import status
 
     return status(twin)
-
-
-def _default_twin() -> Any:
-    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
-    from mwip.hardware.identified import default_twin
-
-    return default_twin()

@@ -27,6 +27,7 @@ import numpy as np
 
 from mwip.hardware.ablation import Ablation
 from mwip.hardware.elements import ELEMENTS
+from mwip.hardware.identified import default_twin
 from mwip.hardware.twin import Twin, case_plant
 from mwip.io import write_text_atomic
 from mwip.models.reduced import f_g
@@ -60,7 +61,7 @@ def study_settings(
     """The settings ``cfg`` of study ``name`` (default: its study file's) with the twin's
     ``Ts`` and ``dt`` (the controllers sample at the twin's period), and the twin ``twin``
     (default: the default twin; a run passes the context's, ``ctx.twin``)."""
-    tw = _default_twin() if twin is None else twin
+    tw = default_twin() if twin is None else twin
     base = settings.defaults(name) if cfg is None else dict(cfg)
     return {**base, "Ts": tw.Ts, "dt": tw.dt}, tw
 
@@ -194,10 +195,3 @@ def fall_evidence(ab: Ablation, run: str, case: int, label: str | None = None) -
     if again:
         text += f" (balances again from `{again[0]}` on)"
     return text
-
-
-def _default_twin() -> Any:
-    """The identified default twin (:func:`mwip.hardware.identified.default_twin`)."""
-    from mwip.hardware.identified import default_twin
-
-    return default_twin()
