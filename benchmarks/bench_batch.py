@@ -28,7 +28,7 @@ from dataclasses import fields, replace
 import numba
 import numpy as np
 
-from mwip.control import registry
+from mwip.laws import registry
 from mwip.params import NOMINAL, REAL
 from mwip.sim import simulate
 from mwip.sim.kernel import RK4, step_one

@@ -32,7 +32,7 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from mwip.control import registry
+from mwip.laws import registry
 from mwip.models import reduced
 from mwip.params import NOMINAL, REAL
 from mwip.sim import simulate

@@ -20,9 +20,9 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from mwip.control import registry
 from mwip.export import generate_c
 from mwip.export.sil import find_compiler
+from mwip.laws import registry
 from mwip.params import NOMINAL
 
 HARNESS = r"""

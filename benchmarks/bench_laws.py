@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mwip.control.smc import SlidingModeController, SMCGains
-from mwip.control.switching import Switching
-from mwip.control.tsmc import TSMC
+from mwip.laws.smc.controller import SlidingModeController, SMCGains
+from mwip.laws.switching import Switching
+from mwip.laws.tsmc.controller import TSMC
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from mwip.models.reduced import f_g

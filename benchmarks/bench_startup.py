@@ -42,7 +42,7 @@ def main() -> None:
     args = ap.parse_args()
     py = sys.executable
     mwip = [py, "-m", "mwip"]
-    from mwip.control.registry import names
+    from mwip.laws.registry import names
 
     ctrls = [c for c in args.controllers.split(",") if c] or names()
     tmp = Path(tempfile.mkdtemp(prefix="mwip-startup-"))

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mwip.control import registry
-from mwip.control.lqr import LQR, design_lqr
+from mwip.laws import registry
+from mwip.laws.lqr.controller import LQR, design_lqr
 from mwip.params import NOMINAL, NOMINAL_LITERAL, REAL, REAL_LITERAL
 from mwip.sim import simulate
 

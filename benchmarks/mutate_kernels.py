@@ -1,8 +1,8 @@
 """Mutation check of the control-law kernels: does the equality test catch every sign flip?
 
-For each kernel (src/mwip/control/_smc_kernel.py, _tsmc_kernel.py, _asta_kernel.py,
-src/mwip/observers/_hodo_kernel.py, src/mwip/fuzzy/_fig53_kernel.py) every arithmetic operator and
-sign is flipped, one at a time:
+For each kernel (src/mwip/laws/<family>/kernel.py for lqr, smc, tsmc, asta, fig53, and
+src/mwip/observers/_hodo_kernel.py) every arithmetic operator and sign is flipped, one at a
+time:
 
 - binary ``+`` <-> ``-``, ``*`` <-> ``/``, ``**`` -> ``*`` (also in ``+=``-style updates);
 - unary ``-x`` -> ``x``;
@@ -17,7 +17,7 @@ Every mutant is compiled by numba as the real kernel is (no cache), about a seco
 
 Usage::
 
-    python benchmarks/mutate_kernels.py [--verbose] [--kernel _smc_kernel.py]
+    python benchmarks/mutate_kernels.py [--verbose] [--kernel laws/smc/kernel.py]
 
 Prints one line per kernel (mutants, killed, survivors with their line and change) and exits
 1 if any mutant survives. Score recorded in BENCHMARKS.md.
@@ -35,14 +35,16 @@ from collections.abc import Callable
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-KERNELS = {  # module file -> (package, [(kernel function, mismatch function in test_kernels)])
-    "_smc_kernel.py": ("control", [("smc_step", "smc_mismatch")]),
-    "_tsmc_kernel.py": ("control", [("tsmc_step", "tsmc_mismatch")]),
-    "_asta_kernel.py": ("control", [("asta_terms", "asta_mismatch"),
-                                    ("asta_sample", "asta_sample_mismatch")]),
-    "_fig53_kernel.py": ("fuzzy", [("fig53_law", "fig53_mismatch"), ("fls_batch", "fls_mismatch"),
-                                   ("_pairwise", "pairwise_mismatch")]),
-    "_hodo_kernel.py": ("observers", [("hodo_update", "hodo_mismatch")]),
+KERNELS = {  # module file under src/mwip -> [(kernel function, mismatch function in test_kernels)]
+    "laws/smc/kernel.py": [("smc_step", "smc_mismatch"), ("step", "smc_packed_mismatch")],
+    "laws/tsmc/kernel.py": [("tsmc_step", "tsmc_mismatch"), ("step", "tsmc_packed_mismatch")],
+    "laws/asta/kernel.py": [("asta_terms", "asta_mismatch"),
+                            ("asta_sample", "asta_sample_mismatch"),
+                            ("step", "asta_packed_mismatch")],
+    "laws/lqr/kernel.py": [("lqr_law", "lqr_mismatch"), ("step", "lqr_packed_mismatch")],
+    "fuzzy/_kernel.py": [("fls_batch", "fls_mismatch"), ("_pairwise", "pairwise_mismatch")],
+    "laws/fig53/kernel.py": [("fig53_law", "fig53_mismatch"), ("step", "fig53_packed_mismatch")],
+    "observers/_hodo_kernel.py": [("hodo_update", "hodo_mismatch")],
 }  # fmt: skip
 _BIN = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
         ast.Pow: ast.Mult}  # fmt: skip
@@ -111,7 +113,7 @@ def _mutate(tree: ast.Module, where: int, which: int) -> ast.Module:
 
 
 def _load(tree: ast.Module, name: str, path: Path) -> types.ModuleType:
-    mod = types.ModuleType(f"mutant_{name}")
+    mod = types.ModuleType(f"mutant_{name.replace('/', '_')}")
     mod.__file__ = str(path)
     # bounds checked: a mutated index (``a + 1`` -> ``a - 1`` on an unsigned index) raises
     # IndexError (a caught mutant) instead of reading outside the array
@@ -127,10 +129,10 @@ def run(verbose: bool, only: str | None = None) -> int:
     import test_kernels  # noqa: PLC0415 - after sys.path
 
     survivors = 0
-    for fname, (package, pairs) in KERNELS.items():
+    for fname, pairs in KERNELS.items():
         if only is not None and fname != only:
             continue
-        path = ROOT / "src" / "mwip" / package / fname
+        path = ROOT / "src" / "mwip" / fname
         tree = ast.parse(path.read_text())
         checks: list[tuple[str, Callable[..., float]]] = [
             (kname, getattr(test_kernels, mname)) for kname, mname in pairs

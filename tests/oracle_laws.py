@@ -1,8 +1,8 @@
 """The test oracles: the control laws' NumPy forms, written term by term from the book's
 equations, independent of the compiled kernels that are the library's one implementation
-(:mod:`mwip.control._smc_kernel`, :mod:`~mwip.control._tsmc_kernel`,
-:mod:`~mwip.control._asta_kernel`, :mod:`mwip.observers._hodo_kernel`,
-:mod:`mwip.fuzzy._fig53_kernel`). ``F, G`` come from
+(:mod:`mwip.laws.smc.kernel`, :mod:`~mwip.laws.tsmc.kernel`,
+:mod:`~mwip.laws.asta.kernel`, :mod:`mwip.observers._hodo_kernel`,
+:mod:`mwip.laws.fig53.kernel`). ``F, G`` come from
 :func:`mwip.models.reduced.f_g` (the NumPy closed forms of (2.36)), not from the kernels'
 compiled ``f_g_scalar``; the fuzzy law is composed of the NumPy building blocks
 :mod:`mwip.fuzzy.sets` (memberships, minimum t-norm), :mod:`mwip.fuzzy.reducers` (BMM,
@@ -29,12 +29,12 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.control.smc import SMCGains
-from mwip.control.switching import Switching
 from mwip.fuzzy.mamdani import MamdaniFLS
 from mwip.fuzzy.reducers import bmm, weighted_average
 from mwip.fuzzy.sets import firing_grid
 from mwip.fuzzy.ts_model import first_weight, memberships
+from mwip.laws.smc.controller import SMCGains
+from mwip.laws.switching import Switching
 from mwip.models.reduced import f_g
 from mwip.params import Params
 

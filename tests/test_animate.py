@@ -14,7 +14,7 @@ from PIL import Image
 
 from mwip.animate import HOLD_S, animate_run, poster_frame
 from mwip.cli import main
-from mwip.control import LQR, design_lqr
+from mwip.laws import LQR, design_lqr
 from mwip.params import NOMINAL, REAL
 from mwip.plot.robot_view import Frames, RobotView, frame_times
 from mwip.plot.run_figure import run_figure

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mwip.control import registry
+from mwip.laws import registry
 from mwip.params import NOMINAL, REAL, REAL_LITERAL
 from mwip.sim import BOOK_SINUSOIDS, aot, simulate
 
@@ -26,7 +26,7 @@ SRC = Path(aot.__file__).resolve().parents[1]
 
 def _compiled_names() -> list[str]:
     return [n for n in registry.names()
-            if hasattr(registry.build(n, NOMINAL, Ts=0.005), "compiled_law")]  # fmt: skip
+            if hasattr(registry.build(n, NOMINAL, Ts=0.005), "packed_law")]  # fmt: skip
 
 
 def _run(name, mode, monkeypatch, plant=REAL, Ts=0.005, **kw):
@@ -90,7 +90,7 @@ def test_key_follows_the_sources(tmp_path, monkeypatch):
     monkeypatch.setattr(aot, "_KEY", [])
     k0 = aot.key()
     assert k0 == aot.key()
-    kernel = tmp_path / "control/_smc_kernel.py"
+    kernel = tmp_path / "laws/smc/kernel.py"
     kernel.write_text(kernel.read_text().replace("1.0", "1.0000000000000002", 1))
     monkeypatch.setattr(aot, "_KEY", [])
     k1 = aot.key()

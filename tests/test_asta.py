@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from conftest import random_states
-from mwip.control.asta import (
+from mwip.laws.asta.controller import (
     ASMC,
     ASTA,
     adaptive_rate,

@@ -144,7 +144,7 @@ def test_block_rows_match_single_runs_of_the_same_inputs():
     a single run only by rounding)."""
     from dataclasses import replace
 
-    from mwip.control.registry import build
+    from mwip.laws.registry import build
     from mwip.metrics import rms, settling_time
     from mwip.sim.disturbance import BOOK_SINUSOIDS
     from mwip.sim.engine import simulate

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from mwip.control.lqr import LQR, design_lqr
+from mwip.laws.lqr.controller import LQR, design_lqr
 from mwip.models import reduced
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, NOMINAL_LITERAL, REAL, REAL_LITERAL, stack_params

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from mwip.cli import main
-from mwip.control import registry
 from mwip.export import CController, ExportError, generate_c, verify
 from mwip.export.transpile import to_c_function
+from mwip.laws import registry
 from mwip.params import NOMINAL
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from mwip.control.registry import CONTROLLERS
+from mwip.laws.registry import CONTROLLERS
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "extending.md"
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from mwip.core import Measurement
-from mwip.fuzzy.fig53 import Fig53Controller
 from mwip.fuzzy.mamdani import FuzzyMWIPController
 from mwip.fuzzy.pdc import BOOK_G1, BOOK_G2, PDCBalance, PDCDesign
+from mwip.laws.fig53.controller import Fig53Controller
 from mwip.params import NOMINAL
 
 G_A = np.array([BOOK_G1, BOOK_G2]) * 1e-3

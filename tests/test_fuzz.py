@@ -428,7 +428,7 @@ BAD_SCALARS = st.one_of(
 
 @pytest.fixture(scope="module")
 def ctrl():
-    from mwip.control import LQR, design_lqr
+    from mwip.laws import LQR, design_lqr
     from mwip.params import NOMINAL
 
     return LQR(design_lqr(NOMINAL, Ts=0.005))
@@ -498,7 +498,7 @@ def test_api_params_bad_fields(field, value):
                                                            max_size=5)),
 )  # fmt: skip
 def test_api_lqr_bad_arguments(arg, value):
-    from mwip.control import LQR, design_lqr
+    from mwip.laws import LQR, design_lqr
     from mwip.params import NOMINAL
 
     if arg == "Ts" and value is None:

@@ -10,8 +10,8 @@ import pytest
 gymnasium = pytest.importorskip("gymnasium")
 
 import mwip.gym  # noqa: E402
-from mwip.control.lqr import design_lqr  # noqa: E402
 from mwip.gym import ENV_IDS, MwipEnv, MwipVectorEnv  # noqa: E402
+from mwip.laws.lqr.controller import design_lqr  # noqa: E402
 from mwip.params import NOMINAL, REAL  # noqa: E402
 from mwip.sim import Sinusoid, simulate  # noqa: E402
 

@@ -429,8 +429,8 @@ def test_check_smc_refuses_empty_lambdas(lambdas, capsys):
 # ---- 6. the API ---------------------------------------------------------------------------------
 def _api_cases():
     from mwip import NOMINAL, REAL
-    from mwip.control import LQR, design_lqr
-    from mwip.control.smc_design import check_smc_design
+    from mwip.laws import LQR, design_lqr
+    from mwip.laws.smc.design import check_smc_design
     from mwip.models.linear import linearize
     from mwip.params import Params
     from mwip.sim import simulate
@@ -465,7 +465,7 @@ def test_api_errors_name_the_argument(name):
 def test_simulate_budget_error_names_the_cost():
     from mwip import NOMINAL, REAL
     from mwip.budget import Budget, BudgetError
-    from mwip.control import LQR, design_lqr
+    from mwip.laws import LQR, design_lqr
     from mwip.sim import simulate
 
     ctrl = LQR(design_lqr(NOMINAL, Ts=1e-5))
@@ -499,7 +499,7 @@ def test_readme_example_runs_without_pandas(monkeypatch, capsys):
     exec(compile(block, "README.md", "exec"), {})
     assert "status" in capsys.readouterr().out
     from mwip import NOMINAL, REAL
-    from mwip.control import LQR, design_lqr
+    from mwip.laws import LQR, design_lqr
     from mwip.sim import simulate
 
     res = simulate(LQR(design_lqr(NOMINAL)), REAL, duration=0.05, mode="continuous")

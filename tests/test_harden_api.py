@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from mwip.control import LQR, design_lqr, registry
-from mwip.control.asta import ASMC, ASTA
-from mwip.control.smc import SlidingModeController
-from mwip.control.tsmc import TSMC
+from mwip.laws import LQR, design_lqr, registry
+from mwip.laws.asta.controller import ASMC, ASTA
+from mwip.laws.smc.controller import SlidingModeController
+from mwip.laws.tsmc.controller import TSMC
 from mwip.observers import FirstOrderDO, SecondOrderDO
 from mwip.params import NOMINAL, REAL
 from mwip.sim import simulate

@@ -157,7 +157,7 @@ def test_a_damaged_numba_cache_entry_is_a_miss(tmp_path):
     ``UnpicklingError`` from inside every later run (an internal error); it is now a miss, the
     kernel compiled again and the entry rewritten."""
     env = dict(os.environ, MWIP_CACHE_DIR=str(tmp_path / "nb"), PYTHONPATH=SRC)
-    code = ("from mwip.fuzzy._fig53_kernel import _tri; "
+    code = ("from mwip.fuzzy._kernel import _tri; "
             "print(_tri(0.5, 0.0, 1.0, 2.0), sum(_tri.stats.cache_hits.values()))")  # fmt: skip
 
     def run() -> list[str]:
@@ -167,10 +167,10 @@ def test_a_damaged_numba_cache_entry_is_a_miss(tmp_path):
         return res.stdout.split()
 
     assert run() == ["0.5", "0"]  # compiled and written
-    (index,) = (tmp_path / "nb").rglob("_fig53_kernel._tri-*.nbi")
+    (index,) = (tmp_path / "nb").rglob("_kernel._tri-*.nbi")
     index.write_bytes(index.read_bytes()[:10])
     assert run() == ["0.5", "0"]  # a miss, not an UnpicklingError; written again
-    for data in (tmp_path / "nb").rglob("_fig53_kernel._tri-*.nbc"):
+    for data in (tmp_path / "nb").rglob("_kernel._tri-*.nbc"):
         data.write_bytes(b"garbage")
     assert run() == ["0.5", "0"]  # a miss again
     assert run() == ["0.5", "1"]  # and a hit: the rewritten entry is sound

@@ -10,9 +10,9 @@ import tempfile
 import pytest
 
 from mwip.cli import main
-from mwip.control.registry import get
 from mwip.export.c_code import ExportError, generate_c
 from mwip.export.transpile import c_literal
+from mwip.laws.registry import get
 from mwip.outdir import MARKER
 from mwip.params import NOMINAL
 
@@ -82,7 +82,7 @@ def test_c_literal_and_generate_c_refuse_what_c_cannot_hold():
         with pytest.raises(ValueError, match="C"):
             c_literal(x, p)
     assert c_literal(0.0, "float") == "0.0f"
-    from mwip.control.asta import ASTA
+    from mwip.laws.asta.controller import ASTA
 
     ctrl = ASTA(NOMINAL, rate=(1e30, 1e30), Ts=0.005)  # the API allows what --set does not
     with pytest.raises(ExportError, match="float C constant"):
@@ -93,8 +93,8 @@ def test_c_literal_and_generate_c_refuse_what_c_cannot_hold():
 def test_accepted_float_settings_compile_with_werror(tmp_path):
     """A constant near the largest accepted one compiles under -Werror (the check is the C
     rule), as does the largest value --set accepts."""
-    from mwip.control.asta import ASTA
     from mwip.export.sil import compile_c
+    from mwip.laws.asta.controller import ASTA
 
     compile_c(generate_c(ASTA(NOMINAL, rate=(1e18, 1e18), Ts=0.005), prefix="big",
                          precision="float"), tmp_path / "a")  # fmt: skip

@@ -9,7 +9,7 @@ import json
 import pytest
 
 from mwip.cli import main
-from mwip.control.registry import CONTROLLERS, MAGNITUDE
+from mwip.laws.registry import CONTROLLERS, MAGNITUDE
 from mwip.studies import registry
 from mwip.studies.study import Study, save_study
 

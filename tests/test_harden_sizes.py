@@ -98,7 +98,7 @@ def test_continuous_mode_steps_are_weighed(capsys):
     assert main(argv) == 2
     line = _err_line(capsys)
     assert "integration steps" in line and "continuous mode" in line
-    from mwip.control import registry
+    from mwip.laws import registry
     from mwip.params import NOMINAL, REAL
     from mwip.sim import simulate
 

@@ -17,14 +17,15 @@ from typing import Any
 
 import numpy as np
 
-from mwip.control._asta_kernel import asta_sample, asta_terms
-from mwip.control._smc_kernel import smc_step
-from mwip.control._tsmc_kernel import tsmc_step
-from mwip.control.smc import SMCGains
-from mwip.control.switching import Switching
-from mwip.fuzzy._fig53_kernel import ROW_WIDTH, _pairwise, fig53_law, fls_batch
+from mwip.fuzzy._kernel import _pairwise, fls_batch
 from mwip.fuzzy.mamdani import MamdaniFLS, RuleBase, direction_controller, position_controller
 from mwip.fuzzy.sets import UniformPartition
+from mwip.laws.asta.kernel import asta_sample, asta_terms
+from mwip.laws.fig53.kernel import ROW_WIDTH, fig53_law
+from mwip.laws.smc.controller import SMCGains
+from mwip.laws.smc.kernel import smc_step
+from mwip.laws.switching import Switching
+from mwip.laws.tsmc.kernel import tsmc_step
 from mwip.models.reduced import coefficients
 from mwip.observers._hodo_kernel import HOLD_CODES, hodo_update
 from mwip.observers.hodo import discretize_observer
@@ -383,3 +384,201 @@ def test_the_check_can_fail():
         smc_step(c, q, qd, np.zeros_like(tau), *rest)
 
     assert smc_mismatch(no_tau, seeds=(0,)) > 1e-3
+
+
+# ---- the packed laws: each family's ``step`` (mwip/laws/<family>/kernel.py) -----------------
+# ``*_packed_mismatch(step)`` drives ``step`` with the controller's packed vectors over a
+# sequence of random measurements and compares torques and logs with the controller's own
+# ``__call__`` (the batch kernels, checked against the oracles above).
+K_SAMPLES = 6
+N_PACKED = 4
+
+
+def _drive(step: Callable[..., Any], law: Any, ys: np.ndarray, Ts: float
+           ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    n = ys.shape[1]
+    P, X = law.arrays(n)
+    us = np.empty((ys.shape[0], n, 2))
+    lgs = np.empty((ys.shape[0], n, law.log_width))
+    ym, u, lg = np.empty((1, 8)), np.empty((1, 2)), np.zeros(law.log_width)
+    for k in range(ys.shape[0]):
+        for i in range(n):
+            ym[0] = ys[k, i]
+            step(P[i if P.shape[0] > 1 else 0], X[i], np.int64(k), k * Ts, ym, u, lg)
+            us[k, i], lgs[k, i] = u[0], lg
+    return us, lgs
+
+
+def _own(ctrl: Any, law_of: Callable[[], Any], ys: np.ndarray, Ts: float
+         ) -> tuple[Any, np.ndarray, np.ndarray]:  # fmt: skip
+    from mwip.core import Measurement
+
+    ctrl.reset(Measurement(0.0, ys[0]))
+    law = law_of()
+    us = np.empty((ys.shape[0], ys.shape[1], 2))
+    lgs = np.empty((ys.shape[0], ys.shape[1], law.log_width))
+    for k in range(ys.shape[0]):
+        us[k] = ctrl(k * Ts, Measurement(k * Ts, ys[k]))
+        logs = ctrl.log()
+        lgs[k] = np.column_stack([np.asarray(logs[name], dtype=float).reshape(ys.shape[1], -1)
+                                  for name, _ in law.log_names]) if law.log_names else \
+            np.zeros((ys.shape[1], 0))  # fmt: skip
+    return law, us, lgs
+
+
+def _measurements(rng: np.random.Generator) -> np.ndarray:
+    ys = np.empty((K_SAMPLES, N_PACKED, 8))
+    for k in range(K_SAMPLES):
+        q, qd = _states(rng)
+        ys[k, :, 0:3], ys[k, :, 3:6] = q[:N_PACKED], qd[:N_PACKED]
+        ys[k, :, 6:8] = _nonzero(rng, 0.1, 2.0, (N_PACKED, 2))
+    return ys
+
+
+def _packed_mismatch(step: Callable[..., Any], make: Callable[[np.random.Generator], Any],
+                     seeds: tuple[int, ...]) -> float:  # fmt: skip
+    worst = 0.0
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        ctrl = make(rng)
+        ys = _measurements(rng)
+        law, u_own, lg_own = _own(ctrl, ctrl.packed_law, ys, 0.005)
+        u, lg = _drive(step, law, ys, 0.005)
+        worst = max(worst, _err(u, u_own), _err(lg, lg_own) if lg.size else 0.0)
+    return worst
+
+
+def _lqr_ctrl(rng: np.random.Generator) -> Any:
+    from mwip.laws.lqr.controller import LQR, design_lqr
+
+    Q = np.diag(rng.uniform(1.0, 1000.0, 5))
+    R = np.diag(rng.uniform(0.005, 0.1, 2))
+    return LQR(design_lqr(_robot(rng), Q, R, Ts=0.005),
+               reference=(0.0, 0.0, 0.0, float(rng.uniform(-1, 1)), 0.0))  # fmt: skip
+
+
+def _smc_ctrl(rng: np.random.Generator) -> Any:
+    from mwip.laws.smc.controller import make_smc
+
+    kind = ("smc", "do1smc", "hodosmc")[int(rng.integers(3))]
+    obs = {"smc": None, "do1smc": [float(rng.uniform(20, 80))],
+           "hodosmc": [5.0, 30.0, 80.0]}[kind]  # fmt: skip
+    return make_smc(kind, tuple(rng.uniform(0.05, 3.0, 4)), K=tuple(rng.uniform(1.0, 20.0, 2)),
+                    observer_gains=obs, params=_robot(rng), Ts=0.005,
+                    switching=Switching(("sat", "sign")[int(rng.integers(2))],
+                                        float(rng.uniform(0.01, 0.5))),
+                    q1d_dot=float(_nonzero(rng, 0.1, 5.0)), q3d=float(_nonzero(rng, 0.1, 1.0)),
+                    check=False)  # fmt: skip
+
+
+def _asta_ctrl(rng: np.random.Generator) -> Any:
+    from mwip.laws.asta.controller import ASMC, ASTA, check_constraints
+
+    cls = (ASTA, ASMC)[int(rng.integers(2))]
+    robot = _robot(rng)
+    lam = np.array([10.0, 0.3, 3.0]) * rng.uniform(0.8, 1.2, 3)
+    while not check_constraints(robot, lam):  # (4.2)
+        lam = np.array([10.0, 0.3, 3.0]) * rng.uniform(0.8, 1.2, 3)
+    return cls(robot, lam=tuple(lam),
+               K=tuple(rng.uniform(1.0, 10.0, 2)), rate=tuple(rng.uniform(0.5, 5.0, 2)),
+               Gamma0=tuple(rng.uniform(0.0, 2.0, 2)), eps=float(rng.uniform(0.0, 0.5)),
+               psi_dot_ref=float(_nonzero(rng, 0.1, 5.0)),
+               theta_ref=float(_nonzero(rng, 0.01, 0.1)),
+               alpha_ref=float(_nonzero(rng, 0.1, 1.0)), Ts=0.005)  # fmt: skip
+
+
+def _tsmc_ctrl(rng: np.random.Generator) -> Any:
+    from mwip.laws.tsmc.controller import TSMC
+
+    return TSMC(_robot(rng), C=tuple(rng.uniform(0.5, 5.0, 2)),
+                Gamma=tuple(rng.uniform(1.0, 20.0, 2)), D=float(rng.uniform(0.0, 0.8)),
+                Ftilde_ratio=float(rng.uniform(0.0, 1.0)), Tf=float(rng.uniform(0.01, 0.05)),
+                switching=Switching(("sat", "sign")[int(rng.integers(2))],
+                                    float(rng.uniform(0.01, 0.5))),
+                theta_ref=float(_nonzero(rng, 0.01, 0.1)),
+                alpha_ref=float(_nonzero(rng, 0.1, 1.0)),
+                alpha_dot_ref=float(_nonzero(rng, 0.1, 1.0)), Ts=0.005)  # fmt: skip
+
+
+def _fig53_ctrl(rng: np.random.Generator) -> Any:
+    from mwip.laws.registry import build
+
+    kind = ("it2", "t1")[int(rng.integers(2))]
+    return build(kind, NOMINAL, {"p_d": float(_nonzero(rng, 0.1, 1.0)),
+                                 "alpha_d": float(_nonzero(rng, 0.1, 1.0))}, Ts=0.005)
+
+
+def lqr_mismatch(kernel: Callable[..., Any] | None = None, seeds: tuple[int, ...] = SEEDS
+                 ) -> float:  # fmt: skip
+    """``lqr_law`` against ``y[:, :6] @ gain + offset`` (NumPy)."""
+    from mwip.laws.lqr.kernel import lqr_law
+
+    kernel = kernel or lqr_law
+    worst = 0.0
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        y = _nonzero(rng, 0.05, 2.0, (N, 8))
+        gain, offset = _nonzero(rng, 0.1, 50.0, (6, 2)), _nonzero(rng, 0.1, 5.0, 2)
+        u = np.empty((N, 2))
+        kernel(y, gain, offset, u)
+        worst = max(worst, _err(u, y[:, :6] @ gain + offset))
+    return worst
+
+
+def lqr_packed_mismatch(step: Callable[..., Any] | None = None,
+                        seeds: tuple[int, ...] = SEEDS) -> float:  # fmt: skip
+    from mwip.laws.lqr.kernel import step as default
+
+    return _packed_mismatch(step or default, _lqr_ctrl, seeds)
+
+
+def smc_packed_mismatch(step: Callable[..., Any] | None = None,
+                        seeds: tuple[int, ...] = (0, 1, 2, 3, 4, 5)) -> float:  # fmt: skip
+    from mwip.laws.smc.kernel import step as default
+
+    return _packed_mismatch(step or default, _smc_ctrl, seeds)
+
+
+def asta_packed_mismatch(step: Callable[..., Any] | None = None,
+                         seeds: tuple[int, ...] = SEEDS) -> float:  # fmt: skip
+    from mwip.laws.asta.kernel import step as default
+
+    return _packed_mismatch(step or default, _asta_ctrl, seeds)
+
+
+def tsmc_packed_mismatch(step: Callable[..., Any] | None = None,
+                         seeds: tuple[int, ...] = SEEDS) -> float:  # fmt: skip
+    from mwip.laws.tsmc.kernel import step as default
+
+    return _packed_mismatch(step or default, _tsmc_ctrl, seeds)
+
+
+def fig53_packed_mismatch(step: Callable[..., Any] | None = None,
+                          seeds: tuple[int, ...] = (0, 1)) -> float:  # fmt: skip
+    from mwip.laws.fig53.kernel import step as default
+
+    return _packed_mismatch(step or default, _fig53_ctrl, seeds)
+
+
+def test_lqr_kernel_equals_oracle():
+    assert lqr_mismatch() < TOL
+
+
+def test_packed_steps_equal_the_controllers():
+    """Each family's packed ``step`` (the compiled loop's law) gives the controller's own
+    torques and logs over a sequence of samples (observer and adaptive state carried in the
+    state vector)."""
+    for check in (lqr_packed_mismatch, smc_packed_mismatch, asta_packed_mismatch,
+                  tsmc_packed_mismatch, fig53_packed_mismatch):  # fmt: skip
+        assert check() < TOL, check.__name__
+
+
+def test_the_packed_check_can_fail():
+    """A step that forgets the observer's state between samples is caught."""
+    from mwip.laws.smc.kernel import step
+
+    def amnesic(p, x, k, t, ym, u, lg):  # noqa: ANN001, ANN202
+        x[:] = 0.0
+        step(p, x, k, t, ym, u, lg)
+
+    assert smc_packed_mismatch(amnesic, seeds=(2, 3, 4, 5)) > 1e-6

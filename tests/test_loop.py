@@ -12,7 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from mwip.control import registry
+from mwip.laws import registry
 from mwip.observers import HighOrderDO
 from mwip.params import NOMINAL, REAL, REAL_LITERAL, stack_params
 from mwip.sim import Sinusoid, simulate
@@ -83,8 +83,8 @@ def _coupled_gains(seed: int = 7) -> list[np.ndarray]:
 def test_observer_holds_and_coupled_gains_equal_python_loop(hold, coupled):
     """The loop hands the observer the F, G it evaluated for the law (at the previous sample
     for "start"/"trapezoid"); dense (coupled) and channel-decoupled Phi alike."""
-    from mwip.control.smc import SlidingModeController, SMCGains
-    from mwip.control.switching import Switching
+    from mwip.laws.smc.controller import SlidingModeController, SMCGains
+    from mwip.laws.switching import Switching
     from mwip.observers.design import published_gain_sets
 
     gains = _coupled_gains() if coupled else published_gain_sets()["do4"].gains
@@ -170,13 +170,13 @@ def test_observer_update_equals_its_numpy_form():
 
 
 def test_a_subclass_that_changes_the_python_calls_runs_the_python_loop():
-    """A subclass overriding log/__call__/reset below the class that defines compiled_law
+    """A subclass overriding log/__call__/reset below the class that defines packed_law
     runs what it overrides (the Python loop); one that only changes its data (``__init__``)
     keeps the compiled loop, which reads that data."""
     import numpy as np
 
-    from mwip.control.asta import ASMC
-    from mwip.control.lqr import LQR, design_lqr
+    from mwip.laws.asta.controller import ASMC
+    from mwip.laws.lqr.controller import LQR, design_lqr
     from mwip.params import NOMINAL, REAL
     from mwip.sim import simulate
 
@@ -209,7 +209,7 @@ FUZZY_TARGETS = ({}, {"p_d": 0.4}, {"alpha_d": -0.6}, {"p_d": -0.3, "alpha_d": 0
 def test_fuzzy_5ms_runs_equal_python_loop(name, targets):
     """Fig. 5.3 (IT2 and type 1) at 5 ms with and without position / heading targets: a
     single run on the default robot and a batch with varied parameters (one robot falls),
-    bit for bit (both loops call fuzzy._fig53_kernel.fig53_law); the targets are reached."""
+    bit for bit (both loops call laws.fig53.kernel.fig53_law); the targets are reached."""
     spec = registry.get(name)
     kw = dict(q0=(0.0, 0.1, 0.2), qdot0=(0.5, 0.0, 0.0), duration=5.0)
     a, b = (simulate(spec.build(NOMINAL, targets, Ts=0.005), REAL, compiled=c, **kw)
@@ -240,8 +240,8 @@ def test_fuzzy_5ms_runs_equal_python_loop(name, targets):
 def test_fuzzy_rows_batch_and_parallel_loop_equal_python_loop():
     """A Fig53Controller with one row per robot (kinds, gains and targets differ), run on
     the threaded loop (N >= PARALLEL_MIN): each robot gets its row, as in the Python loop."""
-    from mwip.fuzzy.fig53 import Fig53Controller
     from mwip.fuzzy.pdc import design_pdc
+    from mwip.laws.fig53.controller import Fig53Controller
     from mwip.sim.loop import PARALLEL_MIN
 
     n = PARALLEL_MIN + 2

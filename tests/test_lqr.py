@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mwip import linearize
-from mwip.control.lqr import BOOK_Q, BOOK_R, design_lqr, dlqr, lqr, lqr_sampled, zoh
+from mwip.laws.lqr.controller import BOOK_Q, BOOK_R, design_lqr, dlqr, lqr, lqr_sampled, zoh
 from mwip.params import NOMINAL, NOMINAL_LITERAL, REAL, REAL_LITERAL
 
 

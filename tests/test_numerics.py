@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from mwip import numerics
-from mwip.control.lqr import lqr, lqr_sampled, zoh
+from mwip.laws.lqr.controller import lqr, lqr_sampled, zoh
 from mwip.observers.design import impulse_to_energy_gain
 from mwip.observers.hodo import discretize_observer
 
@@ -170,7 +170,7 @@ def test_cache_off_writes_nothing(fresh_cache, tmp_path, monkeypatch):
 
 _PROBE = """
 import sys
-from mwip.control import registry
+from mwip.laws import registry
 from mwip.params import NOMINAL
 registry.build({name!r}, NOMINAL, Ts={Ts!r})
 scipy_sub = sorted(m for m in sys.modules if m.startswith("scipy.")
@@ -180,7 +180,7 @@ print(repr((scipy_sub, "cvxpy" in sys.modules, "matplotlib" in sys.modules)))
 
 
 def _registered():
-    from mwip.control import registry
+    from mwip.laws import registry
 
     return [(name, 0.005) for name in registry.names()] + [("hodosmc", 0.001)]
 
@@ -192,7 +192,7 @@ def test_building_a_controller_with_a_warm_cache_imports_no_scipy_subpackage(nam
     ZOH model and the observer discretisation here; the fuzzy LMIs in mwip.fuzzy.pdc) imports
     no SciPy subpackage, cvxpy or matplotlib. Numba imports the top-level ``scipy`` package
     for its version check, so ``scipy`` itself may be there with a compiled kernel."""
-    from mwip.control import registry
+    from mwip.laws import registry
     from mwip.params import NOMINAL
 
     registry.build(name, NOMINAL, Ts=Ts)  # warms the caches (this test's folder)

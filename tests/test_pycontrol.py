@@ -11,7 +11,7 @@ import pytest
 
 ct = pytest.importorskip("control")
 
-from mwip.control.lqr import BOOK_Q, BOOK_R, LQR, design_lqr  # noqa: E402
+from mwip.laws.lqr.controller import BOOK_Q, BOOK_R, LQR, design_lqr  # noqa: E402
 from mwip.models.linear import INPUT_NAMES, STATE_NAMES, linearize  # noqa: E402
 from mwip.params import NOMINAL, REAL  # noqa: E402
 from mwip.pycontrol import lqr_system, plant_system  # noqa: E402
@@ -50,9 +50,9 @@ def test_zoh_model_is_the_exact_discretisation():
 
 @pytest.mark.parametrize("seed", range(3))
 def test_dlqr_signature_and_result_match_python_control_on_discrete_matrices(seed):
-    """mwip.control.dlqr(A, B, Q, R[, N]) as control.dlqr: discrete matrices in, (K, S, E)
+    """mwip.laws.dlqr(A, B, Q, R[, N]) as control.dlqr: discrete matrices in, (K, S, E)
     out, with and without a cross weight N, and the state-space form dlqr(sys, Q, R)."""
-    from mwip.control import dlqr
+    from mwip.laws import dlqr
 
     rng = np.random.default_rng(seed)
     sysd = linearize(_random_robot(rng), as_statespace=True, Ts=0.005)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mwip.cli import main
-from mwip.control.registry import CONTROLLERS, Setting, get
+from mwip.laws.registry import CONTROLLERS, Setting, get
 from mwip.params import NOMINAL, REAL
 from mwip.sim import simulate
 
@@ -121,11 +121,11 @@ def _same(a, b):
 
 def test_registry_builds_the_studies_controllers_bit_for_bit():
     """The registry is a way to build the existing controllers, not new numbers."""
-    from mwip.control.asta import ASTA
-    from mwip.control.lqr import LQR, design_lqr
-    from mwip.control.smc import make_smc
-    from mwip.control.switching import Switching
-    from mwip.control.tsmc import TSMC
+    from mwip.laws.asta.controller import ASTA
+    from mwip.laws.lqr.controller import LQR, design_lqr
+    from mwip.laws.smc.controller import make_smc
+    from mwip.laws.switching import Switching
+    from mwip.laws.tsmc.controller import TSMC
 
     kw = {"q0": (0.0, 0.1, 0.0), "duration": 1.0}
     pairs = [

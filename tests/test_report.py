@@ -86,7 +86,7 @@ def _synthetic(out: Path, damping: str = "units", flips: dict | None = None) -> 
     """A results folder as `mwip reproduce` writes it, with the claims above."""
     from matplotlib.figure import Figure
 
-    from mwip.control import LQR, design_lqr
+    from mwip.laws import LQR, design_lqr
     from mwip.params import NOMINAL, REAL
     from mwip.sim import simulate
     from mwip.studies.common import save_figure

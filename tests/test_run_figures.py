@@ -16,7 +16,7 @@ from mwip.hardware.identified import default_twin, wheel_torque_limit
 
 @pytest.fixture(scope="module")
 def run():
-    from mwip.control import LQR, design_lqr
+    from mwip.laws import LQR, design_lqr
     from mwip.params import NOMINAL, REAL
     from mwip.plot.runs import Run
     from mwip.sim import simulate

@@ -38,7 +38,7 @@ def test_examples_load_and_run():
 
 
 def test_scenario_matches_direct_simulation():
-    from mwip.control.lqr import LQR, design_lqr
+    from mwip.laws.lqr.controller import LQR, design_lqr
     from mwip.sim import simulate
 
     sc = Scenario(duration=1.0, initial={"theta": 0.1, "alpha": 0.2})

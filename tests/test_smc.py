@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from mwip.control.smc import (
+from mwip.laws.smc.controller import (
     SlidingModeController,
     SMCDesignWarning,
     SMCGains,
     gains_from_bounds,
     make_smc,
 )
-from mwip.control.smc_design import check_smc_design, sliding_matrix
-from mwip.control.switching import Switching
+from mwip.laws.smc.design import check_smc_design, sliding_matrix
+from mwip.laws.switching import Switching
 from mwip.models.reduced import mass_matrix
 from mwip.params import NOMINAL, NOMINAL_LITERAL
 from mwip.sim import Sinusoid, simulate

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from conftest import random_states
-from mwip.control.switching import Switching
-from mwip.control.tsmc import (
+from mwip.laws.switching import Switching
+from mwip.laws.tsmc.controller import (
     TSMC,
     cubic_coefficients,
     lean_for_speed,

@@ -7,14 +7,14 @@ import warnings
 import numpy as np
 import pytest
 
-from mwip.control.asta import ASTA
-from mwip.control.lqr import LQR, design_lqr
-from mwip.control.smc import make_smc
 from mwip.hardware import StickObstacle, Twin, case_plant, run_on_twin
 from mwip.hardware.elements import SENSOR_ELEMENTS
 from mwip.hardware.encoder import EncoderSpec
 from mwip.hardware.motor import DriveSpec
 from mwip.hardware.twin import stick_for
+from mwip.laws.asta.controller import ASTA
+from mwip.laws.lqr.controller import LQR, design_lqr
+from mwip.laws.smc.controller import make_smc
 from mwip.params import NOMINAL, REAL
 from mwip.sim import simulate
 

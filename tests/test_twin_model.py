@@ -10,7 +10,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from mwip.control.smc import make_smc
 from mwip.hardware import Twin, run_on_twin
 from mwip.hardware.ablation import ablation_steps, rms_metrics, run_ablation
 from mwip.hardware.drivetrain import (
@@ -26,6 +25,7 @@ from mwip.hardware.imu import Imu, ImuNoise
 from mwip.hardware.motor import RE25, RPM, DriveActuator, DriveSpec
 from mwip.hardware.sensitivity import input_gains, payload_sensitivity, pitch_pole
 from mwip.hardware.twin_config import load_twin, twin_from_dict, twin_to_toml
+from mwip.laws.smc.controller import make_smc
 from mwip.models.reduced import accelerations, mass_matrix
 from mwip.params import REAL
 from mwip.sim import simulate

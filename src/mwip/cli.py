@@ -29,7 +29,7 @@ from mwip.export.cli import export as _export_group
 if TYPE_CHECKING:  # NumPy and the rest load with the command that needs them (issue 18)
     import numpy as np
 
-    from mwip.control.registry import ControllerSpec
+    from mwip.laws.registry import ControllerSpec
     from mwip.params import Params
 
 __all__ = ["main", "cli", "entry"]
@@ -401,7 +401,7 @@ def simulate(
 
 
 def _get_spec(name: str) -> ControllerSpec:
-    from mwip.control.registry import get
+    from mwip.laws.registry import get
 
     return get(name)
 
@@ -435,7 +435,7 @@ def _matrix_text(M: np.ndarray) -> str:
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def design_lqr_cmd(Ts: float | None, params_name: str, as_json: bool) -> None:
     """LQR gain K (u = -K x, x = [theta, alpha, theta', v, alpha']) for the book's Q, R."""
-    from mwip.control.lqr import BOOK_Q, BOOK_R, design_lqr
+    from mwip.laws.lqr.controller import BOOK_Q, BOOK_R, design_lqr
 
     if Ts is not None:
         _in_range("--Ts", Ts, 0.0, 1.0)
@@ -642,7 +642,7 @@ def check_smc_cmd(
     lambdas: str, theta_max: float, damping: bool, params_name: str, as_json: bool
 ) -> None:
     """Check (3.52), the Hurwitz conditions (3.66) and the sign of g2 + l3 g1."""
-    from mwip.control.smc_design import check_smc_design
+    from mwip.laws.smc.design import check_smc_design
 
     lam = _floats(lambdas, "--lambdas")
     if len(lam) not in (3, 4) or not all(math.isfinite(x) and x > 0 for x in lam):

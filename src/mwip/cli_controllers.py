@@ -28,7 +28,7 @@ def parse_sets(name: str, items: tuple[str, ...]) -> dict[str, Any]:
 
     Raises ``click.BadParameter`` (``--set``) naming the setting and what it allows.
     """
-    from mwip.control.registry import get
+    from mwip.laws.registry import get
 
     try:
         spec = get(name)
@@ -55,7 +55,7 @@ def controllers(name: str | None, as_json: bool) -> None:
 
     Run one with `mwip simulate --controller NAME [--set key=value ...]`.
     """
-    from mwip.control.registry import CONTROLLERS, get
+    from mwip.laws.registry import CONTROLLERS, get
 
     if name is not None:
         try:

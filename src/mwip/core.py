@@ -15,15 +15,15 @@ Controllers and observers see only measurements and nominal parameters, never th
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
-    "Measurement", "Controller", "Observer", "Sensor", "Actuator", "FloatArray", "CompiledLaw",
-    "LAW_LINEAR", "LAW_SMC", "LAW_TSMC", "LAW_ASTA", "LAW_FUZZY",
+    "Measurement", "Controller", "Observer", "Sensor", "Actuator", "FloatArray", "HOLD_CODES",
+    "HOLD_START", "HOLD_END", "HOLD_TRAPEZOID",
 ]  # fmt: skip
 
 #: A float64 NumPy array (any shape).
@@ -131,59 +131,7 @@ class Actuator(Protocol):
     def __call__(self, t: float, u_cmd: FloatArray, state: FloatArray) -> FloatArray: ...
 
 
-#: Law codes of :class:`CompiledLaw`: linear state feedback (LQR), sliding mode (SMC family),
-#: terminal sliding mode (TSMC), adaptive super-twisting / adaptive SMC (ASTA, ASMC), the
-#: Fig. 5.3 fuzzy law (IT2 and type-1 PDC + Mamdani FLSs).
-LAW_LINEAR, LAW_SMC, LAW_TSMC, LAW_ASTA, LAW_FUZZY = 0, 1, 2, 3, 4
-#: Observer ``hold`` codes (``CompiledLaw.obs[1]``): where the model terms ``F, G`` of (2.36)
-#: are evaluated over a sample (:mod:`mwip.observers._hodo_kernel`).
+#: Observer ``hold`` codes (the ``hold`` field of :mod:`mwip.laws.smc.packing`): where the
+#: model terms ``F, G`` of (2.36) are evaluated over a sample (:mod:`mwip.observers._hodo_kernel`).
 HOLD_START, HOLD_END, HOLD_TRAPEZOID = 0, 1, 2
 HOLD_CODES = {"start": HOLD_START, "end": HOLD_END, "trapezoid": HOLD_TRAPEZOID}
-
-_EMPTY = np.zeros(0)
-
-
-@dataclass(frozen=True)
-class CompiledLaw:
-    """What a controller hands the compiled closed loop (:mod:`mwip.sim.loop`) so that a whole
-    run happens in compiled code: which law (``kind``, one of the ``LAW_*`` codes), its
-    parameters as arrays and its initial state. The loop calls the same compiled kernels as
-    the controller's ``__call__``, so the law keeps one implementation.
-
-    ``LAW_LINEAR``: ``gain`` (6, 2), ``offset`` (2,) of :mod:`mwip.control._lqr_kernel`.
-    ``LAW_SMC``: ``coef`` (10,) nominal coefficients, ``lam`` (4,), ``scalars`` =
-    ``[K1, K2, sat, phi, q1d', q3d]``; observer (optional, ``Phi`` (3n, 3n) empty for none):
-    ``Phi``, ``Gamma`` (3n, 3), ``obs`` = ``[Ts, hold code]``.
-    ``LAW_TSMC``: ``coef``, ``scalars`` = ``[Tf, F~ ratio, sat, phi, t0, 0]``, ``C``, ``Gam``
-    (2,), ``D``, ``IDinv`` (2, 2), ``refs`` (3,) and the fitted cubics ``cubic`` (N, 2, 4) of
-    :mod:`mwip.control._tsmc_kernel`.
-    ``LAW_ASTA``: ``coef``, ``lam`` (3,), ``refs`` (4,) of ``asta_terms``, ``C`` = ``K``,
-    ``Gam`` = the adaptation rates, ``offset`` = ``Gamma0``, ``scalars`` = ``[eps, Ts, asmc,
-    0, 0, 0]`` of :mod:`mwip.control._asta_kernel`.
-    ``LAW_FUZZY``: ``rows`` (R, 14), one row per robot (or one for all): ``[kind (0 IT2,
-    1 type 1), G (2 x 4 row-major), p_d, alpha_d, position on, direction on, r_nom]``, and
-    ``fls`` (4, L) the FLS blocks ``[IT2 position, T1 position, IT2 direction, T1 direction]``
-    (layout in :mod:`mwip.fuzzy._fig53_kernel`; unused kinds zero) of
-    :func:`mwip.fuzzy._fig53_kernel.fig53_law`.
-    ``log_names``: the controller's logs and their widths, in the order of the loop's log
-    columns.
-    """
-
-    kind: int
-    gain: FloatArray = field(default_factory=lambda: np.zeros((6, 2)))
-    offset: FloatArray = field(default_factory=lambda: np.zeros(2))
-    coef: FloatArray = field(default_factory=lambda: np.zeros(10))
-    lam: FloatArray = field(default_factory=lambda: np.zeros(4))
-    scalars: FloatArray = field(default_factory=lambda: np.zeros(6))
-    Phi: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
-    Gamma: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
-    obs: FloatArray = field(default_factory=lambda: np.zeros(2))
-    C: FloatArray = field(default_factory=lambda: np.zeros(2))
-    Gam: FloatArray = field(default_factory=lambda: np.zeros(2))
-    D: FloatArray = field(default_factory=lambda: np.zeros((2, 2)))
-    IDinv: FloatArray = field(default_factory=lambda: np.zeros((2, 2)))
-    refs: FloatArray = field(default_factory=lambda: np.zeros(3))
-    cubic: FloatArray = field(default_factory=lambda: np.zeros((1, 2, 4)))
-    rows: FloatArray = field(default_factory=lambda: np.zeros((1, 14)))
-    fls: FloatArray = field(default_factory=lambda: np.zeros((4, 1)))
-    log_names: tuple[tuple[str, int], ...] = ()

@@ -37,6 +37,14 @@ from mwip.cache import cache_dir, versions
 
 __all__ = ["SOURCES", "key", "folder", "njit", "drop_damaged"]
 
+def _law_sources() -> list[str]:
+    """``laws/<family>/kernel.py`` and ``packing.py`` of every law folder (a new law is found
+    without editing this list)."""
+    laws = Path(__file__).resolve().parent / "laws"
+    return [f"laws/{d.name}/{part}.py" for d in sorted(laws.iterdir())
+            if (d / "kernel.py").is_file() for part in ("kernel", "packing")]  # fmt: skip
+
+
 #: The source files compiled into :func:`mwip.sim.loop.run`, relative to the package
 #: (tests/test_aot.py checks that every mwip module the loop imports is listed).
 SOURCES: tuple[str, ...] = (
@@ -52,12 +60,11 @@ SOURCES: tuple[str, ...] = (
     "params.py",
     "damping.py",
     "io.py",
-    "control/_asta_kernel.py",
-    "control/_lqr_kernel.py",
-    "control/_smc_kernel.py",
-    "control/_tsmc_kernel.py",
+    "laws/packing.py",
+    "laws/dispatch.py",
+    *_law_sources(),
     "observers/_hodo_kernel.py",
-    "fuzzy/_fig53_kernel.py",
+    "fuzzy/_kernel.py",
     "fuzzy/ts_model.py",
     "fuzzy/layout.py",
 )

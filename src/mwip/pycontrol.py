@@ -5,7 +5,8 @@
 - :func:`plant_system`: the nonlinear reduced model (2.33) as a ``control.NonlinearIOSystem``
   (state ``[psi, theta, alpha, psi', theta', alpha', x, y]``, inputs ``u_r, u_l``, outputs the
   LQR state ``[theta, alpha, theta', v, alpha']``), for ``control.input_output_response``.
-- :func:`lqr_system`: a designed LQR (:class:`mwip.control.lqr.LQRDesign`) as the static gain
+- :func:`lqr_system`: a designed LQR (:class:`mwip.laws.lqr.controller.LQRDesign`) as the static
+  gain
   ``u = -K x`` (a ``StateSpace`` with only ``D``, continuous or with the design's ``Ts``), so
   ``control.feedback`` / ``control.interconnect`` close the loop the python-control way.
 
@@ -71,7 +72,7 @@ def plant_system(p: Params, *, name: str = "mwip_plant") -> Any:
 
 
 def lqr_system(design: Any, *, name: str = "mwip_lqr") -> Any:
-    """The static law ``u = -K x`` of an :class:`mwip.control.lqr.LQRDesign` as a
+    """The static law ``u = -K x`` of an :class:`mwip.laws.lqr.controller.LQRDesign` as a
     ``control.StateSpace`` (inputs: the LQR state, outputs ``u_r, u_l``; ``dt`` = the
     design's ``Ts``, or continuous)."""
     ct = _control()

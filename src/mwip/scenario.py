@@ -37,7 +37,7 @@ Example (``examples/balance.toml``)::
     phase = [1.5708, 0.0, 0.0]
 
 Without a ``[controller]`` table the controller runs with the book's settings
-(:mod:`mwip.control.registry`). Unknown tables or keys are errors (a typo must not be
+(:mod:`mwip.laws.registry`). Unknown tables or keys are errors (a typo must not be
 silently ignored); every error is a one-line ``ValueError`` naming the field.
 """
 
@@ -50,11 +50,11 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
-from mwip.control.registry import CONTROLLERS as _REGISTRY
-from mwip.control.registry import get as _get_controller
 from mwip.core import Controller
 from mwip.hardware.identified import default_twin
 from mwip.io import read_toml
+from mwip.laws.registry import CONTROLLERS as _REGISTRY
+from mwip.laws.registry import get as _get_controller
 from mwip.params import NOMINAL, REAL, Params, load_params
 from mwip.sim.disturbance import Disturbance, disturbance_from_dict
 from mwip.sim.result import SimResult

@@ -108,7 +108,7 @@ def _cfg(study: str, twin: Twin) -> dict[str, Any]:
 
 def _controller(run: Run, cfg: Mapping[str, Any], nominal: Params) -> Any:
     if run.study.startswith("exp-hodosmc"):
-        from mwip.control.smc import SMCDesignWarning
+        from mwip.laws.smc.controller import SMCDesignWarning
         from mwip.studies.exp_hodosmc import make_controller
 
         q1d = 0.0 if run.study == "exp-hodosmc-balance" else float(cfg["speed"])
@@ -119,7 +119,7 @@ def _controller(run: Run, cfg: Mapping[str, Any], nominal: Params) -> Any:
         from mwip.studies.exp_asta import make_controller as make_asta
 
         return make_asta(run.kind, cfg, nominal)
-    from mwip.fuzzy.fig53 import Fig53Controller
+    from mwip.laws.fig53.controller import Fig53Controller
     from mwip.studies.exp_it2 import design, targets
 
     p_d, alpha_d = targets(cfg)[run.exp]

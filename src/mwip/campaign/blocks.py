@@ -37,7 +37,7 @@ def block_samples(campaign: Campaign, block: int) -> NDArray[np.int64]:
 
 def build_controllers(campaign: Campaign) -> dict[str, Controller]:
     """Every controller of the campaign designed on the design model, by label."""
-    from mwip.control.registry import build
+    from mwip.laws.registry import build
 
     return {
         c.label: build(c.name, campaign.design, c.settings_dict()) for c in campaign.controllers
@@ -72,7 +72,7 @@ def _disturbance(campaign: Campaign, labels: NDArray) -> Disturbance | None:
 
 
 def _v_ref(entry: ControllerEntry, design: Params) -> float:
-    from mwip.control.registry import get
+    from mwip.laws.registry import get
 
     s = get(entry.name).resolve(entry.settings_dict())
     if "v_d" in s:

@@ -296,7 +296,7 @@ def _params(value: Any, where: str, damping: str, base: str) -> Params:
 
 
 def _controllers(items: Any) -> tuple[ControllerEntry, ...]:
-    from mwip.control.registry import get
+    from mwip.laws.registry import get
 
     if not (isinstance(items, list) and items):
         raise ValueError("controllers must be a non-empty list of [[controllers]] tables")

@@ -1,7 +1,7 @@
 """Plain C99 for a designed controller: a header and a source for the robot's board.
 
 :func:`generate_c` takes a controller *object* as mwip builds it (designed on the nominal
-parameters: ``mwip.control.registry.build(name, nominal, settings, Ts)``) and writes::
+parameters: ``mwip.laws.registry.build(name, nominal, settings, Ts)``) and writes::
 
     typedef struct { ... } PREFIX_state;                  /* what the law remembers    */
     void PREFIX_init(PREFIX_state *s, const mwip_real y[8]); /* first measurement       */
@@ -14,9 +14,11 @@ observer matrices and the nominal model's coefficients are baked in as constants
 memory, no library beyond ``math.h``. ``precision="float"`` writes single-precision code for a
 microcontroller without double-precision hardware (the LM3S2965's Cortex-M3 has none).
 
-Each law is written in the same order of operations as the compiled kernel that the
-simulations run (:mod:`mwip.control._smc_kernel`, ``_asta_kernel``, ``_tsmc_kernel``), and
-the model terms ``F, G`` of (2.36) are translated from their one Python source
+Each law's C template lives in its folder (``mwip/laws/<family>/c_export.py``) and reads the
+law's packed parameters (:meth:`PackedLaw.fields <mwip.laws.packing.PackedLaw.fields>`), not
+the controller's attributes; it is written in the same order of operations as the compiled
+kernel that the simulations run (``mwip/laws/<family>/kernel.py``), and the model terms
+``F, G`` of (2.36) are translated from their one Python source
 (:func:`mwip.models.reduced.f_g_terms`, :mod:`mwip.export.transpile`). Software in the loop
 (:mod:`mwip.export.sil`) compiles the result and checks that the closed loop equals the
 Python controller's.
@@ -29,6 +31,8 @@ ASMC (4.1)-(4.7), TSMC (4.30)-(4.32) with (4.43), and the Fig. 5.3 fuzzy control
 
 from __future__ import annotations
 
+import copy
+import importlib
 import re
 from dataclasses import dataclass
 from typing import Any
@@ -36,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from mwip.export.transpile import c_literal, to_c_function
+from mwip.laws.c_support import CExportError
 
 __all__ = ["CCode", "generate_c", "ExportError", "PRECISIONS"]
 
@@ -156,421 +161,40 @@ def _f_g_c(precision: str) -> str:
     return to_c_function(f_g_terms, "mwip_f_g", precision)
 
 
-def _coef_call(w: _W, c: np.ndarray) -> str:
-    """The argument list of ``mwip_f_g`` with the nominal coefficients baked in."""
-    return ", ".join(w.num(x) for x in c)
+def _packed(ctrl: Any) -> Any:
+    """The controller's packed law (:mod:`mwip.laws.packing`): what the C templates read. A
+    law fitted at ``reset`` (TSMC's cubics, ``packed_law()`` is ``None`` before it) is packed
+    from a copy reset on the upright state; its C fits them again on the board at ``init``."""
+    from mwip.core import Measurement
 
-
-# ---- controllers -------------------------------------------------------------------------
-def _lqr(ctrl: Any, w: _W, prefix: str) -> tuple[list[str], str, str]:
-    gain = np.asarray(ctrl._gain, dtype=float)  # (6, 2): u = y[:6] @ gain + offset
-    offset = np.asarray(ctrl._offset, dtype=float)
-    consts = [w.arr("GAIN", gain), w.arr("OFFSET", offset)]
-    step = f"""\
-void {prefix}_step({prefix}_state *s, mwip_real t, const mwip_real y[8], mwip_real u[2])
-{{
-    int j, i;
-    (void)s; (void)t;
-    for (j = 0; j < 2; ++j) {{
-        mwip_real acc = 0;
-        for (i = 0; i < 6; ++i) acc += y[i] * GAIN[i][j];
-        u[j] = acc + OFFSET[j];
-    }}
-}}"""
-    init = f"void {prefix}_init({prefix}_state *s, const mwip_real y[8]) {{ (void)s; (void)y; }}"
-    return [], "\n".join(consts) + "\n\n" + init + "\n\n" + step, "static"
-
-
-def _observer_parts(obs: Any, w: _W, c: np.ndarray) -> tuple[list[str], str, str, str]:
-    """State fields, constants, init and update code of :class:`HighOrderDO` (exact form)."""
-    if obs._coef is None:
-        raise ExportError("an observer with a user-supplied f_g cannot be exported")
-    k = 3 * obs.order
-    fields = [f"mwip_real z[{k}]", "mwip_real q_prev[3]", "mwip_real qd_prev[3]",
-              "mwip_real u_prev[2]", "int has_u"]  # fmt: skip
-    consts = "\n".join(
-        [
-            w.arr("PHI", obs.Phi),
-            w.arr("GAMMA_OBS", obs.Gamma),
-            f"#define OBS_K {k}",
-            f"static const mwip_real OBS_TS = {w.num(obs.Ts)};",
-        ]
-    )
-    init = """\
-    for (i = 0; i < OBS_K; ++i) s->z[i] = 0;
-    for (i = 0; i < 3; ++i) { s->q_prev[i] = y[i]; s->qd_prev[i] = y[3 + i]; }
-    s->has_u = 0;"""
-    args = _coef_call(w, c)
-    model = {
-        "end": "model(y[1], y[3], y[4], y[5], uA, uB, f);",
-        "start": "model(s->q_prev[1], s->qd_prev[0], s->qd_prev[1], s->qd_prev[2], uA, uB, f);",
-        "trapezoid": (
-            "model(s->q_prev[1], s->qd_prev[0], s->qd_prev[1], s->qd_prev[2], uA, uB, fa);\n"
-            "        model(y[1], y[3], y[4], y[5], uA, uB, fb);\n"
-            "        for (i = 0; i < 3; ++i) f[i] = (mwip_real)0.5 * (fa[i] + fb[i]);"
-        ),
-    }[obs.model_hold]
-    update = f"""\
-    if (s->has_u) {{ /* (3.20)-(3.23) over the sample just ended: z <- Phi z + Gamma d */
-        mwip_real f[3], fa[3], fb[3], d[3], zn[OBS_K];
-        const mwip_real uA = s->u_prev[0] + s->u_prev[1], uB = s->u_prev[0] - s->u_prev[1];
-        (void)fa; (void)fb;
-        {model}
-        for (i = 0; i < 3; ++i) d[i] = (y[3 + i] - s->qd_prev[i]) / OBS_TS - f[i];
-        for (i = 0; i < OBS_K; ++i) {{
-            mwip_real acc = 0, acc2 = 0;
-            for (j = 0; j < OBS_K; ++j) acc += s->z[j] * PHI[i][j];
-            for (j = 0; j < 3; ++j) acc2 += d[j] * GAMMA_OBS[i][j];
-            zn[i] = acc + acc2;
-        }}
-        for (i = 0; i < OBS_K; ++i) s->z[i] = zn[i];
-        for (i = 0; i < 3; ++i) {{ s->q_prev[i] = y[i]; s->qd_prev[i] = y[3 + i]; }}
-    }}
-    for (i = 0; i < 3; ++i) tau[i] = s->z[i];"""
-    model_fn = f"""\
-/* F + G [u_A, u_B] of (2.36) on the nominal model */
-static void model(mwip_real th, mwip_real psid, mwip_real thd, mwip_real ald, mwip_real uA,
-                  mwip_real uB, mwip_real out[3])
-{{
-    mwip_real f1, f2, f3, g1, g2, g3;
-    mwip_f_g({args}, th, psid, thd, ald, &f1, &f2, &f3, &g1, &g2, &g3);
-    out[0] = f1 + g1 * uA;
-    out[1] = f2 + g2 * uA;
-    out[2] = f3 + g3 * uB;
-}}"""
-    return fields, consts + "\n\n" + model_fn, init, update
-
-
-def _smc(ctrl: Any, w: _W, prefix: str) -> tuple[list[str], str, str]:
-    c = np.asarray(ctrl._coef, dtype=float)
-    l1, l2, l3, l4 = ctrl.gains.lambdas
-    sw = ctrl.switching
-    fields: list[str] = []
-    consts, init_obs, update = "", "", "    for (i = 0; i < 3; ++i) tau[i] = 0;"
-    if ctrl.observer is not None:
-        fields, consts, init_obs, update = _observer_parts(ctrl.observer, w, c)
-    switch = ("w1 = mwip_clip1(s1 / PHI_SW); w2 = mwip_clip1(s2 / PHI_SW);" if sw.kind == "sat"
-              else "w1 = mwip_sgn(s1); w2 = mwip_sgn(s2);")  # fmt: skip
-    n = w.num
-    phi_line = f"static const mwip_real PHI_SW = {n(sw.phi)};" if sw.kind == "sat" else ""
-    keep_u = ("    for (i = 0; i < 2; ++i) s->u_prev[i] = u[i];\n    s->has_u = 1;"
-              if fields else "")  # fmt: skip
-    code = f"""\
-{consts}
-static const mwip_real L1 = {n(l1)}, L2 = {n(l2)}, L3 = {n(l3)}, L4 = {n(l4)};
-static const mwip_real K1 = {n(ctrl.gains.K1)}, K2 = {n(ctrl.gains.K2)};
-{phi_line}
-static const mwip_real Q1D = {n(ctrl.q1d_dot)}, Q3D = {n(ctrl.q3d)};
-
-void {prefix}_init({prefix}_state *s, const mwip_real y[8])
-{{
-    int i;
-    (void)i; (void)s; (void)y;
-{init_obs}
-}}
-
-void {prefix}_step({prefix}_state *s, mwip_real t, const mwip_real y[8], mwip_real u[2])
-{{
-    int i, j;
-    mwip_real tau[3], f1, f2, f3, g1, g2, g3, s1, s2, w1, w2, uA, uB;
-    (void)j; (void)s;
-{update}
-    /* (3.49)-(3.50), as mwip.control._smc_kernel.smc_step */
-    mwip_f_g({_coef_call(w, c)}, y[1], y[3], y[4], y[5], &f1, &f2, &f3, &g1, &g2, &g3);
-    s1 = y[4] + L1 * y[1] + L2 * (y[0] - Q1D * t) + L3 * (y[3] - Q1D);
-    s2 = y[5] + L4 * (y[2] - Q3D);
-    {switch}
-    uA = ((((((-f2) - L3 * f1) - L1 * y[4]) - L2 * (y[3] - Q1D)) - tau[1]) - L3 * tau[0]
-          - K1 * w1) / (g2 + L3 * g1);
-    uB = ((((-f3) - L4 * y[5]) - tau[2]) - K2 * w2) / g3;
-    u[0] = (mwip_real)0.5 * (uA + uB);
-    u[1] = (mwip_real)0.5 * (uA - uB);
-{keep_u}
-}}"""
-    return fields, code, "smc"
-
-
-def _asta(ctrl: Any, w: _W, prefix: str, asmc: bool) -> tuple[list[str], str, str]:
-    c = np.asarray(ctrl._coef, dtype=float)
-    n = w.num
-    l1, l2, l3 = ctrl.lam
-    ref = ctrl.ref
-    # u_i = (-a_i + sta_i + extra_i) / b_i, sta_i = (-K_i) sqrt|s_i| sgn s_i (4.3), (4.7)
-    extra = "(-s->Gamma[i]) * mwip_sgn(sg[i])" if asmc else "s->w[i]"
-    advance_w = (
-        ""
-        if asmc
-        else ("        s->w[i] = s->w[i] - (TS * s->Gamma[i]) * mwip_sgn(sg[i]); /* (4.4) */\n")
-    )
-    code = f"""\
-static const mwip_real L1 = {n(l1)}, L2 = {n(l2)}, L3 = {n(l3)};
-static const mwip_real KSTA[2] = {{{n(ctrl.K[0])}, {n(ctrl.K[1])}}};
-static const mwip_real RATE[2] = {{{n(ctrl.rate[0])}, {n(ctrl.rate[1])}}};
-static const mwip_real GAMMA0[2] = {{{n(ctrl.Gamma0[0])}, {n(ctrl.Gamma0[1])}}};
-static const mwip_real EPS = {n(ctrl.eps)}, TS = {n(ctrl.Ts)};
-static const mwip_real REF[4] = {{{", ".join(n(x) for x in ref)}}};
-
-void {prefix}_init({prefix}_state *s, const mwip_real y[8])
-{{
-    int i;
-    (void)y;
-    for (i = 0; i < 2; ++i) {{ s->Gamma[i] = GAMMA0[i]; s->w[i] = 0; }}
-}}
-
-void {prefix}_step({prefix}_state *s, mwip_real t, const mwip_real y[8], mwip_real u[2])
-{{
-    int i;
-    mwip_real f1, f2, f3, g1, g2, g3, sg[2], a[2], b[2], uab[2];
-    (void)t;
-    /* (4.1) and (4.10)-(4.11), as mwip.control._asta_kernel.asta_terms */
-    mwip_f_g({_coef_call(w, c)}, y[1], y[3], y[4], y[5], &f1, &f2, &f3, &g1, &g2, &g3);
-    sg[0] = y[4] + L1 * (y[1] - REF[1]) + L2 * (y[3] - REF[0]);
-    sg[1] = (y[5] - REF[3]) + L3 * (y[2] - REF[2]);
-    a[0] = f2 + L2 * f1 + L1 * y[4];
-    a[1] = f3 + L3 * y[5];
-    b[0] = g2 + L2 * g1;
-    b[1] = g3;
-    for (i = 0; i < 2; ++i) {{
-        const mwip_real sta = ((-KSTA[i]) * MWIP_SQRT(MWIP_FABS(sg[i]))) * mwip_sgn(sg[i]);
-        uab[i] = (((-a[i]) + sta) + {extra}) / b[i];
-    }}
-    u[0] = (mwip_real)0.5 * (uab[0] + uab[1]);
-    u[1] = (mwip_real)0.5 * (uab[0] - uab[1]);
-    for (i = 0; i < 2; ++i) {{ /* forward Euler over the sample: (4.4), then (4.5) */
-        const mwip_real mag = MWIP_FABS(sg[i]);
-{advance_w}        s->Gamma[i] = s->Gamma[i] + TS * (mag >= EPS ? RATE[i] * mag : (mwip_real)0);
-    }}
-}}"""
-    return ["mwip_real Gamma[2]", "mwip_real w[2]"], code, "asmc" if asmc else "asta"
-
-
-def _tsmc(ctrl: Any, w: _W, prefix: str) -> tuple[list[str], str, str]:
-    c = np.asarray(ctrl._coef, dtype=float)
-    n = w.num
-    sw = ctrl.switching
-    Tf = ctrl.Tf
-    switch = "mwip_clip1(sv / PHI_SW)" if sw.kind == "sat" else "mwip_sgn(sv)"
-    D, IDinv, C, Gam = ctrl.D, ctrl._IDinv, ctrl.C, ctrl.Gamma
-    phi_line = f"static const mwip_real PHI_SW = {n(sw.phi)};" if sw.kind == "sat" else ""
-    code = f"""\
-static const mwip_real C[2] = {{{n(C[0])}, {n(C[1])}}};
-static const mwip_real GAM[2] = {{{n(Gam[0])}, {n(Gam[1])}}};
-static const mwip_real D[2][2] = {{{{{n(D[0, 0])}, {n(D[0, 1])}}}, {{{n(D[1, 0])}, {n(D[1, 1])}}}}};
-static const mwip_real IDINV[2][2] = {{{{{n(IDinv[0, 0])}, {n(IDinv[0, 1])}}},
-                                      {{{n(IDinv[1, 0])}, {n(IDinv[1, 1])}}}}};
-static const mwip_real RATIO = {n(ctrl.Ftilde_ratio)}, TF = {n(Tf)};
-static const mwip_real TF2 = {n(Tf**2)}, TF3 = {n(Tf**3)};
-{phi_line}
-static const mwip_real REFS[3] = {{{n(ctrl._refs[0])}, {n(ctrl._refs[1])}, {n(ctrl._refs[2])}}};
-
-void {prefix}_init({prefix}_state *s, const mwip_real y[8])
-{{
-    /* (4.43): cubics fitted to the first errors so that s(0) = 0; t = 0 at the first call */
-    int j;
-    const mwip_real e[2] = {{y[1] - REFS[0], y[2] - REFS[1] - REFS[2] * (mwip_real)0}};
-    const mwip_real ed[2] = {{y[4], y[5] - REFS[2]}};
-    for (j = 0; j < 2; ++j) {{
-        s->cf[j][0] = e[j];
-        s->cf[j][1] = ed[j];
-        s->cf[j][2] = ((mwip_real)-3 * e[j]) / TF2 - ((mwip_real)2 * ed[j]) / TF;
-        s->cf[j][3] = ((mwip_real)2 * e[j]) / TF3 + ed[j] / TF2;
-    }}
-    s->t0 = 0;
-}}
-
-void {prefix}_step({prefix}_state *s, mwip_real t, const mwip_real y[8], mwip_real u[2])
-{{
-    /* (4.30)-(4.32), as mwip.control._tsmc_kernel.tsmc_step */
-    int j;
-    mwip_real f1, f2, f3, g1, g2, g3, F[2], e[2], ed[2], nt[2], wv[2], swv[2], k[2];
-    mwip_real rhs0, rhs1, w0, w1;
-    const mwip_real tau = t - s->t0;
-    mwip_f_g({_coef_call(w, c)}, y[1], y[3], y[4], y[5], &f1, &f2, &f3, &g1, &g2, &g3);
-    F[0] = f2; F[1] = f3;
-    e[0] = y[1] - REFS[0]; e[1] = (y[2] - REFS[1]) - REFS[2] * t;
-    ed[0] = y[4]; ed[1] = y[5] - REFS[2];
-    for (j = 0; j < 2; ++j) {{
-        mwip_real a, ad, add, sv;
-        if (tau > TF) {{
-            a = ad = add = 0;
-        }} else {{
-            const mwip_real *cf = s->cf[j];
-            a = ((cf[0] + cf[1] * tau) + cf[2] * (tau * tau)) + cf[3] * (tau * tau * tau);
-            ad = (cf[1] + ((mwip_real)2 * cf[2]) * tau) + ((mwip_real)3 * cf[3]) * (tau * tau);
-            add = (mwip_real)2 * cf[2] + ((mwip_real)6 * cf[3]) * tau;
-        }}
-        sv = ((ed[j] + C[j] * e[j]) - ad) - C[j] * a;
-        swv[j] = {switch};
-        nt[j] = ((F[j] + C[j] * ed[j]) - add) - C[j] * ad;
-        wv[j] = ((((-F[j]) - C[j] * ed[j]) + add) + C[j] * ad);
-    }}
-    rhs0 = ((RATIO * MWIP_FABS(F[0]) + D[0][0] * MWIP_FABS(nt[0])) + D[0][1] * MWIP_FABS(nt[1]))
-           + GAM[0];
-    rhs1 = ((RATIO * MWIP_FABS(F[1]) + D[1][0] * MWIP_FABS(nt[0])) + D[1][1] * MWIP_FABS(nt[1]))
-           + GAM[1];
-    for (j = 0; j < 2; ++j) k[j] = IDINV[j][0] * rhs0 + IDINV[j][1] * rhs1;
-    w0 = wv[0] - k[0] * swv[0];
-    w1 = wv[1] - k[1] * swv[1];
-    u[0] = ((mwip_real)0.5 * w0) / g2 + ((mwip_real)0.5 * w1) / g3;
-    u[1] = ((mwip_real)0.5 * w0) / g2 - ((mwip_real)0.5 * w1) / g3;
-}}"""
-    return ["mwip_real cf[2][4]", "mwip_real t0"], code, "tsmc"
-
-
-def _fls_c(fls: Any, name: str, w: _W) -> str:
-    """One two-input Mamdani FLS (min t-norm; BMM or type-1 centre of sets) as C."""
-    from mwip.fuzzy.mamdani import MamdaniFLS
-
-    assert isinstance(fls, MamdaniFLS)
-    it2 = fls.kind == "it2"
-    parts = []
-    for tag, part in (("IN1", fls.in1), ("IN2", fls.in2)):
-        p = part if it2 else part.type1()
-        c = p.centers
-        h = p.spacing
-        wl, wu = (1.0 - p.fou) * h, (1.0 + p.fou) * h
-        parts += [
-            f"static const mwip_real {name}_{tag}_R = {w.num(p.half_range)};",
-            w.arr(f"{name}_{tag}_C", c),
-            w.arr(f"{name}_{tag}_LA", c - wl), w.arr(f"{name}_{tag}_LC", c + wl),
-            w.arr(f"{name}_{tag}_UA", c - wu), w.arr(f"{name}_{tag}_UC", c + wu),
-        ]  # fmt: skip
-    nsets = fls.in1.n
-    parts.append(w.arr(f"{name}_Y", np.asarray(fls._y).reshape(nsets, nsets)))
-    mem = lambda tag, i, which: (  # noqa: E731 - local template
-        f"tri(x{i}, {name}_{tag}_{which}A[k], {name}_{tag}_C[k], {name}_{tag}_{which}C[k])"
-    )
-    out = "m * wa(flo) + n * wa(fhi)" if it2 else "wa(fhi)"
-    parts.append(f"""\
-static mwip_real {name}(mwip_real x1, mwip_real x2)
-{{
-    mwip_real l1[{nsets}], u1[{nsets}], l2[{nsets}], u2[{nsets}];
-    mwip_real sl = 0, sly = 0, su = 0, suy = 0;
-    int k, i, j;
-    x1 = mwip_min({name}_IN1_R, mwip_max(-{name}_IN1_R, x1));
-    x2 = mwip_min({name}_IN2_R, mwip_max(-{name}_IN2_R, x2));
-    for (k = 0; k < {nsets}; ++k) {{
-        l1[k] = {mem("IN1", 1, "L")}; u1[k] = {mem("IN1", 1, "U")};
-        l2[k] = {mem("IN2", 2, "L")}; u2[k] = {mem("IN2", 2, "U")};
-    }}
-    for (i = 0; i < {nsets}; ++i) {{
-        for (j = 0; j < {nsets}; ++j) {{
-            const mwip_real flo = mwip_min(l1[i], l2[j]), fhi = mwip_min(u1[i], u2[j]);
-            sl += flo; sly += flo * {name}_Y[i][j];
-            su += fhi; suy += fhi * {name}_Y[i][j];
-        }}
-    }}
-    {{
-        const mwip_real m = {w.num(fls.m)}, n = {w.num(fls.n)};
-        const mwip_real wa_lo = sl > 0 ? sly / sl : (mwip_real)0;
-        const mwip_real wa_hi = su > 0 ? suy / su : (mwip_real)0;
-        (void)m; (void)n; (void)wa_lo;
-        return {out.replace("wa(flo)", "wa_lo").replace("wa(fhi)", "wa_hi")};
-    }}
-}}""")
-    return "\n".join(parts)
-
-
-_TRI = """\
-static mwip_real tri(mwip_real x, mwip_real a, mwip_real b, mwip_real c)
-{
-    /* triangular membership (feet a, c, apex b), as mwip.fuzzy.sets.triangle */
-    const mwip_real rise = b > a ? (x - a) / (b - a) : (mwip_real)(x >= b);
-    const mwip_real fall = c > b ? (c - x) / (c - b) : (mwip_real)(x <= b);
-    return mwip_min(1, mwip_max(0, mwip_min(rise, fall)));
-}"""
-
-
-def _fig53(ctrl: Any, w: _W, prefix: str) -> tuple[list[str], str, str]:
-    from mwip.fuzzy.ts_model import LOWER_HALF_WIDTH, THETA_VERTEX, UPPER_HALF_WIDTH
-
-    if ctrl.rows != 1:
-        raise ExportError("a fuzzy controller with several rows (one per robot) cannot be "
-                          "exported: build it for one robot")  # fmt: skip
-    kind = str(ctrl._kinds[0])
-    ref = ctrl._ref[kind]
-    n = w.num
-    G = ctrl.G[0]
-    weights = (
-        """\
-    {   /* Nie-Tan weights of Fig. 5.1, (5.8): normalised lower + upper memberships */
-        const mwip_real th = mwip_min(TH_V, mwip_max(-TH_V, y[1]));
-        const mwip_real lo1 = mwip_max(0, 1 - MWIP_FABS(th) / LW);
-        const mwip_real up1 = mwip_max(0, 1 - MWIP_FABS(th) / UW);
-        const mwip_real w0 = lo1 + up1, w1 = (1 - up1) + (1 - lo1), sum = w0 + w1;
-        m[0] = w0 / sum; m[1] = w1 / sum;
-    }"""
-        if kind == "it2"
-        else """\
-    {   /* type-1: M1 the triangle at the middle of the footprint */
-        const mwip_real a = MWIP_FABS(mwip_min(TH_V, mwip_max(-TH_V, y[1])));
-        m[0] = mwip_max(0, 1 - a / ((mwip_real)0.5 * (LW + UW)));
-        m[1] = 1 - m[0];
-    }"""
-    )
-    pos_on, dir_on = bool(ctrl.pos_on[0]), bool(ctrl.dir_on[0])
-    targets = "\n".join(
-        ([f"static const mwip_real R_NOM = {n(ctrl.r)}, P_D = {n(ctrl.p_d[0])};"] if pos_on
-         else []) + ([f"static const mwip_real ALPHA_D = {n(ctrl.alpha_d[0])};"] if dir_on
-                     else []))  # fmt: skip
-    fls = "\n\n".join(([_fls_c(ref.position, "fls_pos", w)] if pos_on else [])
-                       + ([_fls_c(ref.direction, "fls_dir", w)] if dir_on else []))  # fmt: skip
-    tri = _TRI if (pos_on or dir_on) else ""
-    code = f"""\
-{tri}
-{fls}
-
-{w.arr("G", G)}
-static const mwip_real TH_V = {n(THETA_VERTEX)};
-static const mwip_real LW = {n(LOWER_HALF_WIDTH)}, UW = {n(UPPER_HALF_WIDTH)};
-{targets}
-
-void {prefix}_init({prefix}_state *s, const mwip_real y[8]) {{ (void)s; (void)y; }}
-
-void {prefix}_step({prefix}_state *s, mwip_real t, const mwip_real y[8], mwip_real u[2])
-{{
-    /* Fig. 5.3: PDC (5.10) on theta - theta_off plus the direction FLS (Section 5.3.2) */
-    mwip_real m[2], x[4], theta_off = 0, u_a = 0, u_p = 0;
-    int i, j;
-    (void)s; (void)t;
-{"    theta_off = fls_pos(R_NOM * y[0] - P_D, y[4]);" if pos_on else ""}
-{"    u_a = fls_dir(y[2] - ALPHA_D, y[5]);" if dir_on else ""}
-{weights}
-    x[0] = y[1] - theta_off; x[1] = y[4]; x[2] = {"0" if pos_on else "y[0]"}; x[3] = y[3];
-    for (i = 0; i < 2; ++i) {{
-        mwip_real gx = 0;
-        for (j = 0; j < 4; ++j) gx += G[i][j] * x[j];
-        u_p += m[i] * gx;
-    }}
-    u_p = (mwip_real)0.5 * u_p;
-    u[0] = u_p + u_a;
-    u[1] = u_p - u_a;
-}}"""
-    return [], code, f"fig53-{kind}"
+    get = getattr(ctrl, "packed_law", None)
+    if get is None:
+        raise ExportError(f"no C export for {type(ctrl).__name__}")
+    fitted_at_reset = getattr(ctrl, "_coeffs", False) is None
+    if fitted_at_reset and getattr(ctrl, "Ts", None) is None:
+        raise ExportError("tsmc: give a sample period (Ts) to export it for a sampled loop")
+    law = get()
+    if law is None and fitted_at_reset:
+        twin = copy.deepcopy(ctrl)
+        twin.reset(Measurement(0.0, np.zeros((1, 8))))
+        law = twin.packed_law()
+    if law is None:
+        raise ExportError(f"{type(ctrl).__name__}: an observer with a user-supplied f_g cannot "
+                          "be exported")  # fmt: skip
+    return law
 
 
 def _dispatch(ctrl: Any, w: _W, prefix: str) -> tuple[list[str], str, str]:
-    from mwip.control.asta import ASMC, ASTA
-    from mwip.control.lqr import LQR
-    from mwip.control.smc import SlidingModeController
-    from mwip.control.tsmc import TSMC
-    from mwip.fuzzy.fig53 import Fig53Controller
+    """The C of ``ctrl``'s law: the template of its family (``mwip/laws/<family>/c_export.py``),
+    found by the law code."""
+    from mwip.laws.families import family_of
 
-    if isinstance(ctrl, LQR):
-        return _lqr(ctrl, w, prefix)
-    if isinstance(ctrl, SlidingModeController):
-        return _smc(ctrl, w, prefix)
-    if isinstance(ctrl, ASTA):
-        return _asta(ctrl, w, prefix, asmc=False)
-    if isinstance(ctrl, ASMC):
-        return _asta(ctrl, w, prefix, asmc=True)
-    if isinstance(ctrl, TSMC):
-        if ctrl.Ts is None:
-            raise ExportError("tsmc: give a sample period (Ts) to export it for a sampled loop")
-        return _tsmc(ctrl, w, prefix)
-    if isinstance(ctrl, Fig53Controller):
-        return _fig53(ctrl, w, prefix)
-    raise ExportError(f"no C export for {type(ctrl).__name__}")
+    law = _packed(ctrl)
+    module = importlib.import_module(f"mwip.laws.{family_of(law.code)}.c_export")
+    try:
+        return module.generate(law, w, prefix)
+    except CExportError as exc:
+        raise ExportError(str(exc)) from None
 
 
 def generate_c(controller: Any, *, prefix: str = "mwip_ctrl", precision: str = "double",

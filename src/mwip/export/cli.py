@@ -95,10 +95,10 @@ def export_c(
 
     from mwip import outdir
     from mwip.cli_controllers import parse_sets
-    from mwip.control.registry import get
     from mwip.export.c_code import ExportError, generate_c
     from mwip.export.transpile import check_constant
     from mwip.io import write_text_atomic
+    from mwip.laws.registry import get
     from mwip.params import book_params, load_params
 
     given = parse_sets(name, sets)

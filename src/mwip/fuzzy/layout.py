@@ -1,6 +1,6 @@
 """How the Fig. 5.3 fuzzy controller is laid out in arrays for its compiled kernel
-(:mod:`mwip.fuzzy._fig53_kernel`), without loading the compiler: the classes that build the
-arrays (:mod:`mwip.fuzzy.fig53`, :mod:`mwip.fuzzy.mamdani`) import these, the kernel too.
+(:mod:`mwip.laws.fig53.kernel`), without loading the compiler: the classes that build the
+arrays (:mod:`mwip.laws.fig53.controller`, :mod:`mwip.fuzzy.mamdani`) import these, the kernel too.
 """
 
 __all__ = ["HEAD", "ROW_WIDTH"]

@@ -134,7 +134,7 @@ class MamdaniFLS:
                           "t1", self.m, self.n)  # fmt: skip
 
     def block(self, a1: float = 1.0, a2: float = 1.0, b: float = 1.0) -> NDArray[np.float64]:
-        """This FLS as the flat array of the compiled kernel (:mod:`mwip.fuzzy._fig53_kernel`),
+        """This FLS as the flat array of the compiled kernel (:mod:`mwip.laws.fig53.kernel`),
         evaluating ``b * FLS(a1 x1, a2 x2)``: the sets' apexes and lower / upper feet
         (``c -+ (1 -+ fou) h`` of :meth:`UniformPartition.memberships`; the type-1 sets for a
         type-1 FLS) and the rule outputs ``_y``."""
@@ -156,10 +156,10 @@ class MamdaniFLS:
         """Crisp output for inputs broadcast together (vectorised): saturated inputs, lower
         and upper memberships, firing intervals by the minimum t-norm (``firing_grid``), BMM
         (IT2) or the weighted average (type 1) over the rules, in the compiled kernel
-        :func:`mwip.fuzzy._fig53_kernel.fls_eval` (the one implementation; the NumPy oracle
+        :func:`mwip.fuzzy._kernel.fls_eval` (the one implementation; the NumPy oracle
         composed of :mod:`mwip.fuzzy.sets` and :mod:`mwip.fuzzy.reducers` is in
         tests/oracle_laws.py)."""
-        from mwip.fuzzy._fig53_kernel import fls_batch  # Numba: loaded when evaluated
+        from mwip.fuzzy._kernel import fls_batch  # Numba: loaded when evaluated
 
         a, b = np.broadcast_arrays(np.asarray(x1, dtype=float), np.asarray(x2, dtype=float))
         out = np.empty(a.shape)

@@ -184,7 +184,7 @@ def nie_tan_weights(theta: ArrayLike) -> NDArray[np.float64]:
     """Normalised Nie-Tan weights ``m_i(theta)`` of (5.8)/(5.10), (..., 2), summing to 1:
     ``m_i = (lower_i + upper_i) / sum_j (lower_j + upper_j)`` with the memberships of
     :func:`memberships`, computed by the compiled PDC kernel
-    (:func:`mwip.fuzzy._fig53_kernel.pdc_weights`, the one implementation)."""
+    (:func:`mwip.fuzzy._kernel.pdc_weights`, the one implementation)."""
     return _weights(theta, t1=False)
 
 
@@ -197,7 +197,7 @@ def type1_weights(theta: ArrayLike) -> NDArray[np.float64]:
 
 
 def _weights(theta: ArrayLike, *, t1: bool) -> NDArray[np.float64]:
-    from mwip.fuzzy._fig53_kernel import pdc_weights_batch  # the kernel imports this module
+    from mwip.fuzzy._kernel import pdc_weights_batch  # the kernel imports this module
 
     th = np.asarray(theta, dtype=float)
     out = np.empty((*th.shape, 2))

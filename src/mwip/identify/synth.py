@@ -11,7 +11,7 @@ bias and drift, :class:`mwip.hardware.imu.TiltFilter`). The fractional back-EMF 
 Backlash is switched off (it is not identified).
 
 Balancing logs: :func:`mwip.hardware.twin.run_on_twin` with a controller of
-:mod:`mwip.control.registry` (``emf_feedforward = c >= 0.5``).
+:mod:`mwip.laws.registry` (``emf_feedforward = c >= 0.5``).
 """
 
 from __future__ import annotations
@@ -140,8 +140,8 @@ def balancing_log(
     base: object | None = None,
 ) -> dict[str, NDArray]:
     """A balancing log: ``controller`` (registry name) on the twin with ``truth``."""
-    from mwip.control.registry import build
     from mwip.hardware.twin import run_on_twin
+    from mwip.laws.registry import build
 
     tw = twin_for(truth, base)
     ctrl = build(controller, Ts=tw.Ts)

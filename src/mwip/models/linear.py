@@ -34,12 +34,12 @@ def linearize(p: Params, *, as_statespace: bool = False, Ts: float | None = None
     ``as_statespace=True`` returns a python-control ``StateSpace`` instead (optional
     dependency, ``pip install mwip[control]``; one robot only) with the full state as output
     (``C = I``, ``D = 0``) and named signals; with ``Ts`` the zero-order-hold model sampled at
-    ``Ts`` (the model :func:`mwip.control.lqr.dlqr` designs on).
+    ``Ts`` (the model :func:`mwip.laws.lqr.controller.dlqr` designs on).
     """
     if as_statespace:
         return statespace(p, Ts=Ts)
     if Ts is not None:
-        raise ValueError("Ts is only used with as_statespace=True (see mwip.control.lqr.zoh)")
+        raise ValueError("Ts is only used with as_statespace=True (see mwip.laws.lqr.zoh)")
     if not isinstance(p, Params):
         raise TypeError(f"p must be a mwip.params.Params, got {type(p).__name__}")
     shape = p.batch_shape

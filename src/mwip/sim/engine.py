@@ -30,7 +30,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from mwip.budget import DEFAULT as DEFAULT_BUDGET
 from mwip.budget import Budget, estimate
-from mwip.core import Actuator, CompiledLaw, Controller, Sensor
+from mwip.core import Actuator, Controller, Sensor
+from mwip.laws.packing import PackedLaw
 from mwip.models.reduced import coefficients
 from mwip.params import REAL, Params
 from mwip.sim import aot
@@ -214,7 +215,7 @@ def simulate(
     Parameters
     ----------
     controller : Controller
-        See :mod:`mwip.control.base`. It sees only the sensor's measurements.
+        See :mod:`mwip.laws.base`. It sees only the sensor's measurements.
     plant : Params
         Plant parameters; array-valued fields (N,) give a batch of N plants.
     q0, qdot0, pos0 : array (3,), (3,), (2,) or with a leading batch axis (N, ...)
@@ -249,7 +250,7 @@ def simulate(
         Continuous mode always uses ROS2 with the closed loop's Jacobian.
     compiled : bool, optional
         Run the whole loop compiled (:mod:`mwip.sim.loop`): ``None`` (default) when the
-        controller offers ``compiled_law()`` and the loop has the ideal sensor and no actuator
+        controller offers ``packed_law()`` and the loop has the ideal sensor and no actuator
         model; ``False`` forces the Python loop; ``True`` raises if it cannot be compiled.
     budget : Budget
         Bounds on the run's cost (:mod:`mwip.budget`), checked before it starts; a run above
@@ -412,29 +413,30 @@ def simulate(
 
 def _compiled_law(
     controller: Controller, sensor: Sensor, actuator: Actuator | None, compiled: bool | None
-) -> CompiledLaw | None:
-    """The controller's :class:`CompiledLaw` when the whole loop can run compiled.
+) -> PackedLaw | None:
+    """The controller's :class:`~mwip.laws.packing.PackedLaw` when the whole loop can run
+    compiled.
 
     A subclass that overrides what the Python loop calls (``__call__``, ``reset``, ``log``)
-    below the class that defines ``compiled_law`` runs the Python loop: its compiled law
+    below the class that defines ``packed_law`` runs the Python loop: its compiled law
     would not be the law it runs (e.g. a user's LQR with extra logs)."""
     if compiled is False:
         return None
-    get = getattr(controller, "compiled_law", None)
-    if get is not None and _overrides_below_compiled_law(type(controller)):
+    get = getattr(controller, "packed_law", None)
+    if get is not None and _overrides_below_packed_law(type(controller)):
         get = None
     law = get() if get is not None else None
     ok = law is not None and type(sensor) is IdealSensor and actuator is None
     if compiled and not ok:
         raise ValueError(
-            "compiled=True needs a controller with compiled_law(), the ideal sensor and no "
+            "compiled=True needs a controller with packed_law(), the ideal sensor and no "
             "actuator model"
         )
     return law if ok else None
 
 
-def _overrides_below_compiled_law(cls: type) -> bool:
-    owner = next((c for c in cls.__mro__ if "compiled_law" in vars(c)), None)
+def _overrides_below_packed_law(cls: type) -> bool:
+    owner = next((c for c in cls.__mro__ if "packed_law" in vars(c)), None)
     if owner is None:  # set on the instance: the instance says what it runs
         return False
     below = cls.__mro__[: cls.__mro__.index(owner)]
@@ -467,7 +469,7 @@ def _tau_all(
 
 
 def _run_compiled(
-    law: CompiledLaw,
+    law: PackedLaw,
     y: NDArray[np.float64],
     coef: NDArray[np.float64],
     tau_all: NDArray[np.float64],
@@ -533,15 +535,11 @@ def _compile_notice(fn: Any, what: str) -> None:
 
 def _call(fn, law, y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, states, us,  # noqa: ANN001, ANN202, PLR0913
           log_arr, status, t_end):  # fmt: skip
-    """``fn`` (:func:`mwip.sim.loop.run` or ``run_parallel``) with the law's arrays (fresh
-    writable C copies: one compiled signature whatever the controller keeps read-only)."""
-    f64 = np.float64
-    fn(y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, law.kind,
-       *(np.array(a, dtype=f64, order="C") for a in (law.gain, law.offset, law.coef, law.lam,
-                                                       law.scalars, law.Phi, law.Gamma, law.obs,
-                                                       law.C, law.Gam, law.D, law.IDinv,
-                                                       law.refs, law.cubic, law.rows,
-                                                       law.fls)),
+    """``fn`` (:func:`mwip.sim.loop.run` or ``run_parallel``) with the law's packed vectors
+    (fresh writable C copies, :meth:`~mwip.laws.packing.PackedLaw.arrays`): one compiled
+    signature for every law."""
+    P, X = law.arrays(y.shape[0])
+    fn(y, coef, tau_all, method, dt, n_sub, n_samples, Ts, rec_idx, np.int64(law.code), P, X,
        states, us, log_arr, status, t_end)  # fmt: skip
 
 

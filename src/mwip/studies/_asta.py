@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mwip.control.asta import ASMC, ASTA, asta_surface
+from mwip.laws.asta.controller import ASMC, ASTA, asta_surface
 from mwip.metrics import total_variation_rate
 from mwip.models.reduced import accelerations
 from mwip.params import Params
@@ -48,7 +48,7 @@ class ConventionalASMC(ASMC):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         # the same law and adaptive gain as ASMC, with no proportional STA term: K = 0 (the
-        # one implementation, mwip.control._asta_kernel.asta_sample, in both loops)
+        # one implementation, mwip.laws.asta.kernel.asta_sample, in both loops)
         self.K = np.zeros(2)
 
 

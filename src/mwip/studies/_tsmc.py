@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mwip.control.switching import Switching
-from mwip.control.tsmc import TSMC
+from mwip.laws.switching import Switching
+from mwip.laws.tsmc.controller import TSMC
 from mwip.models.linear import linearize
 from mwip.params import Params
 from mwip.sim import SimResult, simulate

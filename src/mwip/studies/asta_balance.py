@@ -2,7 +2,8 @@
 
 Set-up (SPEC.md section 4): ``theta0 = -pi/18``, all other states zero, targets zero;
 ``lambda = (10, 0.3, 0.3)`` (4.41), ``K1 = 10, K2 = 0.3``, ``Gamma1 = Gamma2 = 5`` (4.42) read as
-the adaptation rates ``1/partial_i`` of (4.5) with ``Gamma(0) = 0`` (:mod:`mwip.control.asta`),
+the adaptation rates ``1/partial_i`` of (4.5) with ``Gamma(0) = 0``
+(:mod:`mwip.laws.asta.controller`),
 boundary layer ``eps = 0.01``; 10 s; no external disturbance (the real-vs-nominal mismatch is
 the disturbance). Quasi-continuous loop: both controllers sampled at ``Ts = dt = 0.5 ms``
 (their integrator and adaptive gain are real state, so they cannot run inside the right-hand
@@ -32,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from mwip.control.asta import asta_surface
+from mwip.laws.asta.controller import asta_surface
 from mwip.metrics import overshoot, rms, settling_time
 from mwip.schema.claims import finish_claims
 from mwip.sim import simulate

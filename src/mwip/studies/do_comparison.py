@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mwip.control.lqr import LQR, design_lqr
+from mwip.laws.lqr.controller import LQR, design_lqr
 from mwip.metrics import rms
 from mwip.models.reduced import accelerations, lumped_disturbance, mass_matrix
 from mwip.observers import HighOrderDO

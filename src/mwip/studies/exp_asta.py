@@ -4,7 +4,7 @@ Set-up (SPEC.md section 5): the twin of the run (``ctx.twin``, the twin
 file's configuration; default the default twin), controllers at its ``Ts`` (5 ms); ASTA and
 ASMC designed on the nominal parameters with (6.1)-(6.2): ``lambda = (10, 0.3, 3)``,
 ``K1 = K2 = 10``, ``Gamma1 = Gamma2 = 5`` read as the adaptation rates of (4.5) with
-``Gamma(0) = 0`` (:mod:`mwip.control.asta`), boundary layer ``eps = 0.01``;
+``Gamma(0) = 0`` (:mod:`mwip.laws.asta.controller`), boundary layer ``eps = 0.01``;
 ``theta0 = -pi/18``, targets zero, 10 s. Case 1 the robot, Case 2 with the payload. RMS (6.3)
 of ``q2`` and of the sliding variable ``S1`` (the controller's, from measurements) over
 2-10 s from 10 ms records.
@@ -35,10 +35,10 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mwip.control.asta import ASMC, ASTA
 from mwip.hardware.ablation import Ablation, board_signals, mark_fall, rms_metrics, run_ablation
 from mwip.hardware.identified import default_twin
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
+from mwip.laws.asta.controller import ASMC, ASTA
 from mwip.metrics import rms, total_variation_rate
 from mwip.params import Params
 from mwip.sim import SimResult

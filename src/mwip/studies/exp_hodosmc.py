@@ -53,8 +53,6 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mwip.control.smc import SMCDesignWarning, make_smc
-from mwip.control.switching import Switching
 from mwip.hardware.ablation import (
     Ablation,
     MetricFn,
@@ -66,6 +64,8 @@ from mwip.hardware.ablation import (
 from mwip.hardware.identified import default_twin
 from mwip.hardware.obstacle import StickObstacle
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
+from mwip.laws.smc.controller import SMCDesignWarning, make_smc
+from mwip.laws.switching import Switching
 from mwip.metrics import rms, total_variation_rate
 from mwip.params import Params, steady_speed_cap
 from mwip.sim import SimResult

@@ -49,7 +49,7 @@ The plant is the robot's plant (Table 6.1 by default, ``Db, Dw`` as SPEC.md sect
 them; nothing here chooses a reading).
 
 All runs are one batch on the twin (the library's Fig. 5.3 controller for a batch,
-:class:`mwip.fuzzy.fig53.Fig53Controller`), which costs about as much as two single runs.
+:class:`mwip.laws.fig53.controller.Fig53Controller`), which costs about as much as two single runs.
 Outputs: ``metrics.json``, one ``.npz`` per run, ``exp-it2.png`` (Figs. 6.17-6.19's layout).
 
 Settings (``scenarios/exp-it2.toml``, :mod:`mwip.studies.settings`): ``theta0``,
@@ -74,12 +74,12 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mwip.fuzzy.fig53 import Fig53Controller
 from mwip.fuzzy.pdc import PDCDesign, check_design, design_pdc, uncertainty_models
 from mwip.hardware.ablation import Ablation, ablation_steps, run_ablation
 from mwip.hardware.elements import ELEMENTS
 from mwip.hardware.identified import default_twin
 from mwip.hardware.twin import Twin, case_plant, run_on_twin
+from mwip.laws.fig53.controller import Fig53Controller
 from mwip.metrics import rms
 from mwip.params import Params
 from mwip.sim import SimResult

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mwip.control.smc import make_smc
+from mwip.laws.smc.controller import make_smc
 from mwip.metrics import rms, total_variation_rate
 from mwip.observers.design import as_gain_matrices
 from mwip.schema.claims import finish_claims

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mwip.control.lqr import LQR, design_lqr
+from mwip.laws.lqr.controller import LQR, design_lqr
 from mwip.params import book_params
 from mwip.schema.claims import finish_claims
 from mwip.sim import SimResult, simulate

@@ -2,7 +2,7 @@
 sampled LQR takes to balance the robot from a range of initial pitches.
 
 The LQR with the book's weights ``Q, R`` (Sec. 4.4.2), designed for the sample period ``Ts``
-on the design model (:func:`mwip.control.lqr.design_lqr`), balances the plant from
+on the design model (:func:`mwip.laws.lqr.controller.design_lqr`), balances the plant from
 ``n_starts`` initial pitches evenly spread over ``theta0_range`` (one batch run, all other
 states zero). Settling time: ``|theta|`` stays within ``max(2 % of its peak, 1 mrad)``
 (:func:`mwip.metrics.settling_time`). The claim (ours; the book prints no settling time for
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mwip.control.lqr import LQR, design_lqr
+from mwip.laws.lqr.controller import LQR, design_lqr
 from mwip.metrics import settling_time
 from mwip.schema.claims import finish_claims
 from mwip.sim import simulate

@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from mwip.control.lqr import LQR, design_lqr
+from mwip.laws.lqr.controller import LQR, design_lqr
 from mwip.metrics import settling_time, total_variation_rate
 from mwip.models.steady import speed_time_constant
 from mwip.params import book_params

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from mwip.control.lqr import LQR, design_lqr
+from mwip.laws.lqr.controller import LQR, design_lqr
 from mwip.models.steady import balance_residual, lean_for_speed
 from mwip.schema.claims import finish_claims
 from mwip.studies._tsmc import (

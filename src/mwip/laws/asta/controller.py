@@ -51,7 +51,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.core import LAW_ASTA, CompiledLaw, Measurement
+from mwip.core import Measurement
+from mwip.laws.packing import PackedLaw
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
 from mwip.validate import params_arg, real, vector
@@ -96,11 +97,11 @@ def asta_surface(
         sigma_1 = theta' + lambda_1 (theta - theta_d) + lambda_2 (psi' - psi'_d)
         sigma_2 = (alpha' - alpha'_d) + lambda_3 (alpha - alpha_d)
 
-    Evaluated by the controllers' compiled kernel (:func:`mwip.control._asta_kernel.
+    Evaluated by the controllers' compiled kernel (:func:`mwip.laws.asta.kernel.
     asta_terms`, the one implementation; its ``a, b`` are not needed here and use the nominal
     coefficients).
     """
-    from mwip.control._asta_kernel import asta_terms
+    from mwip.laws.asta.kernel import asta_terms
 
     q, qd = np.asarray(q, dtype=float), np.asarray(qdot, dtype=float)
     shape = np.broadcast_shapes(q.shape, qd.shape)
@@ -217,7 +218,7 @@ class _AdaptiveSliding:
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         # the kernel (Numba) is loaded when the Python loop calls the law (mwip.sim.aot)
-        from mwip.control._asta_kernel import asta_sample, asta_terms
+        from mwip.laws.asta.kernel import asta_sample, asta_terms
 
         if self.Gamma.shape[0] != meas.y.shape[0]:
             self.reset(meas)
@@ -238,17 +239,16 @@ class _AdaptiveSliding:
                     self.w, u)  # fmt: skip
         return u
 
-    def compiled_law(self) -> CompiledLaw:
-        """The law for the compiled closed loop (:mod:`mwip.sim.loop`): the same kernels
-        (:func:`~mwip.control._asta_kernel.asta_terms`, ``asta_sample``); the gains start at
+    def packed_law(self) -> PackedLaw:
+        """The law packed (:mod:`mwip.laws.asta.packing`) for the compiled closed loop
+        (:mod:`mwip.sim.loop`) and the C export: the same kernels
+        (:func:`~mwip.laws.asta.kernel.asta_terms`, ``asta_sample``); the gains start at
         ``Gamma0`` and ``w`` at zero, as after :meth:`reset`."""
+        from mwip.laws.asta.packing import pack
+
         assert self.Ts is not None
-        return CompiledLaw(
-            LAW_ASTA, coef=self._coef, lam=self.lam, refs=self.ref, C=self.K, Gam=self.rate,
-            offset=self.Gamma0, scalars=np.array([self.eps, self.Ts, float(self._asmc), 0, 0, 0],
-                                                 dtype=float),
-            log_names=(("sigma", 2), ("Gamma", 2), ("w", 2)),
-        )  # fmt: skip
+        return pack(self._coef, self.lam, self.ref, self.K, self.rate, self.Gamma0, self.eps,
+                    self.Ts, self._asmc)  # fmt: skip
 
     def log(self) -> Mapping[str, NDArray[np.float64]]:
         return self._log

@@ -1,6 +1,7 @@
 """Compiled sample-time evaluation of the sliding-mode law (3.49)-(3.50) for a batch.
 
-The one implementation of the law (:class:`mwip.control.smc.SlidingModeController` calls it),
+The one implementation of the law (:class:`mwip.laws.smc.controller.SlidingModeController`
+calls it),
 with ``F, G`` from the closed forms of (2.36) (:func:`mwip.models.reduced.f_g_terms`, the one
 source of the model), in one loop so that a controller call costs microseconds rather than a
 chain of small NumPy calls. Its oracle, the NumPy form written from (3.49)-(3.50), is in
@@ -10,8 +11,30 @@ for every term, and benchmarks/mutate_kernels.py checks that a sign flip here fa
 
 from __future__ import annotations
 
+import numpy as np
+
 from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
+from mwip.laws.smc.packing import (
+    FIXED,
+    P_COEF,
+    P_DECOUPLED,
+    P_HOLD,
+    P_K1,
+    P_K2,
+    P_LAM,
+    P_OBS_TS,
+    P_PHI,
+    P_Q1D_DOT,
+    P_Q3D,
+    P_SAT,
+    X_FG_PREV,
+    X_QD_PREV,
+    X_TH,
+    X_U_PREV,
+    X_Z,
+)  # fmt: skip
 from mwip.models._compiled import f_g_scalar
+from mwip.observers._hodo_kernel import hodo_sample, model_terms
 
 
 @njit(inline="always")
@@ -57,3 +80,44 @@ def smc_step(c, q, qd, tau_hat, t, lam, K1, K2, sat, phi, q1d_dot, q3d, u, S):  
             fg, q[i, 0], q[i, 1], q[i, 2], qd[i, 0], qd[i, 1], qd[i, 2],
             tau_hat[i, 0], tau_hat[i, 1], tau_hat[i, 2], t, lam, K1, K2, sat, phi, q1d_dot, q3d,
         )  # fmt: skip
+
+
+@njit(inline="always")
+def step(p, x, k, t, ym, u, lg):  # noqa: ANN001, ANN201 - compiled kernel
+    """One sample of the packed law (:mod:`.packing`) for one robot: the observer's update
+    with the torque held over the last sample (from the second sample on), then (3.49)-(3.50);
+    ``F, G`` of (2.36) evaluated once, at this measurement, for both (the observer's held term
+    for hold "end"; "start" and "trapezoid" use the previous sample's, kept in ``x``).
+    Logs ``[S1, S2, tau_hat (3)]``."""
+    m = np.int64(p[0])
+    c = p[P_COEF[0] : P_COEF[1]]
+    qd = (ym[0, 3], ym[0, 4], ym[0, 5])
+    fg = model_terms(c, ym[0, 1], ym[0, 3], ym[0, 4], ym[0, 5])
+    if m > 0 and k > 0:
+        Phi = p[FIXED : FIXED + m * m].reshape((m, m))
+        Gam = p[FIXED + m * m : FIXED + m * m + 3 * m].reshape((m, 3))
+        z = x[X_Z : X_Z + m]
+        qd_prev = (x[X_QD_PREV], x[X_QD_PREV + 1], x[X_QD_PREV + 2])
+        f = x[X_FG_PREV : X_FG_PREV + 6]
+        fg_prev = (f[0], f[1], f[2], f[3], f[4], f[5])
+        hodo_sample(Phi, Gam, p[P_DECOUPLED] != 0.0, p[P_OBS_TS], np.int64(p[P_HOLD]), z,
+                    qd_prev, qd, fg_prev, fg, x[X_U_PREV] + x[X_U_PREV + 1],
+                    x[X_U_PREV] - x[X_U_PREV + 1],
+                    x[X_Z + m : X_Z + 2 * m])  # fmt: skip
+        for j in range(3):
+            x[X_TH + j] = z[j]
+    u[0, 0], u[0, 1], s1, s2 = smc_law(
+        fg, ym[0, 0], ym[0, 1], ym[0, 2], ym[0, 3], ym[0, 4], ym[0, 5], x[X_TH], x[X_TH + 1],
+        x[X_TH + 2], t, p[P_LAM[0] : P_LAM[1]], p[P_K1], p[P_K2], p[P_SAT] != 0.0, p[P_PHI],
+        p[P_Q1D_DOT], p[P_Q3D],
+    )  # fmt: skip
+    for j in range(6):
+        x[X_FG_PREV + j] = fg[j]
+    for j in range(3):
+        x[X_QD_PREV + j] = qd[j]
+    x[X_U_PREV] = u[0, 0]
+    x[X_U_PREV + 1] = u[0, 1]
+    lg[0] = s1
+    lg[1] = s2
+    for j in range(3):
+        lg[2 + j] = x[X_TH + j]

@@ -1,8 +1,9 @@
 """Compiled sample-time terms of the adaptive super-twisting family: the sliding variables
 (4.1) and ``sigma' = a + b [u_A, u_B]`` (4.10)-(4.11) on the nominal model, for a batch.
 
-The one implementation of (4.1) and (4.10)-(4.11) (:class:`mwip.control.asta.ASTA`,
-:class:`~mwip.control.asta.ASMC` and :func:`~mwip.control.asta.asta_surface` call it), with
+The one implementation of (4.1) and (4.10)-(4.11) (:class:`mwip.laws.asta.controller.ASTA`,
+:class:`~mwip.laws.asta.controller.ASMC` and :func:`~mwip.laws.asta.controller.asta_surface`
+call it), with
 ``F, G`` from the closed forms of (2.36) (:func:`mwip.models.reduced.f_g_terms`). Its oracle
 is in tests/oracle_laws.py; tests/test_kernels.py holds the two equal on random non-zero
 inputs, and benchmarks/mutate_kernels.py checks that a sign flip here fails them.
@@ -13,6 +14,21 @@ from __future__ import annotations
 import math
 
 from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
+from mwip.laws.asta.packing import (
+    P_ASMC,
+    P_COEF,
+    P_EPS,
+    P_K,
+    P_LAM,
+    P_RATE,
+    P_REF,
+    P_TS,
+    X_A,
+    X_B,
+    X_GAMMA,
+    X_S,
+    X_W,
+)  # fmt: skip
 from mwip.models._compiled import f_g_scalar
 
 
@@ -37,7 +53,8 @@ def asta_terms(c, q, qd, lam, ref, s, a, b):  # noqa: ANN001, ANN201 - compiled 
 @njit
 def asta_sample(a, b, s, K, rate, eps, Ts, asmc, Gamma, w, u):  # noqa: ANN001, ANN201
     """The law and the state update of one sample, for a batch (the one implementation of
-    :class:`mwip.control.asta.ASTA` and :class:`~mwip.control.asta.ASMC`'s ``__call__``).
+    :class:`mwip.laws.asta.controller.ASTA` and :class:`~mwip.laws.asta.controller.ASMC`'s
+    ``__call__``).
 
     Fills ``u`` (N, 2) = ``[u_r, u_l]`` from ``a, b, s`` (N, 2) of :func:`asta_terms`:
     ASTA (4.7) ``u_i = (-a_i - K_i |s_i|^(1/2) sgn s_i + w_i) / b_i``; ASMC (``asmc``) the same
@@ -69,3 +86,24 @@ def asta_sample(a, b, s, K, rate, eps, Ts, asmc, Gamma, w, u):  # noqa: ANN001, 
                 w[i, j] = w[i, j] - Ts * Gamma[i, j] * sg
             grow = rate[j] * abs(sj) if abs(sj) >= eps else 0.0
             Gamma[i, j] = Gamma[i, j] + Ts * grow
+
+
+@njit(inline="always")
+def step(p, x, k, t, ym, u, lg):  # noqa: ANN001, ANN201, ARG001 - compiled kernel
+    """One sample of the packed law (:mod:`.packing`) for one robot: :func:`asta_terms` at
+    the measurement ``ym`` (1, 8), then :func:`asta_sample` (the law and the update of the
+    gains in ``x``). Logs ``[sigma, Gamma, w]`` with the gains before the update, as the
+    Python class does."""
+    s = x[X_S : X_S + 2].reshape((1, 2))
+    a = x[X_A : X_A + 2].reshape((1, 2))
+    b = x[X_B : X_B + 2].reshape((1, 2))
+    G = x[X_GAMMA : X_GAMMA + 2].reshape((1, 2))
+    w = x[X_W : X_W + 2].reshape((1, 2))
+    asta_terms(p[P_COEF[0] : P_COEF[1]], ym[:, 0:3], ym[:, 3:6], p[P_LAM[0] : P_LAM[1]],
+               p[P_REF[0] : P_REF[1]], s, a, b)  # fmt: skip
+    for j in range(2):
+        lg[j] = s[0, j]
+        lg[2 + j] = G[0, j]
+        lg[4 + j] = w[0, j]
+    asta_sample(a, b, s, p[P_K[0] : P_K[1]], p[P_RATE[0] : P_RATE[1]], p[P_EPS], p[P_TS],
+                p[P_ASMC] != 0.0, G, w, u)  # fmt: skip

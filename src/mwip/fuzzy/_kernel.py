@@ -1,13 +1,11 @@
-"""Compiled kernels of the Fig. 5.3 fuzzy law: the PDC balance law (5.10) with the membership
-grades of Fig. 5.1 / (5.7)-(5.8), and the two-input Mamdani FLSs of Section 5.3.2 (Tables
-5.1-5.2: uniform triangular partitions, minimum t-norm, Begian-Melek-Mendel type reduction
-for IT2, the weighted average for type 1), one robot per row of a batch.
+"""Compiled kernels of the fuzzy library: the two-input Mamdani FLSs of Section 5.3.2
+(Tables 5.1-5.2: uniform triangular partitions, minimum t-norm, Begian-Melek-Mendel type
+reduction for IT2, the weighted average for type 1) and the PDC membership grades of
+Fig. 5.1 / (5.7)-(5.8), one robot per row of a batch.
 
-The one implementation of :meth:`mwip.fuzzy.fig53.Fig53Controller.__call__`,
-:meth:`mwip.fuzzy.mamdani.MamdaniFLS.__call__` and
-:func:`mwip.fuzzy.ts_model.nie_tan_weights` / ``type1_weights``; the compiled closed loop
-(:mod:`mwip.sim.loop`) calls :func:`fig53_law` with the same arguments. Its NumPy oracle is in
-tests/oracle_laws.py (built from :mod:`mwip.fuzzy.sets` and :mod:`mwip.fuzzy.reducers`);
+The one implementation of :meth:`mwip.fuzzy.mamdani.MamdaniFLS.__call__` and
+:func:`mwip.fuzzy.ts_model.nie_tan_weights` / ``type1_weights``; the Fig. 5.3 law
+(:mod:`mwip.laws.fig53.kernel`) calls them. Their NumPy oracle is in tests/oracle_laws.py;
 tests/test_kernels.py holds the two equal on random inputs and benchmarks/mutate_kernels.py
 checks that a sign flip here fails them.
 
@@ -15,10 +13,7 @@ Operation order: each membership, firing strength and ratio is computed with the
 (and operands) of the NumPy building blocks (``sets.triangle``, ``firing_grid``,
 ``reducers.bmm`` / ``weighted_average``), and the sums over the rules use NumPy's pairwise
 summation (:func:`_pairwise`), so an FLS output is bit for bit the one of the NumPy
-composition that preceded this kernel. The PDC sum ``sum_ij m_i G_ij x_j`` is accumulated
-``i`` outer, ``j`` inner from zero (NumPy's ``einsum`` took that order for batches of 3 or
-more robots; for one robot, and two sharing one design, it grouped the sum by ``i``, so
-those runs differ from the former NumPy law in the last bit of ``u``).
+composition that preceded this kernel.
 
 An FLS is a flat float64 *block* (:meth:`mwip.fuzzy.mamdani.MamdaniFLS.block` writes one):
 ``[n, t1, m, nw, R1, R2, a1, a2, b]``, then per input the ``n`` apexes, lower-MF feet ``a``,
@@ -26,21 +21,18 @@ An FLS is a flat float64 *block* (:meth:`mwip.fuzzy.mamdani.MamdaniFLS.block` wr
 centroids per rule (``[i * n + j]`` for "x1 is A_i and x2 is B_j"): ``9 + 10 n + n^2``
 numbers. It evaluates
 ``y = b * FLS(a1 x1, a2 x2)`` (the scaling that turns the position FLS into the direction FLS,
-:func:`mwip.fuzzy.fig53.direction_as_position`; ``1, 1, 1`` for a plain FLS: exact).
+:func:`mwip.laws.fig53.controller.direction_as_position`; ``1, 1, 1`` for a plain FLS: exact).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from mwip.fuzzy.layout import HEAD, ROW_WIDTH
+from mwip.fuzzy.layout import HEAD
 from mwip.fuzzy.ts_model import LOWER_HALF_WIDTH, THETA_VERTEX, UPPER_HALF_WIDTH
 from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 
-__all__ = [
-    "HEAD", "ROW_WIDTH", "fls_eval", "fls_batch", "pdc_weights",
-    "pdc_weights_batch", "fig53_law",
-]  # fmt: skip
+__all__ = ["HEAD", "fls_eval", "fls_batch", "pdc_weights", "pdc_weights_batch"]
 
 
 @njit
@@ -204,49 +196,3 @@ def pdc_weights_batch(theta, t1, out):  # noqa: ANN001, ANN201
         m1, m2 = pdc_weights(theta[i], t1)
         out[i, 0] = m1
         out[i, 1] = m2
-
-
-@njit
-def fig53_law(y, rows, fls, first, u, theta_off, u_alpha):  # noqa: ANN001, ANN201
-    """The Fig. 5.3 law for a batch: ``u`` (N, 2) = ``[u_r, u_l]``, ``theta_off``, ``u_alpha``
-    (N,) from the measurements ``y`` (N, 8).
-
-    Robot ``k`` uses the row ``first + k`` of ``rows`` (R, :data:`ROW_WIDTH`), or row 0 when
-    ``R == 1``; its kind ``c`` (0 IT2, 1 type 1) picks the position FLS ``fls[c]`` and the
-    direction FLS ``fls[2 + c]``. Term by term (Section 5.3.2, Fig. 5.3)::
-
-        theta_off = FLS_p(r_nom psi - p_d, theta')        (0 without a position target)
-        u_alpha   = FLS_alpha(alpha - alpha_d, alpha')     (0 without a heading target)
-        x         = [theta - theta_off, theta', psi (0 with a position target), psi']
-        u_p       = (1/2) sum_i m_i(theta) G_i x           (5.10)
-        u         = [u_p + u_alpha, u_p - u_alpha]
-    """
-    mem = np.empty((4, fls.shape[1]))
-    fr = np.empty((4, fls.shape[1]))
-    single = rows.shape[0] == 1
-    for k in range(y.shape[0]):
-        row = rows[0] if single else rows[first + k]
-        c = int(row[0])
-        th_off = 0.0
-        ua = 0.0
-        if row[11] != 0.0:
-            th_off = fls_eval(row[13] * y[k, 0] - row[9], y[k, 4], fls[c], mem, fr)
-        if row[12] != 0.0:
-            ua = fls_eval(y[k, 2] - row[10], y[k, 5], fls[2 + c], mem, fr)
-        m1, m2 = pdc_weights(y[k, 1], c == 1)
-        x0 = y[k, 1] - th_off
-        x2 = 0.0 if row[11] != 0.0 else y[k, 0]
-        acc = 0.0
-        acc += (m1 * row[1]) * x0
-        acc += (m1 * row[2]) * y[k, 4]
-        acc += (m1 * row[3]) * x2
-        acc += (m1 * row[4]) * y[k, 3]
-        acc += (m2 * row[5]) * x0
-        acc += (m2 * row[6]) * y[k, 4]
-        acc += (m2 * row[7]) * x2
-        acc += (m2 * row[8]) * y[k, 3]
-        up = 0.5 * acc
-        u[k, 0] = up + ua
-        u[k, 1] = up - ua
-        theta_off[k] = th_off
-        u_alpha[k] = ua

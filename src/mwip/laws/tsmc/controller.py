@@ -52,8 +52,9 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.control.switching import Switching
-from mwip.core import LAW_TSMC, CompiledLaw, Measurement
+from mwip.core import Measurement
+from mwip.laws.packing import PackedLaw
+from mwip.laws.switching import Switching
 from mwip.models.reduced import coefficients
 from mwip.models.steady import lean_for_speed
 from mwip.params import NOMINAL, Params
@@ -205,10 +206,10 @@ class TSMC:
         self._t0 = float(meas.t)
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
-        """(4.30)-(4.32) at ``(t, meas)`` in one compiled loop (:mod:`mwip.control._tsmc_kernel`;
+        """(4.30)-(4.32) at ``(t, meas)`` in one compiled loop (:mod:`mwip.laws.tsmc.kernel`;
         the law's one implementation; NumPy oracle in tests/oracle_laws.py)."""
         # the kernel (Numba) is loaded when the Python loop calls the law (mwip.sim.aot)
-        from mwip.control._tsmc_kernel import tsmc_step
+        from mwip.laws.tsmc.kernel import tsmc_step
 
         if self._coeffs is None:
             self.reset(meas)
@@ -229,17 +230,16 @@ class TSMC:
     def log(self) -> Mapping[str, NDArray[np.float64]]:
         return self._log
 
-    def compiled_law(self) -> CompiledLaw | None:
-        """The law for the compiled closed loop (:mod:`mwip.sim.loop`), which calls the same
-        kernel (:func:`~mwip.control._tsmc_kernel.tsmc_step`); after :meth:`reset` (the fitted
-        cubics are part of it), else ``None``."""
+    def packed_law(self) -> PackedLaw | None:
+        """The law packed (:mod:`mwip.laws.tsmc.packing`) for the compiled closed loop
+        (:mod:`mwip.sim.loop`) and the C export, one parameter vector per robot (its fitted
+        cubics); the same kernel (:func:`~mwip.laws.tsmc.kernel.tsmc_step`); after
+        :meth:`reset` (the fitted cubics are part of it), else ``None``."""
+        from mwip.laws.tsmc.packing import pack
+
         if self._coeffs is None:
             return None
         sw = self.switching
-        scalars = np.array([self.Tf, self.Ftilde_ratio, float(sw.kind == "sat"), sw.phi,
-                            self._t0, 0.0])  # fmt: skip
-        return CompiledLaw(
-            LAW_TSMC, coef=self._coef, scalars=scalars, C=self.C, Gam=self.Gamma, D=self.D,
-            IDinv=self._IDinv, refs=self._refs, cubic=self._coeffs,
-            log_names=(("s", 2), ("k", 2), ("aug", 2)),
-        )  # fmt: skip
+        return pack(self._coef, self.Tf, self.Ftilde_ratio, sw.kind == "sat", sw.phi,
+                    self._t0, self.C, self.Gamma, self.D, self._IDinv, self._refs,
+                    self._coeffs)  # fmt: skip

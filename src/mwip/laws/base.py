@@ -14,7 +14,7 @@ whose law is a static function of the measurement sets ``static = True``; only t
 in the engine's ``"continuous"`` mode, where the law is evaluated inside the plant's
 right-hand side as in the book's MATLAB studies (SPEC.md section 2).
 
-Every controller is registered by name in :mod:`mwip.control.registry` (``mwip controllers``).
+Every controller is registered by name in :mod:`mwip.laws.registry` (``mwip controllers``).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Compiled sample-time evaluation of the terminal SMC (4.30)-(4.32), (4.43) for a batch.
 
-The one implementation of the law (:class:`mwip.control.tsmc.TSMC` calls it): subsystem
+The one implementation of the law (:class:`mwip.laws.tsmc.controller.TSMC` calls it): subsystem
 (4.26)-(4.27), augmenting cubics (4.43), surface (4.30), gain and law (4.32) in one loop;
 ``F, G`` from the closed forms of (2.36) (:func:`mwip.models.reduced.f_g_terms`). Its oracle,
 the NumPy forms written from the equations, is in tests/oracle_laws.py; tests/test_kernels.py
@@ -11,6 +11,23 @@ benchmarks/mutate_kernels.py checks that a sign flip here fails them.
 from __future__ import annotations
 
 from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
+from mwip.laws.tsmc.packing import (
+    P_C,
+    P_COEF,
+    P_CUBIC,
+    P_D,
+    P_GAMMA,
+    P_IDINV,
+    P_PHI,
+    P_RATIO,
+    P_REFS,
+    P_SAT,
+    P_T0,
+    P_TF,
+    X_AUG,
+    X_K,
+    X_S,
+)  # fmt: skip
 from mwip.models._compiled import f_g_scalar
 
 
@@ -63,3 +80,21 @@ def tsmc_step(c, q, qd, t, tau, coeffs, Tf, C, ratio, D, IDinv, Gam, sat, phi,  
         # G1 = [[g2, g2], [g3, -g3]]: u = G1^-1 w
         u[i, 0] = 0.5 * w0 / g2 + 0.5 * w1 / g3
         u[i, 1] = 0.5 * w0 / g2 - 0.5 * w1 / g3
+
+
+@njit(inline="always")
+def step(p, x, k, t, ym, u, lg):  # noqa: ANN001, ANN201, ARG001 - compiled kernel
+    """One sample of the packed law (:mod:`.packing`) for one robot: :func:`tsmc_step` at the
+    measurement ``ym`` (1, 8) with this robot's cubics. Logs ``[s, k, aug]``."""
+    s = x[X_S : X_S + 2].reshape((1, 2))
+    kk = x[X_K : X_K + 2].reshape((1, 2))
+    a = x[X_AUG : X_AUG + 2].reshape((1, 2))
+    tsmc_step(p[P_COEF[0] : P_COEF[1]], ym[:, 0:3], ym[:, 3:6], t, t - p[P_T0],
+              p[P_CUBIC[0] : P_CUBIC[1]].reshape((1, 2, 4)), p[P_TF], p[P_C[0] : P_C[1]],
+              p[P_RATIO], p[P_D[0] : P_D[1]].reshape((2, 2)),
+              p[P_IDINV[0] : P_IDINV[1]].reshape((2, 2)), p[P_GAMMA[0] : P_GAMMA[1]],
+              p[P_SAT] != 0.0, p[P_PHI], p[P_REFS[0] : P_REFS[1]], u, s, kk, a)  # fmt: skip
+    for j in range(2):
+        lg[j] = s[0, j]
+        lg[2 + j] = kk[0, j]
+        lg[4 + j] = a[0, j]

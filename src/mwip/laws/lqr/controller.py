@@ -32,7 +32,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.core import LAW_LINEAR, CompiledLaw, Measurement
+from mwip.core import Measurement
+from mwip.laws.packing import PackedLaw
 from mwip.models.linear import linearize
 from mwip.numerics import expm, solve_continuous_are, solve_discrete_are
 from mwip.params import NOMINAL, Params
@@ -94,14 +95,14 @@ def dlqr(
     if hasattr(A, "A") and hasattr(A, "B"):  # a state-space system (python-control's form)
         if getattr(A, "dt", None) == 0:
             raise ValueError("dlqr needs a discrete-time system (dt > 0); for a continuous one "
-                             "call mwip.control.lqr, or lqr_sampled(A, B, Q, R, Ts)")  # fmt: skip
+                             "call mwip.laws.lqr.lqr, or lqr_sampled(A, B, Q, R, Ts)")  # fmt: skip
         A, B, Q, R, N = A.A, A.B, B, Q, R
     if N is not None and np.ndim(N) == 0:
         raise TypeError(
-            "mwip.control.dlqr(A, B, Q, R, N) takes the discrete model and an (n, m) cross "
+            "mwip.laws.dlqr(A, B, Q, R, N) takes the discrete model and an (n, m) cross "
             f"weight N, as python-control's; got the number {N!r} as N. To discretise a "
             "continuous (A, B) at sample period Ts and design, call "
-            "mwip.control.lqr_sampled(A, B, Q, R, Ts) (the former dlqr(A, B, Q, R, Ts))"
+            "mwip.laws.lqr.controller.lqr_sampled(A, B, Q, R, Ts) (the former dlqr(A, B, Q, R, Ts))"
         )
     if Q is None or R is None:
         raise TypeError("dlqr(A, B, Q, R[, N]): give the weights Q and R")
@@ -219,14 +220,17 @@ class LQR:
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         # the kernel (Numba) is loaded when the Python loop calls the law (mwip.sim.aot)
-        from mwip.control._lqr_kernel import lqr_law
+        from mwip.laws.lqr.kernel import lqr_law
 
         y = np.ascontiguousarray(meas.y, dtype=float)
         return lqr_law(y, self._gain, self._offset, np.empty((y.shape[0], 2)))
 
-    def compiled_law(self) -> CompiledLaw:
-        """The law for the compiled closed loop (:mod:`mwip.sim.loop`): the same kernel."""
-        return CompiledLaw(LAW_LINEAR, gain=self._gain, offset=self._offset)
+    def packed_law(self) -> PackedLaw:
+        """The law packed (:mod:`mwip.laws.lqr.packing`) for the compiled closed loop
+        (:mod:`mwip.sim.loop`) and the C export: the same kernel."""
+        from mwip.laws.lqr.packing import pack
+
+        return pack(self._gain, self._offset)
 
     def log(self) -> Mapping[str, NDArray[np.float64]]:
         return {}

@@ -16,7 +16,7 @@ so that ``S1' = (tau_d2 - tau^2) + l3 (tau_d1 - tau^1) - K1 sw(S1)`` and
 ``K1 = dbar2 + l3 dbar1 + gamma1``, ``K2 = dbar3 + gamma2``, with ``dbar`` bounds on the
 estimation error (HODOSMC) or on the whole lumped disturbance (conventional SMC); or given
 directly (Table 6.3 gives K1, K2; SPEC.md section 3: take them as given). ``sw`` is ``sgn``
-(book default) or a saturation with boundary layer (:mod:`mwip.control.switching`).
+(book default) or a saturation with boundary layer (:mod:`mwip.laws.switching`).
 
 Wheel torques: ``u_r = (u_A + u_B) / 2``, ``u_l = (u_A - u_B) / 2``.
 
@@ -31,12 +31,14 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mwip.control.switching import Switching
-from mwip.core import LAW_SMC, CompiledLaw, Measurement, Observer
+from mwip.core import Measurement, Observer
+from mwip.laws.packing import PackedLaw
+from mwip.laws.switching import Switching
 from mwip.models.reduced import coefficients
 from mwip.params import NOMINAL, Params
 from mwip.validate import params_arg, real
@@ -154,7 +156,7 @@ class SlidingModeController:
         self._S = np.zeros((0, 2))
         self._tau = np.zeros((0, 3))
         if check:
-            from mwip.control.smc_design import check_smc_design
+            from mwip.laws.smc.design import check_smc_design
 
             report = check_smc_design(gains.lambdas, params, q1d_dot=q1d_dot)
             if not report.ok:
@@ -178,9 +180,9 @@ class SlidingModeController:
         self._u = None
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
-        """(3.49)-(3.50) at a sample, in one compiled loop (:mod:`mwip.control._smc_kernel`,
+        """(3.49)-(3.50) at a sample, in one compiled loop (:mod:`mwip.laws.smc.kernel`,
         the law's one implementation)."""
-        from mwip.control._smc_kernel import smc_step  # Numba: loaded by the Python loop only
+        from mwip.laws.smc.kernel import smc_step  # Numba: loaded by the Python loop only
 
         q = np.ascontiguousarray(meas.q)
         qd = np.ascontiguousarray(meas.qdot)
@@ -195,30 +197,30 @@ class SlidingModeController:
         self._u, self._S, self._tau = u, S, tau_hat
         return u
 
-    def compiled_law(self) -> CompiledLaw | None:
-        """The law for the compiled closed loop (:mod:`mwip.sim.loop`), which calls the same
-        kernels (:func:`~mwip.control._smc_kernel.smc_step`, and the observer's
-        :func:`~mwip.observers._hodo_kernel.hodo_update`); ``None`` when the observer is not a
+    def packed_law(self) -> PackedLaw | None:
+        """The law packed (:mod:`mwip.laws.smc.packing`) for the compiled closed loop
+        (:mod:`mwip.sim.loop`) and the C export; its kernel calls the same
+        :func:`~mwip.laws.smc.kernel.smc_law` and the observer's
+        :func:`~mwip.observers._hodo_kernel.hodo_sample`; ``None`` when the observer is not a
         :class:`~mwip.observers.HighOrderDO` on the default model (the Python loop runs it)."""
         from mwip.core import HOLD_CODES
+        from mwip.laws.smc.packing import pack
         from mwip.observers.hodo import HighOrderDO
 
         sw = self.switching
-        scalars = np.array([self.gains.K1, self.gains.K2, float(sw.kind == "sat"), sw.phi,
-                            self.q1d_dot, self.q3d], dtype=float)  # fmt: skip
-        logs = (("S1", 1), ("S2", 1), ("tau_hat", 3))
+        common: dict[str, Any] = dict(
+            coef=self._coef, lam=self._lam, K1=self.gains.K1, K2=self.gains.K2,
+            sat=sw.kind == "sat", phi=sw.phi, q1d_dot=self.q1d_dot, q3d=self.q3d,
+            name="dosmc" if self.observer is not None else "smc",
+        )  # fmt: skip
         if self.observer is None:
-            return CompiledLaw(LAW_SMC, coef=self._coef, lam=self._lam, scalars=scalars,
-                               log_names=logs)  # fmt: skip
+            return pack(**common)
         obs = self.observer
         if type(obs) is not HighOrderDO or obs._coef is None:
             return None
-        return CompiledLaw(
-            LAW_SMC, coef=self._coef, lam=self._lam, scalars=scalars,
-            Phi=np.ascontiguousarray(obs.Phi, dtype=float),
-            Gamma=np.ascontiguousarray(obs.Gamma, dtype=float),
-            obs=np.array([obs.Ts, HOLD_CODES[obs.model_hold]], dtype=float), log_names=logs,
-        )  # fmt: skip
+        return pack(Phi=np.ascontiguousarray(obs.Phi, dtype=float),
+                    Gamma=np.ascontiguousarray(obs.Gamma, dtype=float), obs_Ts=obs.Ts,
+                    hold=HOLD_CODES[obs.model_hold], **common)  # fmt: skip
 
     def disturbance_estimate(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         """``tau^`` for the law: advance the observer with the torque just held (or zeros)."""

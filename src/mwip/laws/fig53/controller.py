@@ -11,8 +11,8 @@ Per row ``i`` the law is :class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` (desig
     u         = [u_p + u_alpha, u_p - u_alpha]      (Fig. 5.3)
 
 evaluated for all rows in one call of the compiled kernel
-:func:`mwip.fuzzy._fig53_kernel.fig53_law` (the law's one implementation), which the
-compiled closed loop (:mod:`mwip.sim.loop`, through :meth:`Fig53Controller.compiled_law`)
+:func:`mwip.laws.fig53.kernel.fig53_law` (the law's one implementation), which the
+compiled closed loop (:mod:`mwip.sim.loop`, through :meth:`Fig53Controller.packed_law`)
 calls too. With a single row the same law drives every robot of the batch. Tested equal to
 :class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` row by row (tests/test_fig53.py) and to the
 NumPy oracle (tests/test_kernels.py). The controller sees only measurements and the nominal
@@ -26,10 +26,11 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from mwip.core import LAW_FUZZY, CompiledLaw, Measurement
+from mwip.core import Measurement
 from mwip.fuzzy.layout import ROW_WIDTH
 from mwip.fuzzy.mamdani import FuzzyMWIPController
 from mwip.fuzzy.pdc import PDCDesign
+from mwip.laws.packing import PackedLaw
 from mwip.params import NOMINAL, Params
 
 __all__ = ["Fig53Controller", "direction_as_position"]
@@ -111,9 +112,9 @@ class Fig53Controller:
 
     def __call__(self, t: float, meas: Measurement) -> NDArray[np.float64]:
         """Fig. 5.3 at a sample: (5.10) on ``theta - theta_off`` plus the direction FLS, in
-        the compiled kernel :func:`mwip.fuzzy._fig53_kernel.fig53_law` (the one
+        the compiled kernel :func:`mwip.laws.fig53.kernel.fig53_law` (the one
         implementation; the compiled closed loop calls it too)."""
-        from mwip.fuzzy._fig53_kernel import fig53_law  # Numba: loaded by the Python loop only
+        from mwip.laws.fig53.kernel import fig53_law  # Numba: loaded by the Python loop only
 
         y = np.ascontiguousarray(meas.y, dtype=float)
         n = y.shape[0]
@@ -123,12 +124,14 @@ class Fig53Controller:
         self._log = {"theta_off": theta_off, "u_alpha": u_a}
         return u
 
-    def compiled_law(self) -> CompiledLaw:
-        """The law for the compiled closed loop (:mod:`mwip.sim.loop`): the same kernel,
-        :func:`~mwip.fuzzy._fig53_kernel.fig53_law`, with this controller's row table and
-        FLS blocks; logs ``theta_off`` and ``u_alpha`` as :meth:`log`."""
-        return CompiledLaw(LAW_FUZZY, rows=self._table, fls=self._fls,
-                           log_names=(("theta_off", 1), ("u_alpha", 1)))  # fmt: skip
+    def packed_law(self) -> PackedLaw:
+        """The law packed (:mod:`mwip.laws.fig53.packing`) for the compiled closed loop
+        (:mod:`mwip.sim.loop`) and the C export: the same kernel,
+        :func:`~mwip.laws.fig53.kernel.fig53_law`, with this controller's row table (one
+        parameter vector per row) and FLS blocks; logs ``theta_off`` and ``u_alpha``."""
+        from mwip.laws.fig53.packing import pack
+
+        return pack(self._table, self._fls, name=str(self._kinds[0]))
 
     def log(self) -> Mapping[str, NDArray[np.float64]]:
         """``theta_off`` (the position FLS's lean) and ``u_alpha`` (N,)."""
