@@ -3,9 +3,10 @@
 The import graph of ``mwip`` is read from the source with :mod:`ast`: every ``import`` and
 ``from ... import`` of an ``mwip`` module, at module level *and* inside functions (a lazy
 import is still a dependency; it only moves the cost). ``TYPE_CHECKING`` imports count too.
-A *room* is a top-level module or a subpackage (``mwip.report``, ``mwip.cache``); modules that
-implement a command line (``mwip.cli``, ``mwip.cli_*``, ``*.cli``, ``*_cli``, ``__main__``)
-live on the top floor whatever their package. The floors are declared below, as data.
+A *room* is a top-level module or a subpackage (``mwip.report``, ``mwip.cache``); the command
+line (the package ``mwip.cli``, one module per command, and the entry points ``mwip.__main__``,
+``mwip.console``) is the room ``cli`` on the top floor, and no other room holds CLI code (none
+imports click). The floors are declared below, as data.
 
 Checks: a module imports only rooms on its own floor or below, and the rooms form no cycle.
 """
@@ -63,9 +64,7 @@ def _module_name(path: Path) -> str:
 
 
 def _is_cli(module: str) -> bool:
-    last = module.rsplit(".", 1)[-1]
-    return (module in ("mwip.cli", "mwip.__main__", "mwip.console") or last.startswith("cli_")
-            or last == "cli" or last.endswith("_cli"))  # fmt: skip
+    return module in ("mwip.cli", "mwip.__main__", "mwip.console") or module.startswith("mwip.cli.")
 
 
 def room(module: str) -> str:
@@ -199,3 +198,19 @@ def test_the_issue_24_arrows_are_gone():
 
 def test_no_circle_between_rooms():
     assert room_cycles() == []
+
+
+def test_only_the_cli_room_imports_click():
+    """Issue 24, item 3: a command lives in a file of ``mwip.cli``; no library module holds
+    command-line code (imports click)."""
+    for path in (SRC / "mwip").rglob("*.py"):
+        name = _module_name(path)
+        if _is_cli(name):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            mods: list[str] = []
+            if isinstance(node, ast.Import):
+                mods = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                mods = [node.module or ""]
+            assert not [m for m in mods if m.split(".")[0] == "click"], name

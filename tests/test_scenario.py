@@ -81,3 +81,40 @@ def test_cli_options_override_scenario(tmp_path, capsys):
     assert code == 0
     data = np.genfromtxt(out / "timeseries.csv", delimiter=",", names=True)
     assert data["t"][-1] == pytest.approx(2.0) and data["theta"][0] == pytest.approx(0.05)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--theta0", "2"], "--theta0: must be in (-1.5708, 1.5708) rad, got 2.0"),
+        (["--theta0", "-1.5707963267948966"], "--theta0: must be in (-1.5708, 1.5708) rad"),
+        (["--duration", "0"], "--duration: must be in (0, 3600], got 0.0"),
+        (["--Ts", "inf"], "--Ts: must be in (0, 1], got inf"),
+        (["--dt", "0.01"], "--dt: must be in (0, 0.005], got 0.01"),
+        (["--Ts", "0.002", "--dt", "0.004"], "--dt: must be in (0, 0.002], got 0.004"),
+        (["--v0", "-1000"], "--v0: must be in (-1000, 1000], got -1000.0"),
+        (["--alpha0", "nan"], "--alpha0: must be in (-1000, 1000], got nan"),
+        (["--controller", "pid"], "--controller: unknown controller 'pid'; choose from: lqr"),
+        (["--set", "phi=1"], "--set: controller 'lqr' has no setting 'phi'"),
+        (["--controller", "smc", "--set", "phi=-1"], "--set: controller 'smc': setting 'phi'"),
+        (["--case", "2"], "error: [scenario] case = 2 runs on the digital twin"),
+    ],
+)
+def test_a_refused_option_is_named_by_the_scenario(argv, message, tmp_path, capsys):
+    """The scenario validates every field once; the CLI names the option the value came from
+    (and a field the scenario file set, the file's table and key)."""
+    assert main(["simulate", *argv, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err, err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_refused_field_of_the_file_is_named_by_its_table(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text("[scenario]\nTs = 0.01\ndt = 0.004\n")
+    assert main(["simulate", "--scenario", str(path), "--duration", "9000"]) == 2
+    err = capsys.readouterr().err
+    assert "Invalid value for --duration: must be in (0, 3600], got 9000.0" in err
+    # --Ts makes the file's dt too long: the file's field is named, not --dt
+    assert main(["simulate", "--scenario", str(path), "--Ts", "0.002"]) == 2
+    assert "mwip: error: [scenario] dt must be in (0, 0.002], got 0.004" in capsys.readouterr().err

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from mwip.fuzzy.design_cli import design_it2
+from mwip.cli.design import design_it2
 from mwip.fuzzy.pdc import (
     PDCBalance,
     PDCInfeasibleError,

@@ -1,5 +1,5 @@
 """The robot of a run drawn to scale and moving (``mwip animate RUN_DIR``,
-:mod:`mwip.cli_plot`).
+:mod:`mwip.cli.plot`).
 
 A side view (wheel turning, body leaning, payload when present) beside a top view of the path,
 with a time cursor on the theta and torque traces (:class:`mwip.plot.robot_view.RobotView`).
@@ -21,7 +21,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import click
 import numpy as np
 
 from mwip.io import write_atomic, write_text_atomic
@@ -30,11 +29,15 @@ from mwip.plot.runs import Run, RunFolderError, records
 if TYPE_CHECKING:  # matplotlib: imported where a frame is drawn
     from mwip.plot.robot_view import RobotView
 
-__all__ = ["FORMATS", "MAX_FRAMES", "animate_run", "poster_frame"]
+__all__ = ["FORMATS", "MAX_FRAMES", "AnimationError", "animate_run", "poster_frame"]
 
 FORMATS = (".gif", ".mp4", ".html")
 MAX_FRAMES = 5000
 HOLD_S = 1.0
+
+
+class AnimationError(RuntimeError):
+    """The video encoder (ffmpeg) failed; the message says how (the CLI prints it, exit 1)."""
 
 
 def _check(run: Run) -> None:
@@ -124,7 +127,7 @@ def _write_mp4(frames: Iterator[np.ndarray], path: Path, fps: float, ffmpeg: str
                 proc.stdin.close()
             err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
         if proc.returncode != 0:
-            raise click.ClickException(f"ffmpeg failed: {err.strip().splitlines()[-1:]}")
+            raise AnimationError(f"ffmpeg failed: {err.strip().splitlines()[-1:]}")
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)

@@ -59,23 +59,43 @@ from mwip.params import NOMINAL, REAL, Params, load_params
 from mwip.sim.disturbance import Disturbance, disturbance_from_dict
 from mwip.sim.result import SimResult
 
-__all__ = ["Scenario", "load_scenario", "CONTROLLERS"]
+__all__ = ["Scenario", "ScenarioError", "load_scenario", "CONTROLLERS"]
 
 #: The controller names a scenario may use (the registry's).
 CONTROLLERS = tuple(_REGISTRY)
 _INITIAL = ("theta", "alpha", "v", "theta_dot", "alpha_dot", "psi", "x", "y")
 
 
+class ScenarioError(ValueError):
+    """A refused scenario field. The message names the table and key (``[scenario] duration
+    must be in (0, 3600], got 0.0``); ``field`` says which field (``"duration"``,
+    ``"initial.theta"``, ``"controller"``, ``"settings"``, ...) and ``reason`` what is wrong
+    with it, without the name (``"must be in (0, 3600], got 0.0"``), so that a front end can
+    name its own option instead (``mwip simulate --duration``)."""
+
+    def __init__(self, message: str, field: str, reason: str) -> None:
+        super().__init__(message)
+        self.field = field
+        self.reason = reason
+
+
+def _refuse(table: str, key: str, reason: str) -> ScenarioError:
+    field = key if table == "scenario" else f"{table}.{key}"
+    return ScenarioError(f"[{table}] {key} {reason}", field, reason)
+
+
 def _number(
-    table: str, key: str, value: Any, lo: float, hi: float, *, lo_open: bool = True
-) -> float:
-    allowed = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+    table: str, key: str, value: Any, lo: float, hi: float, *, lo_open: bool = True,
+    hi_open: bool = False, unit: str = "",
+) -> float:  # fmt: skip
+    allowed = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}{unit}"
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"[{table}] {key} must be a number in {allowed}, got {value!r}")
+        raise _refuse(table, key, f"must be a number in {allowed}, got {value!r}")
     x = float(value)
-    ok = math.isfinite(x) and (x > lo if lo_open else x >= lo) and x <= hi
+    ok = (math.isfinite(x) and (x > lo if lo_open else x >= lo)
+          and (x < hi if hi_open else x <= hi))  # fmt: skip
     if not ok:
-        raise ValueError(f"[{table}] {key} must be in {allowed}, got {value!r}")
+        raise _refuse(table, key, f"must be in {allowed}, got {value!r}")
     return x
 
 
@@ -130,41 +150,49 @@ class Scenario:
         try:
             spec = _get_controller(self.controller)
         except ValueError as exc:
-            raise ValueError(f"[scenario] {exc}") from None
+            raise ScenarioError(f"[scenario] {exc}", "controller", str(exc)) from None
         try:
             spec.resolve(self.settings)
         except ValueError as exc:
-            raise ValueError(f"[controller] {exc}") from None
+            raise ScenarioError(f"[controller] {exc}", "settings", str(exc)) from None
         if not isinstance(self.twin, bool):
-            raise ValueError(f"[scenario] twin must be true or false, got {self.twin!r}")
+            raise _refuse("scenario", "twin", f"must be true or false, got {self.twin!r}")
         if self.case not in (1, 2, 3) or isinstance(self.case, bool):
-            raise ValueError(f"[scenario] case must be 1, 2 or 3, got {self.case!r}")
+            raise _refuse("scenario", "case", f"must be 1, 2 or 3, got {self.case!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(f"[scenario] seed must be an integer >= 0, got {self.seed!r}")
+            raise _refuse("scenario", "seed", f"must be an integer >= 0, got {self.seed!r}")
         if self.case != 1 and not self.twin:
-            raise ValueError(f"[scenario] case = {self.case} runs on the digital twin: it needs "
-                             "twin = true (CLI: --twin)")  # fmt: skip
+            raise ScenarioError(f"[scenario] case = {self.case} runs on the digital twin: it "
+                                "needs twin = true (CLI: --twin)", "case",
+                                "runs on the digital twin: it needs --twin")  # fmt: skip
         if self.twin and self.mode != "sampled":
-            raise ValueError("[scenario] mode must be 'sampled' on the twin (twin = true)")
+            raise _refuse("scenario", "mode", "must be 'sampled' on the twin (twin = true)")
         if self.mode not in ("sampled", "continuous"):
-            raise ValueError(
-                f"[scenario] mode must be 'sampled' or 'continuous', got {self.mode!r}"
-            )
+            raise _refuse("scenario", "mode",
+                          f"must be 'sampled' or 'continuous', got {self.mode!r}")  # fmt: skip
         _number("scenario", "duration", self.duration, 0.0, 3600.0)
         _number("scenario", "Ts", self.Ts, 0.0, 1.0)
         if self.dt is not None:
             _number("scenario", "dt", self.dt, 0.0, self.Ts)
         if not isinstance(self.plant, Params) or not isinstance(self.design, Params):
-            raise ValueError("[plant] and [design] must be parameter sets (mwip.params.Params)")
+            raise ScenarioError(
+                "[plant] and [design] must be parameter sets (mwip.params.Params)",
+                "plant",
+                "must be a parameter set",
+            )
         if not isinstance(self.initial, Mapping):
-            raise ValueError(f"[initial] must be a table, got {self.initial!r}")
+            raise ScenarioError(f"[initial] must be a table, got {self.initial!r}", "initial",
+                                f"must be a table, got {self.initial!r}")  # fmt: skip
         for key, val in self.initial.items():
             if key not in _INITIAL:
-                raise ValueError(f"[initial] unknown key {key!r}; allowed: {', '.join(_INITIAL)}")
-            bound = math.pi / 2 if key == "theta" else 1e3
-            _number("initial", key, val, -bound, bound)
-            if abs(val) >= bound and key == "theta":
-                raise ValueError(f"[initial] theta must be in (-1.5708, 1.5708), got {val!r}")
+                raise ScenarioError(f"[initial] unknown key {key!r}; allowed: "
+                                    f"{', '.join(_INITIAL)}", "initial",
+                                    f"unknown key {key!r}")  # fmt: skip
+            if key == "theta":  # upright within a quarter turn, both ends open
+                _number("initial", key, val, -math.pi / 2, math.pi / 2, hi_open=True,
+                        unit=" rad")  # fmt: skip
+            else:
+                _number("initial", key, val, -1e3, 1e3)
 
     def initial_state(self) -> dict[str, tuple[float, ...]]:
         """``q0, qdot0, pos0`` for :func:`mwip.sim.simulate` (``v`` via the plant's radius)."""

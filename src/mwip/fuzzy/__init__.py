@@ -5,7 +5,6 @@
 - :mod:`mwip.fuzzy.ts_model` - IT2 Takagi-Sugeno model (5.4)-(5.8)
 - :mod:`mwip.fuzzy.pdc` - PDC balance controller (5.9)-(5.11), LMI design (5.12)-(5.20)
 - :mod:`mwip.fuzzy.mamdani` - IT2 Mamdani position/direction control (Section 5.3.2)
-- :mod:`mwip.fuzzy.design_cli` - the ``mwip design it2`` command body
 
 See ``docs/fuzzy.md``.
 

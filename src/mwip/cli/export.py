@@ -1,4 +1,5 @@
-"""``mwip export c``: a registered controller as plain C99 for the robot, verified in the loop."""
+"""``mwip export c``: a registered controller as plain C99 for the robot, verified in the loop
+(:mod:`mwip.export`)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,8 @@ from pathlib import Path
 from typing import Any
 
 import click
+
+from mwip.cli._common import split_sets
 
 __all__ = ["export"]
 
@@ -94,17 +97,22 @@ def export_c(
     import math
 
     from mwip import outdir
-    from mwip.cli_controllers import parse_sets
     from mwip.export.c_code import ExportError, generate_c
     from mwip.export.transpile import check_constant
     from mwip.io import write_text_atomic
     from mwip.laws.registry import get
     from mwip.params import book_params, load_params
 
-    given = parse_sets(name, sets)
-    spec = get(name)
+    try:
+        spec = get(name)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--controller") from None
+    given = split_sets(sets)
+    try:  # the registry validates the settings (once)
+        resolved = spec.resolve(given)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--set") from None
     precision = "float" if single else "double"
-    resolved = spec.resolve(given)
     for key in given:  # a setting that C cannot hold, named before anything is designed
         for x in _numbers(resolved[key]):
             why = check_constant(x, precision)

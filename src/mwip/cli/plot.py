@@ -77,7 +77,7 @@ def animate_cmd(run_dir: Path, run_name: str | None, out: Path | None, fps: floa
     RUN_DIR is a folder written by `mwip simulate --out`, a study's folder (OUT/<study>), or a
     run's .npz file. A run that fell is shown up to the fall, which is held for a second.
     """
-    from mwip.animate import FORMATS, animate_run
+    from mwip.animate import FORMATS, AnimationError, animate_run
     from mwip.plot.runs import RunFolderError, load_run
 
     if not (math.isfinite(fps) and 1.0 <= fps <= 60.0):
@@ -98,4 +98,6 @@ def animate_cmd(run_dir: Path, run_name: str | None, out: Path | None, fps: floa
         animate_run(run, out, fps=fps, speed=speed)
     except RunFolderError as exc:
         raise click.UsageError(str(exc)) from None
+    except AnimationError as exc:  # the encoder's failure, not the input's
+        raise click.ClickException(str(exc)) from None
     click.echo(f"wrote {out} ({run.name}: {run.status}, {run.t_end:.3g} s)")

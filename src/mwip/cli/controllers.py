@@ -1,8 +1,4 @@
-"""``mwip controllers [NAME]``: the registered controllers, their book sources and settings.
-
-Also the parsing of ``--set key=value`` for ``mwip simulate`` (one-line errors naming the
-setting and what it allows).
-"""
+"""``mwip controllers [NAME]``: the registered controllers, their book sources and settings."""
 
 from __future__ import annotations
 
@@ -12,7 +8,7 @@ from typing import Any
 
 import click
 
-__all__ = ["controllers", "parse_sets"]
+__all__ = ["controllers"]
 
 
 def _show(value: Any) -> Any:
@@ -21,30 +17,6 @@ def _show(value: Any) -> Any:
     if isinstance(value, float):
         return f"{value:g}" if math.isfinite(value) else str(value)
     return "none" if value is None else value
-
-
-def parse_sets(name: str, items: tuple[str, ...]) -> dict[str, Any]:
-    """``("K=20,15", "phi=0.1")`` -> validated settings of controller ``name``.
-
-    Raises ``click.BadParameter`` (``--set``) naming the setting and what it allows.
-    """
-    from mwip.laws.registry import get
-
-    try:
-        spec = get(name)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="--controller") from None
-    given: dict[str, Any] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise click.BadParameter(f"must be KEY=VALUE, got {item!r}", param_hint="--set")
-        given[key.strip()] = value.strip()
-    try:
-        spec.resolve(given)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="--set") from None
-    return given
 
 
 @click.command("controllers")

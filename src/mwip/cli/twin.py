@@ -8,7 +8,7 @@
   (:mod:`mwip.identify`, docs/twin_fit.md);
 - ``mwip twin excite --out FILE``: the excitation schedule to record those logs.
 
-Registered on the main CLI by :mod:`mwip.cli`; hardware modules are imported per command.
+Hardware modules are imported per command.
 """
 
 from __future__ import annotations
@@ -18,26 +18,9 @@ from pathlib import Path
 
 import click
 
+from mwip.cli._common import TWIN_OPTION, load_twin_option
+
 __all__ = ["twin"]
-
-TWIN_OPTION = click.option(
-    "--twin", "twin_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
-    help="Twin file ([twin] TOML tables, see `mwip twin show`); default: the default twin.",
-)  # fmt: skip
-
-
-def load_twin_option(path: Path | None) -> object:
-    """The twin of a ``--twin FILE`` option (``None``: the default twin); errors name
-    ``--twin``."""
-    from mwip.hardware.identified import default_twin
-    from mwip.hardware.twin_config import load_twin
-
-    if path is None:
-        return default_twin()
-    try:
-        return load_twin(path)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="--twin") from None
 
 
 @click.group()

@@ -1,0 +1,195 @@
+"""What ``mwip run`` and ``mwip reproduce`` share: their options, the robot of
+``--params``/``--nominal``, and running studies with a progress bar and the summary."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import click
+
+from mwip.cli._common import NonEmptyPath, params_value
+
+if TYPE_CHECKING:
+    from mwip.params import Params
+
+__all__ = ["OUT", "RUN_OUT", "QUICK", "PLANT", "NOMINAL", "VERBOSE", "JOBS", "plant_and_design",
+           "worker_count", "execute", "run_study_files", "robot_notes"]  # fmt: skip
+
+OUT = click.option(
+    "--out",
+    type=NonEmptyPath(file_okay=False, path_type=Path),
+    default=Path("out"),
+    show_default=True,
+    help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json (a folder of `mwip "
+    "reproduce`'s own: other commands do not write into it without --force).",
+)
+RUN_OUT = click.option(
+    "--out",
+    type=NonEmptyPath(file_okay=False, path_type=Path),
+    default=None,
+    help="Output folder: OUT/<study>/, OUT/index.html, OUT/run.json (default: runs/<STUDY>, "
+    "runs/<STUDY>+<STUDY>... for several, runs/<FILE's stem> for --scenario FILE; a folder of "
+    "`mwip run`'s own, never `mwip reproduce`'s without --force).",
+)
+QUICK = click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
+PLANT = click.option(
+    "--params",
+    "params_file",
+    default=None,
+    help="The simulated robot: a parameter TOML file (default: the book's, Table 3.1).",
+)
+NOMINAL = click.option(
+    "--nominal",
+    "nominal_file",
+    default=None,
+    help="The design model: a parameter TOML file (default: the book's, Table 3.2).",
+)
+VERBOSE = click.option(
+    "--verbose", "-v", is_flag=True, help="List every claim in the summary, not only failures."
+)
+JOBS = click.option(
+    "--jobs",
+    "-j",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Studies run in parallel processes (0: one per CPU; 1: in this process).",
+)
+
+
+def plant_and_design(
+    params_file: str | None, nominal_file: str | None, damping: str = "units"
+) -> tuple[Params, Params]:
+    plant = params_value(params_file or "real", "--params", damping=damping)
+    design = params_value(nominal_file or "nominal", "--nominal", damping=damping)
+    return plant, design
+
+
+def worker_count(jobs: int) -> int:
+    import os
+
+    if jobs < 0 or jobs > 64:
+        raise click.BadParameter(f"must be in [0, 64], got {jobs}", param_hint="--jobs")
+    return jobs or (os.cpu_count() or 1)
+
+
+def execute(
+    names: list[str], out: Path, quick: bool, jobs: int, plant: Params, design: Params,
+    verbose: bool = False, overrides: dict[str, dict[str, Any]] | None = None,
+    damping: str = "units", summary: bool = True, twin: Any = None, command: str = "run",
+    robot: dict[str, str] | None = None, label: str = "studies",
+) -> None:  # fmt: skip
+    """Run ``names`` with a progress bar, then print the one-screen summary (not
+    ``summary``: its headline only, on stderr); exits 1 if a study failed. ``twin``: the
+    Chapter 6 studies' twin configuration (default: the default twin); ``command`` owns OUT;
+    ``robot[name]``: what study ``name`` runs on when not the book's robot (report titles);
+    ``label`` names the studies in the progress display (e.g. a pass of ``reproduce``)."""
+    from mwip.report import load_results, summary_lines
+    from mwip.report.claims import find_compare, load_comparison
+    from mwip.studies import get_study
+    from mwip.studies.progress import StudyProgress
+    from mwip.studies.runner import expected_runs, run_studies
+
+    failed: list[str] = []
+    prog = StudyProgress(names, {n: get_study(n).cost for n in names},
+                         expected_runs(names, quick), label=label)  # fmt: skip
+    tty = sys.stderr.isatty()
+    steps = 1000  # the bar counts thousandths of the work (weighted by Study.cost): its ETA
+    with click.progressbar(length=steps, label=label, file=sys.stderr, show_eta=True,
+                           item_show_func=lambda x: x) as bar:  # fmt: skip
+
+        def advance() -> None:
+            bar.update(max(0, round(steps * prog.fraction()) - bar.pos), prog.status())
+
+        def done(outcome: tuple[str, Any, str | None, float]) -> None:
+            name, _, error, wall = outcome
+            if error is not None:
+                failed.append(name)
+                click.echo(f"\n{name}: FAILED after {wall:.1f} s: {error}", err=True)
+            line = prog.done(name, wall, error)
+            if tty:
+                advance()
+            else:
+                click.echo(line, err=True)
+
+        def run_done(study: str) -> None:
+            line = prog.run(study)
+            if tty:
+                advance()
+            elif line is not None:
+                click.echo(line, err=True)
+
+        record = run_studies(names, out, quick=quick, jobs=jobs, plant=plant, nominal=design,
+                             overrides=overrides, on_done=done, on_run=run_done,
+                             damping=damping, twin=twin, command=command,
+                             robot=robot)  # fmt: skip
+    import shutil
+
+    width = max(100, shutil.get_terminal_size((120, 40)).columns)
+    compare = find_compare(out) if summary else None
+    cmp = load_comparison(compare) if compare is not None else None
+    lines = summary_lines(load_results(out, names), width=width, verbose=verbose,
+                          damping=damping, compare=cmp)  # fmt: skip
+    for line in lines if summary else [f"{out.name}: {lines[0]}"]:
+        click.echo(line, err=not summary)
+    from mwip.report.html import twin_headline
+
+    if summary and (twin_line := twin_headline(record)):
+        click.echo(twin_line)
+    click.echo(f"{len(names) - len(failed)}/{len(names)} studies done in "
+               f"{record['wall_s']:.1f} s; report: {out / 'index.html'}",
+               err=not summary)  # fmt: skip
+    if failed:
+        sys.exit(1)
+
+
+def run_study_files(
+    files: tuple[Path, ...], out: Path, quick: bool, params_file: str | None,
+    nominal_file: str | None, verbose: bool, damping: str | None, twin: Any = None,
+    twin_file: Path | None = None,
+) -> None:  # fmt: skip
+    """Run each study file (its robot unless --params/--nominal override it, its twin unless
+    --twin does; ``damping``, when given on the command line, replaces the files' [robot]
+    damping)."""
+    from mwip.studies.study_file import load_study_file
+
+    parsed = [load_study_file(f, damping) for f in files]  # validate all before running any
+    for sf in parsed:
+        reading = damping or "units"
+        plant = sf.plant if params_file is None else params_value(params_file, "--params",
+                                                             damping=reading)  # fmt: skip
+        design = sf.nominal if nominal_file is None else params_value(nominal_file, "--nominal",
+                                                                 damping=reading)  # fmt: skip
+        click.echo(f"{sf.path}: {sf.name}", err=True)
+        from mwip.studies.study import plant_label
+
+        notes = robot_notes([sf.name], params_file, nominal_file, twin_file)
+        book = ("real plant", "real plant (literal damping)")
+        if params_file is None and plant_label(plant) not in book:
+            mine = f"the robot of {sf.path}"
+            notes[sf.name] = f"{mine}, {notes[sf.name]}" if sf.name in notes else mine
+        execute([sf.name], out, quick or sf.quick, 1, plant, design, verbose,
+                 {sf.name: sf.settings}, damping=reading,
+                 twin=twin if twin is not None else sf.twin, robot=notes)  # fmt: skip
+
+
+def robot_notes(names: list[str], params_file: str | None, nominal_file: str | None,
+                 twin_file: Path | None) -> dict[str, str]:  # fmt: skip
+    """What each study of ``names`` runs on besides the book's robot, design model and default
+    twin (the Chapter 6 studies'), as the report's section titles say it."""
+    from mwip.studies import get_study
+
+    parts = []
+    if params_file is not None and params_file.lower() != "real":
+        parts.append(f"robot {params_file}")
+    if nominal_file is not None and nominal_file.lower() != "nominal":
+        parts.append(f"design model {nominal_file}")
+    notes = {}
+    for name in names:
+        here = [*parts, *([f"twin {twin_file}"] if twin_file is not None
+                          and get_study(name).place[0] == 6 else [])]  # fmt: skip
+        if here:
+            notes[name] = ", ".join(here)
+    return notes
