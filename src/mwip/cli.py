@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from mwip.bench.command import bench as _bench_cmd
 from mwip.cli_campaign import campaign as _campaign_cmd
 from mwip.cli_controllers import controllers as _controllers_cmd
 from mwip.cli_kernels import kernels as _kernels_group
@@ -1146,6 +1147,7 @@ cli.add_command(_controllers_cmd)
 cli.add_command(_kernels_group)
 cli.add_command(_export_group)
 cli.add_command(_campaign_cmd)
+cli.add_command(_bench_cmd)
 
 
 cli.add_command(_animate_cmd)
