@@ -12,7 +12,7 @@ Prints, as a Markdown table:
 
 Usage::
 
-    PYTHONPATH=src python benchmarks/bench_bench.py [--jobs J] [--quick] [CONTROLLER ...]
+    PYTHONPATH=src python benchmarks/bench_bench.py [--jobs J] [--quick] [--out DIR] [CTRL ...]
 """
 
 from __future__ import annotations
@@ -36,13 +36,14 @@ def main() -> None:
     ap.add_argument("controllers", nargs="*")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--out", type=Path, default=None, help="keep the results here (new folder)")
     args = ap.parse_args()
     work = BenchRun(load_bench(None, args.quick), resolve_entrants(args.controllers))
     b = work.bench
     load0 = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        res = run_bench(work, Path(tmp) / "b", jobs=args.jobs, progress=None)
+        res = run_bench(work, args.out or Path(tmp) / "b", jobs=args.jobs, progress=None)
         wall = time.perf_counter() - t0
     assert res.status == "done"
     plant_s = res.runs * b.duration

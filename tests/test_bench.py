@@ -314,3 +314,10 @@ def test_out_that_holds_another_benchmark_is_refused(tmp_path: Path,
     err = capfd.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "different campaign" in err
     assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
+
+
+def test_show_prints_the_builtin_definition(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", "--show"]) == 0
+    text = capsys.readouterr().out
+    assert text == builtin_text()
+    assert parse_bench(tomllib.loads(text)).levels == load_bench().levels

@@ -80,8 +80,11 @@ class BenchRun:
 
     @property
     def source(self) -> dict[str, Any]:
+        from mwip.hardware.identified import default_twin
+
         b = self.bench
-        return {"bench": b.source, "quick": b.quick,
+        return {"bench": b.source, "quick": b.quick, "twin": default_twin().values(),
+                "posterior_members": len(posterior_members()),
                 "sizes": {k: getattr(b, k) for k in ("seed", "samples", "duration", "block",
                                                      "success_theta", "theta0", "push_at",
                                                      "push_width", "payload_height",
@@ -89,7 +92,8 @@ class BenchRun:
                 "entrants": [e.record() for e in self.entrants]}  # fmt: skip
 
     def identity(self) -> str:
-        """A hash of everything that defines the rows (the file, the sizes, the entrants)."""
+        """A hash of everything that defines the rows (the definition, the sizes, the entrants,
+        the identified twin's values)."""
         text = json.dumps(self.source, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
