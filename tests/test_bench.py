@@ -126,6 +126,7 @@ def reference(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     return out, root
 
 
+@pytest.mark.slow
 def test_scores_are_deterministic_and_independent_of_jobs(reference: tuple[Path, Path]) -> None:
     ref, root = reference
     out = root / "jobs2"
@@ -162,6 +163,40 @@ def test_an_interrupted_run_continues_to_the_same_scores(reference: tuple[Path, 
     for name in ("results.parquet", "scores.parquet"):
         pd.testing.assert_frame_equal(pd.read_parquet(ref / name), pd.read_parquet(out / name),
                                       check_exact=True)  # fmt: skip
+
+
+@pytest.mark.slow
+def test_kill_9_then_rerun_gives_the_same_scores(tmp_path: Path) -> None:
+    """SIGKILL `mwip bench` once a chunk is saved; the same command continues to the scores of
+    an uninterrupted run."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from mwip.campaign.execute import done_blocks
+
+    definition = tmp_path / "many.toml"  # 8 levels x 12 runs in blocks of 4: 24 blocks
+    definition.write_text(SMALL.replace("samples = 3", "samples = 12"))
+    w = BenchRun(load_bench(str(definition)), resolve_entrants(["dlqr"]))
+    run_bench(w, tmp_path / "ref", jobs=1, progress=quiet)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "mwip", "bench", "dlqr", "--definition", str(definition),
+           "--jobs", "1", "--out", str(out)]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 240
+    while not done_blocks(out) and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.005)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    if len(done_blocks(out)) == 24:  # every chunk was saved before the kill landed
+        pytest.skip("the run finished its chunks before SIGKILL")
+    assert done_blocks(out) and not (out / "scores.parquet").exists()
+    assert subprocess.run(cmd, capture_output=True).returncode == 0
+    for name in ("results.parquet", "scores.parquet"):
+        pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "ref" / name),
+                                      pd.read_parquet(out / name), check_exact=True)
 
 
 # ---- the scores ---------------------------------------------------------------------------------
