@@ -36,7 +36,7 @@ FLOORS: tuple[tuple[str, ...], ...] = (
     # views of results: report, figures, animations (read the schema, never the studies)
     ("mwip.report", "mwip.plot", "mwip.animate"),
     # what produces results: studies and campaigns of runs
-    ("mwip.studies", "mwip.campaign"),
+    ("mwip.studies", "mwip.campaign", "mwip.bench"),
     # the book calibration of the twin (runs campaigns of studies)
     ("mwip.calibration",),
     # command lines, and the package's own namespace (``mwip.linearize``, ``mwip.NOMINAL``)

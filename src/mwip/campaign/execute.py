@@ -15,6 +15,11 @@ lists the chunk files present, runs only the blocks no file covers, then assembl
 does nothing and says so. A worker killed mid-chunk loses that chunk: Dask reruns it
 elsewhere (its ``allowed-failures``).
 
+Other work. Besides a :class:`~mwip.campaign.spec.Campaign`, the engine runs any object with
+the same ``kind``, ``samples``, ``block``, ``source`` and ``identity()`` that brings its own
+``compute_chunk(blocks) -> DataFrame`` and ``order_key() -> (column, order)`` (the benchmark
+of :mod:`mwip.bench`; it lives above, so the engine never imports it).
+
 Engines. ``jobs = 1`` without a scheduler runs the chunks here, one after another (the bare
 batch engine). Otherwise a :class:`dask.distributed.LocalCluster` with ``jobs`` worker
 processes (one thread each), or the Dask cluster at ``scheduler`` (its workers need mwip
@@ -115,6 +120,9 @@ def compute_chunk(campaign: Campaign, blocks: list[int]) -> Any:
     """
     import pandas as pd
 
+    own = getattr(campaign, "compute_chunk", None)
+    if own is not None:  # work of another room (mwip.bench) brings its own block runner
+        return own(blocks)
     frames = []
     if campaign.kind == "calibration":
         from mwip.calibration.sample import run_block as run_draws
@@ -144,6 +152,9 @@ def _write_chunk(out: Path, blocks: list[int], df: Any) -> Path:
 
 
 def _order_key(campaign: Campaign) -> tuple[str, list[str]]:
+    own = getattr(campaign, "order_key", None)
+    if own is not None:
+        return own()
     if campaign.kind == "claims":
         return "study", list(campaign.studies)
     if campaign.kind == "calibration":

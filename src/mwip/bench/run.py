@@ -1,0 +1,364 @@
+"""Running the benchmark: its runs as blocks of the campaign engine (:mod:`mwip.campaign.execute`).
+
+The runs. Level ``L`` (of all axes' levels, in file order) and replicate ``i`` make run
+``u = L n + i`` (``n`` = ``bench.samples``); the engine's *sample* index is ``u``. Block ``b``
+holds runs ``b B .. (b + 1) B - 1`` (``B`` = ``bench.block``, the last block padded with runs
+that are simulated and dropped) and is one engine batch per entrant on the identified twin, every
+run with its own robot, twin unknowns, delay, actuator and push (all per row).
+
+Randomness, from the bench seed ``s`` alone (never from the block, the chunk or the worker):
+
+- replicate ``i``'s initial pitch ``U(-theta0, theta0)``: ``SeedSequence(s, spawn_key=(0, i))``;
+- its IMU noise (every normal variate the twin's IMU draws, per row):
+  ``SeedSequence(s, spawn_key=(1, i))``; its torque noise: ``(2, i)``;
+- the level's own draws (parameters, twin unknowns, posterior member):
+  ``SeedSequence(s, spawn_key=(3, crc32(axis/label), i))``.
+
+So replicate ``i`` of every level starts alike and sees the same noise streams (common random
+numbers), a level without effects repeats the nominal runs, and a row depends only on (seed,
+level, replicate) and the block it is computed in (its batch size: fixed by ``B``): the table
+is the same for any ``--jobs``, chunk size or interruption (:mod:`mwip.campaign.execute`).
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import zlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mwip.bench.spec import CASE_ONLY, Bench, Level
+from mwip.params import NOMINAL, PARAM_FIELDS, Params, book_params
+
+__all__ = ["Entrant", "BenchRun", "run_rows", "posterior_members"]
+
+
+@dataclass(frozen=True)
+class Entrant:
+    """A controller in the benchmark: registry ``name``, ``settings`` (validated), the model it
+    is designed on and where it comes from (``origin``: registry, a settings file, a scenario)."""
+
+    label: str
+    name: str
+    settings: tuple[tuple[str, Any], ...] = ()
+    design: Params = NOMINAL
+    origin: str = "registry"
+
+    def settings_dict(self) -> dict[str, Any]:
+        return dict(self.settings)
+
+    def record(self) -> dict[str, Any]:
+        return {"label": self.label, "name": self.name, "origin": self.origin,
+                "settings": {k: list(v) if isinstance(v, tuple) else v
+                             for k, v in self.settings},
+                "design": {f: float(getattr(self.design, f)) for f in PARAM_FIELDS}}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class BenchRun:
+    """A benchmark of ``entrants`` as work for :func:`mwip.campaign.execute.run_campaign`: it
+    has the campaign's ``kind``, ``samples`` (runs per entrant), ``block``, ``source`` and
+    ``identity()``, and brings its own block runner (``compute_chunk``) and row order."""
+
+    bench: Bench
+    entrants: tuple[Entrant, ...]
+    kind: str = field(default="bench", init=False)
+
+    @property
+    def samples(self) -> int:
+        return len(self.bench.levels) * self.bench.samples
+
+    @property
+    def block(self) -> int:
+        return self.bench.block
+
+    @property
+    def source(self) -> dict[str, Any]:
+        from mwip.hardware.identified import default_twin
+
+        b = self.bench
+        return {"bench": b.source, "quick": b.quick, "twin": default_twin().values(),
+                "posterior_members": len(posterior_members()),
+                "sizes": {k: getattr(b, k) for k in ("seed", "samples", "duration", "block",
+                                                     "success_theta", "theta0", "push_at",
+                                                     "push_width", "payload_height",
+                                                     "payload_radius")},
+                "entrants": [e.record() for e in self.entrants]}  # fmt: skip
+
+    def identity(self) -> str:
+        """A hash of everything that defines the rows (the definition, the sizes, the entrants,
+        the identified twin's values)."""
+        text = json.dumps(self.source, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def order_key(self) -> tuple[str, list[str]]:
+        return "controller", [e.label for e in self.entrants]
+
+    def compute_chunk(self, blocks: list[int]) -> Any:
+        """The rows of ``blocks`` (a pandas DataFrame; runs on a worker)."""
+        import pandas as pd
+
+        ctrls = _controllers(self)
+        frames = [pd.DataFrame(cols) for b in blocks for cols in run_rows(self, b, ctrls)]
+        return pd.concat(frames, ignore_index=True)
+
+
+_CACHE: dict[str, dict[str, Any]] = {}
+
+
+def _controllers(work: BenchRun) -> dict[str, Any]:
+    """Every entrant designed on its design model, once per process."""
+    from mwip.laws.registry import build
+
+    key = work.identity()
+    if key not in _CACHE:
+        _CACHE.clear()
+        _CACHE[key] = {e.label: build(e.name, e.design, e.settings_dict())
+                       for e in work.entrants}  # fmt: skip
+    return _CACHE[key]
+
+
+def posterior_members() -> list[dict[str, float]]:
+    """The identified twin's posterior members as unknown values: ``members`` of
+    ``book-twin.json`` if it lists them, else (the packaged posterior has ONE member, the most
+    probable, which is the default twin) the default twin's values alone."""
+    from mwip.hardware.identified import STATUS_FILE, default_twin
+
+    try:
+        doc = json.loads(STATUS_FILE.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        doc = {}
+    members = doc.get("members") if isinstance(doc, dict) else None
+    if isinstance(members, list) and members:
+        return [{k: float(v) for k, v in m.items()} for m in members]
+    return [default_twin().values()]
+
+
+def _rng(seed: int, *key: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=tuple(int(k) for k in key)))
+
+
+def _level_key(lv: Level) -> int:
+    return zlib.crc32(lv.key.encode("utf-8"))
+
+
+class _Streams:
+    """Stands in for the IMU's generator: each ``standard_normal(n)`` returns the next column
+    of a table drawn per row (the row's own noise, whatever block it is computed in)."""
+
+    def __init__(self, table: NDArray[np.float64]) -> None:
+        self.table = table
+        self.k = 0
+
+    def standard_normal(self, size: Any = None) -> NDArray[np.float64]:
+        col = self.table[:, self.k % self.table.shape[1]]
+        self.k += 1
+        return col
+
+
+class _Sensor:
+    """The twin's sensor with each row's own IMU noise stream (:class:`_Streams`)."""
+
+    def __init__(self, inner: Any, table: NDArray[np.float64]) -> None:
+        self.inner = inner
+        self.table = table
+
+    def reset(self, n: int, seed: int | None = None) -> None:
+        self.inner.reset(n, seed)
+        self.inner.imu._rng = _Streams(self.table)
+
+    def __call__(self, t: float, state: NDArray[np.float64]) -> Any:
+        return self.inner(t, state)
+
+
+class _Actuator:
+    """Before the twin's drive, per row: torque noise ``sigma e_k``, whole samples of delay
+    ``k`` (a FIFO; the twin's own delay adds the fraction) and the responsiveness
+    ``y_k = y_k-1 + rho (u_k - y_k-1)`` (``y_-1 = 0``)."""
+
+    def __init__(self, inner: Any, whole: NDArray[np.int64], rho: NDArray[np.float64],
+                 sigma: NDArray[np.float64], noise: NDArray[np.float64]) -> None:  # fmt: skip
+        self.inner = inner
+        self.whole = whole
+        self.rho = rho[:, None]
+        self.sigma = sigma[:, None]
+        self.noise = noise
+        self.depth = int(whole.max(initial=0))
+        self.any_rho = bool(np.any(rho < 1.0))
+        self.any_noise = bool(np.any(sigma > 0.0))
+        self.reset(whole.size)
+
+    def reset(self, n: int, seed: int | None = None) -> None:
+        self.inner.reset(n, seed)
+        self.k = 0
+        self.fifo = np.zeros((self.depth + 1, n, 2))
+        self.y = np.zeros((n, 2))
+
+    def __call__(self, t: float, u_cmd: NDArray[np.float64],
+                 state: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
+        u = np.asarray(u_cmd, dtype=float)
+        if self.any_noise:
+            u = u + self.sigma * self.noise[:, self.k % self.noise.shape[1], :]
+        if self.depth:
+            self.fifo = np.roll(self.fifo, 1, axis=0)
+            self.fifo[0] = u
+            u = self.fifo[self.whole, np.arange(u.shape[0])]
+        if self.any_rho:
+            u = self.y + self.rho * (u - self.y)
+            self.y = u
+        self.k += 1
+        return np.asarray(self.inner(t, u, state), dtype=float)
+
+
+class _Push:
+    """Per-row rectangular pulses ``(J / width) (r, l, 0)`` from ``at`` over ``width``."""
+
+    def __init__(self, J: NDArray[np.float64], r: NDArray[np.float64], l: NDArray[np.float64],
+                 at: float, width: float) -> None:  # fmt: skip
+        f = J / width
+        self.forces = np.column_stack([f * r, f * l, np.zeros_like(f)])  # (N, 3)
+        self.at, self.width = at, width
+
+    def __call__(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        tt = np.asarray(t, dtype=float)
+        on = ((tt >= self.at) & (tt < self.at + self.width)).astype(float)
+        return on[:, None, None] * self.forces[None, :, :]
+
+
+def _v_ref(entry: Entrant) -> float:
+    """The entrant's speed target (``v_d``, or ``r psi_dot_d`` of its design model; else 0)."""
+    from mwip.laws.registry import get
+
+    s = get(entry.name).resolve(entry.settings_dict())
+    if s.get("v_d") is not None:
+        return float(s["v_d"])
+    if s.get("psi_dot_d") is not None:
+        return float(entry.design.r) * float(s["psi_dot_d"])
+    return 0.0
+
+
+def _inputs(bench: Bench, units: NDArray[np.int64]) -> dict[str, Any]:
+    """Per-row inputs of runs ``units``: levels, replicates, initial pitch, the real robot per
+    row, the twin's unknowns per row, whole-sample delay, responsiveness, torque noise, push."""
+    from mwip.hardware.identified import default_twin
+
+    levels = bench.levels
+    n = units.size
+    li = (units // bench.samples) % len(levels)
+    rep = units % bench.samples
+    twin = default_twin()
+    base = twin.values()
+    acting = [u.name for u in twin.prior if not u.name.startswith(CASE_ONLY)]
+    real = book_params("real")
+    fields = {f: np.full(n, float(getattr(real, f))) for f in PARAM_FIELDS}
+    vals = {k: np.full(n, v) for k, v in base.items()}
+    theta0 = np.empty(n)
+    whole = np.zeros(n, dtype=np.int64)
+    rho, sigma, push, pay = np.ones(n), np.zeros(n), np.zeros(n), np.zeros(n)
+    members = posterior_members()
+    for j in range(n):
+        lv, i = levels[int(li[j])], int(rep[j])
+        theta0[j] = bench.theta0 * (2.0 * _rng(bench.seed, 0, i).random() - 1.0)
+        g = _rng(bench.seed, 3, _level_key(lv), i)
+        for f, a in lv.params:
+            fields[f][j] = float(getattr(real, f)) * (1.0 + a * (2.0 * g.random() - 1.0))
+        if lv.twin == "posterior":
+            m = members[int(g.integers(len(members)))]
+            for k, v in m.items():
+                vals[k][j] = v
+        elif lv.twin is not None:
+            names = acting if lv.twin == "prior" else list(lv.twin)
+            for name in names:
+                u = twin.prior[name]
+                vals[name][j] = u.low + g.random() * (u.high - u.low)
+        if lv.noise != 1.0:
+            vals["imu.accel_sigma"][j] = lv.noise * base["imu.accel_sigma"]
+            vals["imu.gyro_sigma"][j] = lv.noise * base["imu.gyro_sigma"]
+        if lv.deadband is not None:
+            vals["drive.deadband"][j] = lv.deadband
+        if lv.delay is not None:
+            shift = 0 if lv.delay == 0.0 else int(np.ceil(lv.delay)) - 1
+            whole[j] = shift
+            vals["delay"][j] = lv.delay - shift
+        rho[j], sigma[j], push[j], pay[j] = lv.responsiveness, lv.torque_noise, lv.push, lv.payload
+    plant = replace(real, **fields)
+    if np.any(pay > 0):
+        h = base["payload.height"] if bench.payload_height is None else bench.payload_height
+        rad = base["payload.radius"] if bench.payload_radius is None else bench.payload_radius
+        loaded = plant.with_payload(pay, h, pan_radius=rad)  # type: ignore[arg-type]  # (N,)
+        on = pay > 0
+        plant = replace(plant, **{f: np.where(on, getattr(loaded, f), getattr(plant, f))
+                                  for f in ("mb", "l", "Iby", "Ibz")})  # fmt: skip
+    return {"level": li, "replicate": rep, "theta0": theta0, "plant": plant, "values": vals,
+            "whole": whole, "rho": rho, "sigma": sigma, "push": push}  # fmt: skip
+
+
+def _twin_for(values: Mapping[str, NDArray[np.float64]]) -> Any:
+    """The default twin with its prior widened to hold ``values`` (the stress levels go past
+    the declared ranges; the prior only validates, it changes no value)."""
+    from mwip.hardware.identified import default_twin
+    from mwip.hardware.prior import Prior
+
+    twin = default_twin()
+    wide = {u.name: {"low": min(u.low, float(np.min(values[u.name]))),
+                     "high": max(u.high, float(np.max(values[u.name])))}
+            for u in twin.prior}  # fmt: skip
+    return replace(twin, prior=Prior.from_dict(wide, base=twin.prior))
+
+
+def run_rows(work: BenchRun, block: int, controllers: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The rows of ``block``, one table (column -> (B,) array) per entrant: ``controller``,
+    ``sample`` (the run), ``axis``, ``level``, ``replicate``, ``theta0`` and the metrics of
+    :mod:`mwip.campaign.metrics`."""
+    from mwip.campaign.metrics import sample_metrics
+    from mwip.sim.engine import simulate
+
+    bench = work.bench
+    B = bench.block
+    units = np.arange(block * B, (block + 1) * B, dtype=np.int64)
+    inp = _inputs(bench, units)
+    twin = _twin_for(inp["values"])
+    vals, n = twin.row_values(inp["values"])
+    plant: Params = inp["plant"]
+    p = twin.plant(plant, None, vals)
+    S = max(int(round(bench.duration / twin.Ts)), 1) + 1  # sample instants of a run
+    rep = inp["replicate"]
+    imu = np.stack([_rng(bench.seed, 1, int(i)).standard_normal(4 * S) for i in rep])
+    tq = np.stack([_rng(bench.seed, 2, int(i)).standard_normal((S, 2)) for i in rep])
+    dist = None
+    if np.any(inp["push"] > 0):
+        r_arr = np.asarray(plant.r, dtype=float)
+        l_arr = np.asarray(plant.l, dtype=float)
+        dist = _Push(inp["push"], r_arr, l_arr, bench.push_at, bench.push_width)
+    levels = bench.levels
+    axis = np.array([levels[int(k)].axis for k in inp["level"]], dtype=object)
+    label = np.array([levels[int(k)].label for k in inp["level"]], dtype=object)
+    r = np.broadcast_to(np.asarray(plant.r, dtype=float), (n,))
+    b = np.broadcast_to(np.asarray(plant.b, dtype=float), (n,))
+    q0 = np.column_stack([np.zeros(n), inp["theta0"], np.zeros(n)])
+    rows: list[dict[str, Any]] = []
+    for entry in work.entrants:
+        ctrl = copy.deepcopy(controllers[entry.label])
+        sensor = twin.sensor(p, common_noise=False, values=vals)
+        sensor.r = r.copy()  # each row's own wheel geometry (used elementwise)
+        sensor.b_over_r = b / r
+        drive = twin.actuator(p, values=vals)
+        drive.b_over_r = b / r
+        drive.drive.b_over_r = b / r
+        act = _Actuator(drive, inp["whole"], inp["rho"], inp["sigma"], tq)
+        res = simulate(ctrl, p, q0=q0, duration=bench.duration, Ts=twin.Ts, dt=twin.dt,
+                       disturbance=dist, sensor=_Sensor(sensor, imu), actuator=act,
+                       seed=0)  # fmt: skip
+        met = sample_metrics(res, b, _v_ref(entry), bench.success_theta)
+        cols: dict[str, Any] = {"controller": np.full(n, entry.label, dtype=object),
+                                "sample": units, "axis": axis, "level": label,
+                                "replicate": rep.astype(np.int64), "theta0": inp["theta0"]}
+        cols.update(met)
+        rows.append(cols)
+    return rows
