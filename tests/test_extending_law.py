@@ -27,22 +27,28 @@ from mwip.params import NOMINAL, REAL
 from mwip.sim import simulate
 
 assert "satfb" in names()
-ctrl = build("satfb", NOMINAL, {"u_max": 0.3}, Ts=0.005)
+free = simulate(build("satfb", NOMINAL, {"u_max": 100.0}, Ts=0.005), REAL, q0=(0.0, 0.1, 0.0),
+                duration=3.0)
+u_max = 0.75 * float(np.nanmax(np.abs(free.u)))  # a limit that bites
+ctrl = build("satfb", NOMINAL, {"u_max": u_max}, Ts=0.005)
 py = simulate(ctrl, REAL, q0=(0.0, 0.1, 0.0), duration=3.0, compiled=False)
-cc = simulate(build("satfb", NOMINAL, {"u_max": 0.3}, Ts=0.005), REAL, q0=(0.0, 0.1, 0.0),
+cc = simulate(build("satfb", NOMINAL, {"u_max": u_max}, Ts=0.005), REAL, q0=(0.0, 0.1, 0.0),
               duration=3.0)
 assert py.settings["compiled"] is False and cc.settings["compiled"] is True
-assert str(cc.status) == "ok" and abs(cc.theta[-1]) < 1e-3, (cc.status, cc.theta[-1])
+theta = np.ravel(cc.theta)
+assert (np.asarray(cc.status) == "ok").all() and np.abs(theta[-100:]).max() < 0.01, cc.status
 assert np.array_equal(py.states, cc.states)
-assert np.abs(cc.u).max() <= 0.3 and np.isclose(np.abs(cc.u).max(), 0.3)  # the limit bites
-two = simulate(batch("satfb", [{"u_max": 0.3}, {"u_max": 2.0}], NOMINAL, Ts=0.005), REAL,
+peak = np.nanmax(np.abs(cc.u))
+assert peak <= u_max and np.isclose(peak, u_max), (peak, u_max)
+two = simulate(batch("satfb", [{"u_max": u_max}, {"u_max": 100.0}], NOMINAL, Ts=0.005), REAL,
                q0=np.array([[0.0, 0.1, 0.0], [0.0, 0.1, 0.0]]), duration=3.0)
-assert np.array_equal(two.states[0], cc.states) and np.abs(two.u[1]).max() > 0.3
+assert np.array_equal(two.states[0], np.reshape(cc.states, two.states[0].shape))
+assert np.array_equal(two.states[1], np.reshape(free.states, two.states[1].shape))
 import shutil
 if shutil.which("cc") or shutil.which("gcc"):
     from mwip.export import CController, generate_c, verify
     code = generate_c(ctrl, prefix="t_satfb")
-    rep = verify(build("satfb", NOMINAL, {"u_max": 0.3}, Ts=0.005), CController(code),
+    rep = verify(build("satfb", NOMINAL, {"u_max": u_max}, Ts=0.005), CController(code),
                  q0=(0.0, 0.1, 0.0), duration=3.0)
     assert rep.status_c == "ok" and rep.max_state_diff <= 1e-9, rep
 print("satfb ok")
@@ -57,7 +63,7 @@ def test_the_page_shows_five_files_and_one_branch():
     assert sorted(_files()) == ["c_export.py", "controller.py", "kernel.py", "packing.py",
                                 "spec.py"]  # fmt: skip
     (branch,) = re.findall(r"```python dispatch\n(.*?)```", DOC, flags=re.DOTALL)
-    assert len(branch.strip().splitlines()) == 4
+    assert len(branch.strip().splitlines()) == 3
 
 
 @pytest.mark.slow
@@ -72,11 +78,11 @@ def test_the_example_law_works_in_a_copy_of_the_package(tmp_path):
         (folder / name).write_text(code)
     (branch,) = re.findall(r"```python dispatch\n(.*?)```", DOC, flags=re.DOTALL)
     lines = branch.strip("\n").splitlines()
-    imports, cases = "\n".join(lines[:2]) + "\n", "\n".join(lines[2:]) + "\n"
+    imports, cases = lines[0] + "\n", "\n".join(lines[1:]) + "\n"
     dispatch = pkg / "mwip" / "laws" / "dispatch.py"
     text = dispatch.read_text()
-    anchor_import = "from mwip.laws.tsmc.packing import CODE as TSMC\n"
-    anchor_case = "        fig53_step(p, x, k, t, ym, u, lg)\n"
+    anchor_import = "from mwip.laws.tsmc import kernel as tsmc\n"
+    anchor_case = "        fig53.step(p, x, k, t, ym, u, lg)\n"
     assert anchor_import in text and anchor_case in text
     dispatch.write_text(text.replace(anchor_import, anchor_import + imports)
                         .replace(anchor_case, anchor_case + cases))  # fmt: skip

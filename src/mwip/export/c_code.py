@@ -163,21 +163,23 @@ def _f_g_c(precision: str) -> str:
 
 def _packed(ctrl: Any) -> Any:
     """The controller's packed law (:mod:`mwip.laws.packing`): what the C templates read. A
-    law fitted at ``reset`` (TSMC's cubics, ``packed_law()`` is ``None`` before it) is packed
-    from a copy reset on the upright state; its C fits them again on the board at ``init``."""
+    law packed only after ``reset`` (``packed_law()`` is ``None`` before it: TSMC, whose
+    cubics (4.43) are fitted to the first measurement) is packed from a copy reset on the
+    upright state; its C fits them again on the board at ``init``, so it needs a sample
+    period."""
     from mwip.core import Measurement
 
     get = getattr(ctrl, "packed_law", None)
     if get is None:
         raise ExportError(f"no C export for {type(ctrl).__name__}")
-    fitted_at_reset = getattr(ctrl, "_coeffs", False) is None
-    if fitted_at_reset and getattr(ctrl, "Ts", None) is None:
-        raise ExportError("tsmc: give a sample period (Ts) to export it for a sampled loop")
     law = get()
-    if law is None and fitted_at_reset:
+    if law is None:
         twin = copy.deepcopy(ctrl)
         twin.reset(Measurement(0.0, np.zeros((1, 8))))
         law = twin.packed_law()
+        if law is not None and getattr(ctrl, "Ts", None) is None:
+            raise ExportError(f"{law.name or type(ctrl).__name__}: give a sample period (Ts) "
+                              "to export it for a sampled loop")  # fmt: skip
     if law is None:
         raise ExportError(f"{type(ctrl).__name__}: an observer with a user-supplied f_g cannot "
                           "be exported")  # fmt: skip

@@ -6,8 +6,8 @@ that reads its parameter vector ``p`` and state vector ``x`` (the layouts of its
 measurement ``ym`` (1, 8), and writes the torque ``u`` (1, 2) = ``[u_r, u_l]``, its state and
 its log vector ``lg``. :func:`law_step` picks the kernel by code: the compiled closed loop
 (:mod:`mwip.sim.loop`) and :class:`mwip.laws.batch.PackedController` (the Python loop, one
-parameter vector per robot) both call it. A new compiled law adds its branch here (one
-``elif``) and its kernel's file to :data:`mwip.jit_cache.SOURCES`.
+parameter vector per robot) both call it. A new compiled law adds one import and its branch
+here (its kernel's files join :data:`mwip.jit_cache.SOURCES` by themselves).
 """
 
 from __future__ import annotations
@@ -15,16 +15,11 @@ from __future__ import annotations
 import numpy as np
 
 from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
-from mwip.laws.asta.kernel import step as asta_step
-from mwip.laws.asta.packing import CODE as ASTA
-from mwip.laws.fig53.kernel import step as fig53_step
-from mwip.laws.fig53.packing import CODE as FIG53
-from mwip.laws.lqr.kernel import step as lqr_step
-from mwip.laws.lqr.packing import CODE as LQR
-from mwip.laws.smc.kernel import step as smc_step
-from mwip.laws.smc.packing import CODE as SMC
-from mwip.laws.tsmc.kernel import step as tsmc_step
-from mwip.laws.tsmc.packing import CODE as TSMC
+from mwip.laws.asta import kernel as asta
+from mwip.laws.fig53 import kernel as fig53
+from mwip.laws.lqr import kernel as lqr
+from mwip.laws.smc import kernel as smc
+from mwip.laws.tsmc import kernel as tsmc
 
 __all__ = ["law_step", "step_batch"]
 
@@ -32,16 +27,16 @@ __all__ = ["law_step", "step_batch"]
 @njit(inline="always")
 def law_step(code, p, x, k, t, ym, u, lg):  # noqa: ANN001, ANN201 - compiled kernel
     """One sample of the law ``code`` for one robot (module docstring)."""
-    if code == LQR:
-        lqr_step(p, x, k, t, ym, u, lg)
-    elif code == SMC:
-        smc_step(p, x, k, t, ym, u, lg)
-    elif code == TSMC:
-        tsmc_step(p, x, k, t, ym, u, lg)
-    elif code == ASTA:
-        asta_step(p, x, k, t, ym, u, lg)
-    elif code == FIG53:
-        fig53_step(p, x, k, t, ym, u, lg)
+    if code == lqr.CODE:
+        lqr.step(p, x, k, t, ym, u, lg)
+    elif code == smc.CODE:
+        smc.step(p, x, k, t, ym, u, lg)
+    elif code == tsmc.CODE:
+        tsmc.step(p, x, k, t, ym, u, lg)
+    elif code == asta.CODE:
+        asta.step(p, x, k, t, ym, u, lg)
+    elif code == fig53.CODE:
+        fig53.step(p, x, k, t, ym, u, lg)
 
 
 @njit

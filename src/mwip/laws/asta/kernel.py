@@ -15,6 +15,7 @@ import math
 
 from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 from mwip.laws.asta.packing import (
+    CODE,  # noqa: F401 - the dispatcher reads kernel.CODE
     P_ASMC,
     P_COEF,
     P_EPS,

@@ -21,7 +21,11 @@ import numpy as np
 from mwip.fuzzy._kernel import fls_eval, pdc_weights
 from mwip.fuzzy.layout import ROW_WIDTH
 from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
-from mwip.laws.fig53.packing import P_FLS, P_ROW
+from mwip.laws.fig53.packing import (
+    CODE,  # noqa: F401 - the dispatcher reads kernel.CODE
+    P_FLS,
+    P_ROW,
+)
 
 __all__ = ["ROW_WIDTH", "fig53_law", "step"]
 

@@ -9,7 +9,11 @@ alpha']`` from the measured ``y[:6]`` (with ``v = r_nom psi'``) is folded into `
 from __future__ import annotations
 
 from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
-from mwip.laws.lqr.packing import GAIN, OFFSET
+from mwip.laws.lqr.packing import (
+    CODE,  # noqa: F401 - the dispatcher reads kernel.CODE
+    GAIN,
+    OFFSET,
+)
 
 
 @njit

@@ -15,6 +15,7 @@ import numpy as np
 
 from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 from mwip.laws.smc.packing import (
+    CODE,  # noqa: F401 - the dispatcher reads kernel.CODE
     FIXED,
     P_COEF,
     P_DECOUPLED,

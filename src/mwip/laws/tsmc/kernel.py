@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from mwip.jit_cache import njit  # the kernels' cache follows every kernel source
 from mwip.laws.tsmc.packing import (
+    CODE,  # noqa: F401 - the dispatcher reads kernel.CODE
     P_C,
     P_COEF,
     P_CUBIC,
