@@ -25,6 +25,7 @@ from mwip.cli_plot import animate_cmd as _animate_cmd
 from mwip.cli_plot import plot_cmd as _plot_cmd
 from mwip.damping import DAMPING_READINGS
 from mwip.export.cli import export as _export_group
+from mwip.tune.command import tune as _tune_cmd
 
 if TYPE_CHECKING:  # NumPy and the rest load with the command that needs them (issue 18)
     import numpy as np
@@ -148,6 +149,14 @@ def cli() -> None:
     help="A controller setting (repeatable), e.g. --set K=20,15; see `mwip controllers NAME`.",
 )
 @click.option(
+    "--settings",
+    "settings_file",
+    type=_Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="A settings file ([controller] name, [settings]; e.g. `mwip tune`'s best.toml); "
+    "--set overrides it.",
+)
+@click.option(
     "--twin",
     "twin",
     is_flag=False,
@@ -251,7 +260,8 @@ def cli() -> None:
 )
 @click.pass_context
 def simulate(
-    ctx: click.Context, controller: str, sets: tuple[str, ...], twin: str | None, case: int,
+    ctx: click.Context, controller: str, sets: tuple[str, ...], settings_file: Path | None,
+    twin: str | None, case: int,
     seed: int,
     theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
@@ -305,6 +315,17 @@ def simulate(
     changes: dict[str, Any] = {}
     name = controller if given("controller") else sc.controller
     settings = dict(sc.settings) if name == sc.controller else {}
+    if settings_file is not None:
+        from mwip.control.settings_file import read_settings_file
+
+        file_name, file_settings = read_settings_file(settings_file)
+        if given("controller") and file_name != controller:
+            raise click.BadParameter(f"{str(settings_file)!r} holds settings of {file_name!r}, "
+                                     f"not of --controller {controller!r}",
+                                     param_hint="--settings")  # fmt: skip
+        settings = dict(sc.settings) if file_name == sc.controller else {}
+        name = file_name
+        settings.update(file_settings)
     settings.update(parse_sets(name, sets))
     changes.update(controller=name, settings=settings)
     fields: tuple[tuple[str, str, Any], ...] = (
@@ -1146,6 +1167,7 @@ cli.add_command(_controllers_cmd)
 cli.add_command(_kernels_group)
 cli.add_command(_export_group)
 cli.add_command(_campaign_cmd)
+cli.add_command(_tune_cmd)
 
 
 cli.add_command(_animate_cmd)
