@@ -325,6 +325,38 @@ def test_tune_writes_a_settings_file_that_simulate_reads(tmp_path, capsys):
     assert tuple(shown["settings"]["K"]) == tuple(settings["K"])
     assert main(["simulate", "--controller", "smc", "--settings", str(out / "best.toml")]) == 2
     assert "--settings" in capsys.readouterr().err
+    # the C export takes such a file (here one with other gains than the book's)
+    mine = tmp_path / "mine.toml"
+    mine.write_text(settings_text("hodosmc", {"K": (7.5, 3.25)}))
+    assert main(["export", "c", "--controller", "hodosmc", "--settings", str(mine),
+                 "--out", str(tmp_path / "c_tuned")]) == 0  # fmt: skip
+    assert main(["export", "c", "--controller", "hodosmc", "--out", str(tmp_path / "c_book")]) == 0
+    tuned_c = (tmp_path / "c_tuned" / "mwip_hodosmc.c").read_text()
+    book_c = (tmp_path / "c_book" / "mwip_hodosmc.c").read_text()
+    assert tuned_c != book_c and "7.5" in tuned_c and "7.5" not in book_c
+    assert main(["export", "c", "--controller", "smc", "--settings", str(out / "best.toml"),
+                 "--out", str(tmp_path / "c_bad")]) == 2  # fmt: skip
+    assert not (tmp_path / "c_bad").exists()
+
+
+def test_a_pareto_objective_gives_a_front_and_its_least_failing_member(tmp_path, capsys):
+    import json
+
+    obj = tmp_path / "front.toml"
+    obj.write_text(TINY.replace('title = "tiny"', 'title = "tiny"\nmode = "pareto"')
+                   + '[[objective.terms]]\nmetric = "control_tv"\n')  # fmt: skip
+    out = tmp_path / "front"
+    assert main(["tune", "hodosmc", "--out", str(out), "--objective", str(obj),
+                 "--trials", "6"]) == 0  # fmt: skip
+    assert (out / "pareto.png").is_file()
+    summary = json.loads((out / "tune.json").read_text())["summary"]
+    assert summary["sampler"] == "nsga2" and len(summary["best_values"]) == 3
+    import optuna
+
+    study = optuna.load_study(study_name=summary["study"], storage=summary["storage"])
+    front = study.best_trials
+    assert summary["best_trial"] in [t.number for t in front]
+    assert summary["best_values"][0] == min(t.values[0] for t in front)
 
 
 def _bad(tmp_path: Path, capsys, args: list[str]) -> str:

@@ -28,6 +28,13 @@ def export() -> None:
     help="A controller setting (repeatable); see `mwip controllers NAME`.",
 )
 @click.option(
+    "--settings",
+    "settings_file",
+    default=None,
+    help="A settings file of the controller ([controller] name, [settings]; e.g. `mwip "
+    "tune`'s best.toml); --set overrides it.",
+)
+@click.option(
     "--params",
     "params_file",
     default=None,
@@ -80,7 +87,8 @@ def export() -> None:
 )
 @click.option("--twin", is_flag=True, help="With --verify: run on the digital twin (Chapter 6).")
 def export_c(
-    name: str, sets: tuple[str, ...], params_file: str | None, nominal_file: str | None,
+    name: str, sets: tuple[str, ...], settings_file: str | None, params_file: str | None,
+    nominal_file: str | None,
     Ts: float | None, single: bool, prefix: str | None, out: Path, force: bool, verify: bool,
     duration: float, theta0: float, twin: bool,
 ) -> None:  # fmt: skip
@@ -101,7 +109,17 @@ def export_c(
     from mwip.io import write_text_atomic
     from mwip.params import book_params, load_params
 
-    given = parse_sets(name, sets)
+    given: dict[str, Any] = {}
+    if settings_file is not None:
+        from mwip.control.settings_file import read_settings_file
+
+        file_name, given = read_settings_file(settings_file)
+        if file_name != name:
+            raise click.BadParameter(
+                f"{settings_file!r} holds settings of {file_name!r}, not of --controller {name!r}",
+                param_hint="--settings",
+            )
+    given.update(parse_sets(name, sets))
     spec = get(name)
     precision = "float" if single else "double"
     resolved = spec.resolve(given)
