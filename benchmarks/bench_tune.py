@@ -95,7 +95,7 @@ def main() -> None:
     ap.add_argument("--chunk", type=int, default=64)
     ap.add_argument("--duration", type=float, default=10.0)
     a = ap.parse_args()
-    for plant in (["plain", "twin"] if a.plant == "both" else [a.plant]):
+    for plant in ["plain", "twin"] if a.plant == "both" else [a.plant]:
         bench(plant, a.trials, a.robots, a.chunk, a.duration)
 
 

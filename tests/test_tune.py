@@ -359,6 +359,24 @@ def test_a_pareto_objective_gives_a_front_and_its_least_failing_member(tmp_path,
     assert summary["best_values"][0] == min(t.values[0] for t in front)
 
 
+def test_processes_with_one_storage_share_one_study(tmp_path, capsys):
+    """Two runs (two output folders) on one --storage URL work on the same study: the second
+    continues the trial count of the first."""
+    import json
+
+    obj = tmp_path / "tiny.toml"
+    obj.write_text(TINY)
+    url = f"sqlite:///{tmp_path / 'shared.db'}"
+    common = ["tune", "hodosmc", "--objective", str(obj), "--storage", url]
+    assert main([*common, "--out", str(tmp_path / "a"), "--trials", "3"]) == 0
+    assert main([*common, "--out", str(tmp_path / "b"), "--trials", "5"]) == 0
+    assert "continuing the study at 3 of 5" in capsys.readouterr().err
+    a = json.loads((tmp_path / "a" / "tune.json").read_text())["summary"]
+    b = json.loads((tmp_path / "b" / "tune.json").read_text())["summary"]
+    assert a["study"] == b["study"] and b["trials_finished"] == 5 and b["trials_run_now"] == 2
+    assert not (tmp_path / "a" / "study.db").exists()
+
+
 def _bad(tmp_path: Path, capsys, args: list[str]) -> str:
     out = tmp_path / "out"
     code = main(["tune", *args, "--out", str(out)])

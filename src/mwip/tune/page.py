@@ -61,7 +61,9 @@ def _history(trials: Sequence[Mapping[str, Any]], out: Path) -> str:
     ax.set_xlabel("trial")
     ax.set_ylabel("cost (failures + terms) / N" if trials and len(done[0]["values"]) == 1
                   else "failure rate")  # fmt: skip
-    ax.set_yscale("symlog", linthresh=1e-3)
+    shown = [v for v in y + [t["bound"] for t in pruned] if v is not None]
+    if shown and min(shown) > 0:
+        ax.set_yscale("log")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     ax.set_title("optimisation history")
