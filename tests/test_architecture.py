@@ -39,6 +39,8 @@ FLOORS: tuple[tuple[str, ...], ...] = (
     ("mwip.studies", "mwip.campaign", "mwip.bench"),
     # the book calibration of the twin (runs campaigns of studies)
     ("mwip.calibration",),
+    # robust gain tuning (runs campaign blocks of candidate settings, Optuna studies)
+    ("mwip.tune",),
     # command lines, and the package's own namespace (``mwip.linearize``, ``mwip.NOMINAL``)
     ("cli", "mwip"),
 )  # fmt: skip

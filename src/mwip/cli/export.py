@@ -31,6 +31,13 @@ def export() -> None:
     help="A controller setting (repeatable); see `mwip controllers NAME`.",
 )
 @click.option(
+    "--settings",
+    "settings_file",
+    default=None,
+    help="A settings file of the controller ([controller] name, [settings]; e.g. `mwip "
+    "tune`'s best.toml); --set overrides it.",
+)
+@click.option(
     "--params",
     "params_file",
     default=None,
@@ -83,7 +90,8 @@ def export() -> None:
 )
 @click.option("--twin", is_flag=True, help="With --verify: run on the digital twin (Chapter 6).")
 def export_c(
-    name: str, sets: tuple[str, ...], params_file: str | None, nominal_file: str | None,
+    name: str, sets: tuple[str, ...], settings_file: str | None, params_file: str | None,
+    nominal_file: str | None,
     Ts: float | None, single: bool, prefix: str | None, out: Path, force: bool, verify: bool,
     duration: float, theta0: float, twin: bool,
 ) -> None:  # fmt: skip
@@ -107,7 +115,20 @@ def export_c(
         spec = get(name)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--controller") from None
-    given = split_sets(sets)
+    given: dict[str, Any] = {}
+    if settings_file is not None:
+        from mwip.laws.settings_file import load_settings
+
+        try:
+            file_name, given = load_settings(settings_file)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), param_hint="--settings") from None
+        if file_name != name:
+            raise click.BadParameter(
+                f"{settings_file!r} holds settings of {file_name!r}, not of --controller {name!r}",
+                param_hint="--settings",
+            )
+    given.update(split_sets(sets))
     try:  # the registry validates the settings (once)
         resolved = spec.resolve(given)
     except ValueError as exc:

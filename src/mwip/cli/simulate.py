@@ -52,6 +52,14 @@ _OPTION_OF = {"controller": "--controller", "settings": "--set", "duration": "--
     help="A controller setting (repeatable), e.g. --set K=20,15; see `mwip controllers NAME`.",
 )
 @click.option(
+    "--settings",
+    "settings_file",
+    type=NonEmptyPath(dir_okay=False, path_type=Path),
+    default=None,
+    help="A settings file ([controller] name, [settings]; e.g. `mwip tune`'s best.toml); "
+    "--set overrides it.",
+)
+@click.option(
     "--twin",
     "twin",
     is_flag=False,
@@ -155,8 +163,8 @@ _OPTION_OF = {"controller": "--controller", "settings": "--set", "duration": "--
 )
 @click.pass_context
 def simulate(
-    ctx: click.Context, controller: str, sets: tuple[str, ...], twin: str | None, case: int,
-    seed: int,
+    ctx: click.Context, controller: str, sets: tuple[str, ...], settings_file: Path | None,
+    twin: str | None, case: int, seed: int,
     theta0: float, alpha0: float, v0: float,
     duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
     disturbance: str, out: Path | None, as_json: bool, plot: bool, damping: str, force: bool,
@@ -196,6 +204,22 @@ def simulate(
     changes: dict[str, Any] = {}
     name = controller if base is None or given("controller") else base.controller
     settings = dict(base.settings) if base is not None and name == base.controller else {}
+    if settings_file is not None:
+        from mwip.laws.settings_file import load_settings
+
+        try:
+            file_name, file_settings = load_settings(settings_file)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), param_hint="--settings") from None
+        if given("controller") and file_name != controller:
+            raise click.BadParameter(f"{str(settings_file)!r} holds settings of {file_name!r}, "
+                                     f"not of --controller {controller!r}",
+                                     param_hint="--settings")  # fmt: skip
+        if file_name != name:
+            settings = dict(base.settings) if base is not None and file_name == base.controller \
+                else {}  # fmt: skip
+        name = file_name
+        settings.update(file_settings)
     settings.update(split_sets(sets))
     changes.update(controller=name, settings=settings)
     for key, val in (("duration", duration), ("Ts", Ts), ("dt", dt), ("mode", mode),

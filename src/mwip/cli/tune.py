@@ -1,0 +1,69 @@
+"""``mwip tune CONTROLLER --out DIR``: robust gain tuning with Optuna (:mod:`mwip.tune`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+__all__ = ["tune"]
+
+
+@click.command("tune")
+@click.argument("controller")
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path),
+    required=True,
+    help="Results folder: best.toml, index.html, trials.csv, validation.json and the "
+    "study (study.db); the same command continues an interrupted run.",
+)
+@click.option(
+    "--objective",
+    default="robust",
+    show_default=True,
+    metavar="NAME|FILE",
+    help="A built-in objective (robust: the twin; plain: the plain plant; pareto) "
+    "or an objective TOML file (docs/tune.md).",
+)
+@click.option(
+    "--trials",
+    type=int,
+    default=100,
+    show_default=True,
+    help="Finished (complete or pruned) trials the study should hold, >= 1.",
+)
+@click.option(
+    "--storage",
+    default=None,
+    metavar="URL",
+    help="An Optuna RDB URL (sqlite:///..., postgresql://...) shared by several "
+    "`mwip tune` processes (default: sqlite in OUT).",
+)
+@click.option(
+    "--sampler",
+    type=click.Choice(["tpe", "cmaes", "nsga2"]),
+    default=None,
+    help="Optuna sampler (default: tpe; nsga2 for a pareto objective).",
+)
+@click.option(
+    "--seed",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Sampler seed (the robots' seeds are the objective's).",
+)
+@click.option(
+    "--force",
+    is_flag=True,
+    help="Write into OUT even if it is a non-empty folder mwip did not create.",
+)
+def tune(controller: str, out: Path, objective: str, trials: int, storage: str | None,
+         sampler: str | None, seed: int, force: bool) -> None:  # fmt: skip
+    """Tune CONTROLLER's settings for robustness: every trial evaluates candidate settings on a
+    batch of robots (a campaign's distribution, on the twin or the plain plant); writes
+    OUT/best.toml (`mwip simulate --controller C --settings OUT/best.toml`)."""
+    from mwip.tune.run import execute, plan
+
+    p = plan(controller, out, objective, trials, storage, sampler, seed, force)
+    execute(p, log=lambda text: click.echo(text, err=True))

@@ -1,0 +1,142 @@
+"""Evaluating candidate settings on a set of robots: the one place a tuning run simulates.
+
+A :class:`RobotSet` is a robustness campaign (:mod:`mwip.campaign.spec`: the robot
+distribution, initial states, disturbances, sensors and drive, duration) cut into blocks of
+``chunk`` robots: robot ``i`` is the campaign's sample ``i`` (drawn from the campaign seed and
+``i`` alone, :mod:`mwip.campaign.sampling`), and block ``b``'s sensor noise is seeded from
+(seed, b). So every candidate meets the same robots with the same noise (common random
+numbers), whether its blocks are run together or one at a time (pruning).
+
+:func:`evaluate` runs each candidate through :func:`mwip.campaign.blocks.run_block`, the
+campaign's own block runner, on the twin or on the plain plant as the campaign says: one
+engine batch per (candidate, block). When the laws take one packed parameter vector per robot,
+a whole population (a CMA-ES generation) becomes one batch here, and nothing else changes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mwip.campaign.spec import Campaign, ControllerEntry
+
+__all__ = ["RobotSet", "robot_set", "evaluate", "METRIC_KEYS"]
+
+#: The per-robot metrics :func:`evaluate` returns (:mod:`mwip.campaign.metrics`).
+METRIC_KEYS: tuple[str, ...] = ("success", "status", "rms_theta", "rms_speed_error",
+                                "peak_torque", "control_tv", "energy", "fall_time")  # fmt: skip
+
+
+@dataclass(frozen=True)
+class RobotSet:
+    """``samples`` robots of ``campaign`` in blocks of ``campaign.block`` (= ``chunk``)."""
+
+    campaign: Campaign
+    samples: int
+
+    @property
+    def chunk(self) -> int:
+        return int(self.campaign.block)
+
+    @property
+    def n_blocks(self) -> int:
+        return self.samples // self.chunk
+
+    @property
+    def plant_seconds(self) -> float:
+        """Simulated robot-seconds of one candidate on the whole set."""
+        return self.samples * float(self.campaign.duration)
+
+
+def robot_set(
+    campaign: str | Campaign,
+    samples: int,
+    chunk: int,
+    seed: int,
+    plant: str = "campaign",
+    duration: float | None = None,
+    success_theta: float | None = None,
+) -> RobotSet:
+    """The robots of ``campaign`` (built-in name, file or :class:`Campaign`) with ``seed``;
+    ``plant``: ``twin`` (the twin's sensors and drive), ``plain`` (ideal both) or
+    ``campaign`` (as the campaign says)."""
+    from mwip.campaign.spec import load_campaign
+
+    camp = load_campaign(campaign) if isinstance(campaign, str) else campaign
+    if camp.kind != "robustness":
+        raise ValueError(f"objective robots.campaign must be a robustness campaign, got kind "
+                         f"{camp.kind!r}")  # fmt: skip
+    if samples % chunk:
+        raise ValueError(f"robots: chunk {chunk} must divide samples {samples}")
+    changes: dict[str, Any] = {"seed": seed, "block": chunk, "samples": samples}
+    if plant == "twin":
+        changes.update(sensors="twin", drive="twin")
+    elif plant == "plain":
+        changes.update(sensors="ideal", drive="ideal")
+    elif plant != "campaign":
+        raise ValueError(f"plant must be one of twin, plain, campaign; got {plant!r}")
+    if duration is not None:
+        changes["duration"] = float(duration)
+    if success_theta is not None:
+        changes["success_theta"] = float(success_theta)
+    from mwip.budget import DEFAULT, estimate
+
+    dur = float(changes.get("duration", camp.duration))
+    DEFAULT.check(estimate(dur, 0.005, 0.005, n=chunk), "one chunk of robots",
+                  "lower robots.chunk or robots.duration")  # fmt: skip
+    return RobotSet(replace(camp, **changes), samples)
+
+
+def _blocks(robots: RobotSet, blocks: Sequence[int] | None) -> list[int]:
+    todo = list(range(robots.n_blocks)) if blocks is None else [int(b) for b in blocks]
+    for b in todo:
+        if not 0 <= b < robots.n_blocks:
+            raise ValueError(f"block {b} is outside the robot set's {robots.n_blocks} blocks")
+    return todo
+
+
+def evaluate(
+    name: str,
+    candidates: Sequence[Mapping[str, Any]],
+    robots: RobotSet,
+    *,
+    blocks: Sequence[int] | None = None,
+) -> list[dict[str, NDArray]]:
+    """The per-robot metrics of every candidate (settings of controller ``name``) on
+    ``robots`` (its ``blocks``, default all, in order): one dict per candidate, each metric
+    of :data:`METRIC_KEYS` an array over the robots.
+
+    Each candidate is designed on the campaign's design model (the nominal parameters: the
+    controller never sees the robot it runs on). A candidate whose design fails (a
+    ``ValueError`` or ``LinAlgError`` of its construction) fails on every robot.
+    """
+    from mwip.campaign.blocks import run_block
+    from mwip.laws.registry import get
+
+    spec = get(name)
+    todo = _blocks(robots, blocks)
+    out: list[dict[str, NDArray]] = []
+    for settings in candidates:
+        given = spec.resolve(settings)  # outside the allowed range: ValueError, not a failure
+        try:
+            ctrl = spec.build(robots.campaign.design, given)
+        except (ValueError, np.linalg.LinAlgError, ArithmeticError):
+            out.append(_failed(robots.chunk * len(todo)))
+            continue
+        entry = ControllerEntry(name, name, tuple(sorted(
+            (k, list(v) if isinstance(v, tuple) else v) for k, v in settings.items())))  # fmt: skip
+        camp = replace(robots.campaign, controllers=(entry,))
+        parts = [run_block(camp, b, {name: ctrl})[0] for b in todo]
+        out.append({k: np.concatenate([np.asarray(p[k]) for p in parts]) for k in METRIC_KEYS})
+    return out
+
+
+def _failed(n: int) -> dict[str, NDArray]:
+    nan = np.full(n, np.nan)
+    return {"success": np.zeros(n, dtype=bool), "status": np.full(n, "design-failed", dtype=object),
+            "rms_theta": nan, "rms_speed_error": nan.copy(), "peak_torque": nan.copy(),
+            "control_tv": nan.copy(), "energy": nan.copy(), "fall_time": np.zeros(n)}  # fmt: skip
