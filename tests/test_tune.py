@@ -215,6 +215,24 @@ def test_a_narrowed_range_must_lie_inside_the_registry_range():
         build_space(spec, ["phi"], {"phi": {"lo": 0.0, "hi": 1.0}})  # phi > 0 (open)
 
 
+def test_a_population_in_one_batch_equals_each_candidate_alone():
+    """Candidates evaluated together (one parameter vector per robot, the chunk's robots
+    repeated per candidate) give each candidate exactly the metrics of its own run on the
+    plain plant; a candidate whose design fails still fails alone."""
+    from mwip.tune.evaluate import evaluate, robot_set
+
+    robots = robot_set("robustness", samples=8, chunk=4, seed=3, plant="plain", duration=1.0)
+    cands = [{"K": (6.3, 4.0)}, {"K": (12.0, 2.0), "phi": 0.1}, {"K": (3.0, 8.0)}]
+    together = evaluate("hodosmc", cands, robots)
+    for c, got in zip(cands, together, strict=True):
+        (alone,) = evaluate("hodosmc", [c], robots)
+        for key in alone:
+            a, b = np.asarray(alone[key]), np.asarray(got[key])
+            same = np.array_equal(a, b, equal_nan=True) if a.dtype.kind == "f" else (a == b).all()
+            assert same, key
+    assert not np.array_equal(together[0]["rms_theta"], together[1]["rms_theta"])
+
+
 def test_settings_file_round_trip():
     text = settings_text("hodosmc", {"K": (7.5, 3.25), "phi": 0.04}, "made by a test")
     assert text.startswith("# made by a test\n")

@@ -83,17 +83,29 @@ def _v_ref(entry: ControllerEntry, design: Params) -> float:
 
 
 def run_block(
-    campaign: Campaign, block: int, controllers: Mapping[str, Controller]
+    campaign: Campaign, block: int, controllers: Mapping[str, Controller], repeat: int = 1
 ) -> list[dict[str, NDArray]]:
     """The rows of ``block``, one table (column -> (B,) array) per controller: columns
     ``controller``, ``sample``, the sample's inputs, ``noise_seed`` and the metrics
-    (:mod:`mwip.campaign.metrics`)."""
+    (:mod:`mwip.campaign.metrics`).
+
+    ``repeat = k > 1``: the block's B robots are run ``k`` times in one batch (robot
+    ``j B + i`` is sample ``i``, for a controller whose robot ``j B + i`` runs candidate ``j``,
+    e.g. :func:`mwip.laws.batch.batch` with ``repeat = B``); the tables have ``k B`` rows in
+    that order. The twin's sensor noise is drawn for the ``k B`` robots of the batch, so the
+    copies of a sample see different noise (the plant, the start and the disturbance are the
+    sample's)."""
     from mwip.sim.engine import simulate
 
     idx = block_samples(campaign, block)
     inputs = draw(campaign, idx)
-    n = idx.size
-    fields = {k: inputs[k] for k, _ in campaign.uncertainty}
+    k = int(repeat)
+    if k < 1:
+        raise ValueError(f"repeat must be >= 1, got {repeat!r}")
+    if k > 1:
+        inputs = {key: np.tile(np.asarray(v), k) for key, v in inputs.items()}
+    n = idx.size * k
+    fields = {k_: inputs[k_] for k_, _ in campaign.uncertainty}
     plant = replace(campaign.centre, **fields) if fields else campaign.centre
     pb = {f: np.broadcast_to(np.asarray(getattr(plant, f), dtype=float), (n,)) for f in "rb"}
     q0 = np.column_stack([inputs["psi0"], inputs["theta0"], inputs["alpha0"]])

@@ -113,26 +113,68 @@ def evaluate(
     Each candidate is designed on the campaign's design model (the nominal parameters: the
     controller never sees the robot it runs on). A candidate whose design fails (a
     ``ValueError`` or ``LinAlgError`` of its construction) fails on every robot.
+
+    Several candidates of a law with a packed form (:mod:`mwip.laws.packing`) run as one
+    batch per block: one parameter vector per robot (:class:`mwip.laws.batch.PackedController`,
+    candidate ``j`` on robots ``j B .. j B + B - 1``), the robots of the block repeated once per
+    candidate (:func:`mwip.campaign.blocks.run_block` with ``repeat``). On the plain plant this
+    gives each candidate exactly its own run's numbers; on the twin each copy of a robot draws
+    its own sensor noise.
     """
     from mwip.campaign.blocks import run_block
     from mwip.laws.registry import get
 
     spec = get(name)
     todo = _blocks(robots, blocks)
-    out: list[dict[str, NDArray]] = []
+    built: list[Any] = []
     for settings in candidates:
         given = spec.resolve(settings)  # outside the allowed range: ValueError, not a failure
         try:
-            ctrl = spec.build(robots.campaign.design, given)
+            built.append(spec.build(robots.campaign.design, given))
         except (ValueError, np.linalg.LinAlgError, ArithmeticError):
-            out.append(_failed(robots.chunk * len(todo)))
-            continue
-        entry = ControllerEntry(name, name, tuple(sorted(
+            built.append(None)
+
+    def entry(settings: Mapping[str, Any]) -> ControllerEntry:
+        return ControllerEntry(name, name, tuple(sorted(
             (k, list(v) if isinstance(v, tuple) else v) for k, v in settings.items())))  # fmt: skip
-        camp = replace(robots.campaign, controllers=(entry,))
-        parts = [run_block(camp, b, {name: ctrl})[0] for b in todo]
-        out.append({k: np.concatenate([np.asarray(p[k]) for p in parts]) for k in METRIC_KEYS})
+
+    live = [j for j, c in enumerate(built) if c is not None]
+    batched: dict[int, dict[str, NDArray]] = {}
+    if len(live) > 1 and _same_reference(spec, [candidates[j] for j in live]):
+        from mwip.laws.batch import PackedController
+
+        camp = replace(robots.campaign, controllers=(entry(candidates[live[0]]),))
+        try:
+            parts = []
+            for b in todo:
+                pc = PackedController([built[j] for j in live], repeat=robots.chunk)
+                parts.append(run_block(camp, b, {name: pc}, repeat=len(live))[0])
+        except ValueError:  # no packed form (e.g. an observer the kernels do not run)
+            parts = []
+        for pos, j in enumerate(live if parts else []):
+            sl = slice(pos * robots.chunk, (pos + 1) * robots.chunk)
+            batched[j] = {k: np.concatenate([np.asarray(p[k])[sl] for p in parts])
+                          for k in METRIC_KEYS}  # fmt: skip
+    out: list[dict[str, NDArray]] = []
+    for j, settings in enumerate(candidates):
+        if built[j] is None:
+            out.append(_failed(robots.chunk * len(todo)))
+        elif j in batched:
+            out.append(batched[j])
+        else:
+            camp = replace(robots.campaign, controllers=(entry(settings),))
+            parts = [run_block(camp, b, {name: built[j]})[0] for b in todo]
+            out.append({k: np.concatenate([np.asarray(p[k]) for p in parts])
+                        for k in METRIC_KEYS})  # fmt: skip
     return out
+
+
+def _same_reference(spec: Any, candidates: Sequence[Mapping[str, Any]]) -> bool:
+    """The candidates share the speed reference the metrics are measured against (a batch
+    measures every robot's speed error against one)."""
+    keys = ("v_d", "psi_dot_d")
+    refs = {tuple(spec.resolve(c).get(k) for k in keys) for c in candidates}
+    return len(refs) == 1
 
 
 def _failed(n: int) -> dict[str, NDArray]:

@@ -115,13 +115,26 @@ def plan(
                 storage is not None, name, identity)  # fmt: skip
 
 
-def _objective_fn(p: Plan) -> Callable[..., Any]:
+def _outcome(p: Plan, met: dict[str, Any]) -> Any:
     from mwip.tune.study import Outcome
 
     obj, robots = p.objective, p.robots
     drive = robots.campaign.drive
+    ok = successes(obj, met, drive)
+    pv = pareto_values(obj, met, drive)
+    attrs: dict[str, Any] = {"success_rate": float(ok.mean()),
+                             "cost": scalar_cost(obj, met, drive),
+                             "objectives": list(pv),
+                             "plant_seconds": robots.plant_seconds}  # fmt: skip
+    values = (attrs["cost"],) if obj.mode == "scalar" else pv
+    return Outcome(tuple(values), attrs)
 
-    def fn(params: dict[str, float], report: Callable[[int, float], None]) -> Outcome:
+
+def _objective_fn(p: Plan) -> Callable[..., Any]:
+    obj, robots = p.objective, p.robots
+    drive = robots.campaign.drive
+
+    def fn(params: dict[str, float], report: Callable[[int, float], None]) -> Any:
         import numpy as np
 
         settings = p.space.settings(params)
@@ -134,16 +147,28 @@ def _objective_fn(p: Plan) -> Callable[..., Any]:
             if b + 1 < robots.n_blocks:
                 report(b + 1, fails / robots.samples)
         met = {k: np.concatenate([q[k] for q in parts]) for k in parts[0]}
-        ok = successes(obj, met, drive)
-        pv = pareto_values(obj, met, drive)
-        attrs: dict[str, Any] = {"success_rate": float(ok.mean()),
-                                 "cost": scalar_cost(obj, met, drive),
-                                 "objectives": list(pv),
-                                 "plant_seconds": robots.plant_seconds}  # fmt: skip
-        values = (attrs["cost"],) if obj.mode == "scalar" else pv
-        return Outcome(tuple(values), attrs)
+        return _outcome(p, met)
 
     return fn
+
+
+def _objective_batch(p: Plan) -> Callable[..., Any]:
+    """A population's outcomes from one batch per chunk of robots (:func:`evaluate` with
+    several candidates: one parameter vector per robot)."""
+
+    def fn(params_list: list[dict[str, float]]) -> list[Any]:
+        settings = [p.space.settings(params) for params in params_list]
+        return [_outcome(p, met) for met in evaluate(p.controller, settings, p.robots)]
+
+    return fn
+
+
+def population(sampler: str, n_dims: int) -> int:
+    """Trials evaluated together: CMA-ES's default population ``4 + floor(3 ln n)`` (Hansen;
+    Optuna's default), 1 (sequential, with pruning) for the other samplers."""
+    import math
+
+    return 4 + int(3 * math.log(max(n_dims, 1))) if sampler == "cmaes" else 1
 
 
 def _trial_rows(study: Any, p: Plan) -> list[dict[str, Any]]:
@@ -237,7 +262,9 @@ def execute(p: Plan, log: Callable[[str], None] = print) -> dict[str, Any]:
             log(f"trial {t.number}: {what}{ok}  [{done}/{total}]")
 
         ran = optimise(study, p.space, _objective_fn(p), p.trials,
-                       exclusive=not p.user_storage, progress=progress)  # fmt: skip
+                       exclusive=not p.user_storage, progress=progress,
+                       batch=population(p.sampler, len(p.space.dims)),
+                       objective_batch=_objective_batch(p))  # fmt: skip
         tuning_s = time.perf_counter() - t0
         best = _best(study, p)
         settings = p.space.settings(best.params)

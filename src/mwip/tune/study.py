@@ -255,8 +255,15 @@ def optimise(
     *,
     exclusive: bool,
     progress: Callable[[Any, int, int], None] | None = None,
+    batch: int = 1,
+    objective_batch: Callable[[list[dict[str, float]]], list[Outcome]] | None = None,
 ) -> int:
     """Run trials until ``study`` holds ``trials`` finished ones; returns how many ran here.
+
+    ``batch = k > 1`` with ``objective_batch``: ``k`` trials are asked at once (a CMA-ES
+    population: the sampler draws them from one generation), evaluated together by
+    ``objective_batch(list of params)`` (one engine batch, one parameter vector per robot) and
+    told; no pruning in this mode.
 
     ``objective(params, report)``: ``params`` maps the space's dimension names to values;
     ``report(step, bound)`` records a lower bound of the final cost after ``step`` chunks and
@@ -287,14 +294,36 @@ def optimise(
                 raise ValueError(f"objective value {v!r} is not finite")
         return out.values[0] if len(out.values) == 1 else tuple(out.values)
 
+    def tell(trial: Any, out: Outcome) -> None:
+        for key, value in out.attrs.items():
+            trial.set_user_attr(key, value)
+        for v in out.values:
+            if not math.isfinite(v):
+                raise ValueError(f"objective value {v!r} is not finite")
+        study.tell(trial, out.values[0] if len(out.values) == 1 else list(out.values))
+
     ran = 0
     while True:
         recover(study, exclusive and ran == 0)
         done = finished(study)
         if done >= trials:
             return ran
-        study.optimize(func, n_trials=1, catch=(), gc_after_trial=False)
-        ran += 1
+        pending = [t for t in study.get_trials(deepcopy=False) if t.state == TrialState.WAITING]
+        if batch > 1 and objective_batch is not None and not pending:
+            with warnings.catch_warnings():  # ask/tell: the owner attribute marks the trials
+                warnings.filterwarnings("ignore", message="Heartbeat of storage")
+                asked = [study.ask() for _ in range(min(batch, trials - done))]
+            params = []
+            for trial in asked:
+                trial.set_user_attr("owner", _owner())
+                params.append({d.name: trial.suggest_float(d.name, d.lo, d.hi, log=d.log)
+                               for d in space.dims})  # fmt: skip
+            for trial, out in zip(asked, objective_batch(params), strict=True):
+                tell(trial, out)
+            ran += len(asked)
+        else:  # one trial (and the queued ones: the baseline, retries), with pruning
+            study.optimize(func, n_trials=1, catch=(), gc_after_trial=False)
+            ran += 1
         if progress is not None:
             last = study.get_trials(deepcopy=False)[-1]
             for t in reversed(study.get_trials(deepcopy=False)):
