@@ -13,7 +13,8 @@ Each mutant's source is executed as a fresh module and the mismatch functions of
 tests/test_kernels.py (the kernel against its NumPy oracle on random, non-zero inputs; for
 the fuzzy kernel also its batch FLS and its pairwise sum against NumPy's) are run on it; a
 mutant is *killed* when a mismatch exceeds the test's tolerance or it raises.
-Every mutant is compiled by numba as the real kernel is (no cache), about a second each.
+Every mutant is compiled by numba as the real kernel is, without mwip's on-disk cache (it would
+hand a mutant the real kernel's machine code), about a second each.
 
 Usage::
 
@@ -117,8 +118,24 @@ def _load(tree: ast.Module, name: str, path: Path) -> types.ModuleType:
     mod.__file__ = str(path)
     # bounds checked: a mutated index (``a + 1`` -> ``a - 1`` on an unsigned index) raises
     # IndexError (a caught mutant) instead of reading outside the array
-    src = ast.unparse(tree).replace("cache=True", "cache=False, boundscheck=True")
-    exec(compile(src, str(path), "exec"), mod.__dict__)  # noqa: S102 - our own source
+    src = ast.unparse(tree)
+    import numba  # noqa: PLC0415
+
+    import mwip.jit_cache as jc  # noqa: PLC0415 - after sys.path
+
+    def plain(*args: object, **options: object) -> object:
+        """numba.njit without the on-disk cache: numba keys a cached function by its file's
+        path and time stamp, which a mutant shares with the real kernel, so a cached mutant
+        would run the real kernel's machine code (and survive)."""
+        if args and callable(args[0]) and len(args) == 1 and not options:
+            return numba.njit(boundscheck=True)(args[0])
+        return lambda fn: numba.njit(boundscheck=True, **options)(fn)
+
+    real, jc.njit = jc.njit, plain  # type: ignore[assignment]
+    try:
+        exec(compile(src, str(path), "exec"), mod.__dict__)  # noqa: S102 - our own source
+    finally:
+        jc.njit = real  # type: ignore[assignment]
     return mod
 
 
