@@ -47,15 +47,7 @@ FLOORS: tuple[tuple[str, ...], ...] = (
 
 #: Imports that break the rules and are known, each with why it stays for now; the test
 #: fails if one disappears (remove it here) or a new one appears.
-KNOWN: dict[tuple[str, str], str] = {
-    ("mwip.campaign.execute", "mwip.calibration.sample"): (
-        "a calibration campaign's blocks are run by mwip.calibration.sample.run_block, "
-        "dispatched on the campaign kind inside compute_chunk (a lazy import, on the worker). "
-        "The cure is a block-runner registry owned by the campaign spec, which needs "
-        "mwip.calibration to register its kind: mwip.calibration belongs to the twin work "
-        "(issue 24 leaves it to that issue), so this waits for it."
-    ),
-}
+KNOWN: dict[tuple[str, str], str] = {}
 
 
 def _module_name(path: Path) -> str:

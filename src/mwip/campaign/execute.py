@@ -121,13 +121,10 @@ def compute_chunk(campaign: Campaign, blocks: list[int]) -> Any:
     import pandas as pd
 
     own = getattr(campaign, "compute_chunk", None)
-    if own is not None:  # work of another room (mwip.bench) brings its own block runner
+    if own is not None:  # work of another room (mwip.bench, mwip.calibration) brings its own
+        # block runner
         return own(blocks)
     frames = []
-    if campaign.kind == "calibration":
-        from mwip.calibration.sample import run_block as run_draws
-
-        return pd.concat([run_draws(campaign, b) for b in blocks], ignore_index=True)
     if campaign.kind == "claims":
         from mwip.campaign.claims import run_block as run_claims
 
@@ -157,8 +154,6 @@ def _order_key(campaign: Campaign) -> tuple[str, list[str]]:
         return own()
     if campaign.kind == "claims":
         return "study", list(campaign.studies)
-    if campaign.kind == "calibration":
-        return "evidence", ["book"]
     return "controller", [c.label for c in campaign.controllers]
 
 
