@@ -128,3 +128,23 @@ def test_twin_validation() -> None:
         Twin(encoder=EncoderSpec(gear_ratio=10.0))
     with pytest.raises(ValueError, match="case"):
         case_plant(4)
+
+
+def test_the_drive_sees_each_robots_wheel_geometry():
+    """Setting the twin actuator's ``b / r`` (one per robot, as a campaign block does) reaches
+    the motor model, which turns the state into wheel speeds for the back-EMF: two robots in
+    the same state and with the same command but different ``b / r`` get different torques
+    while turning (before, the inner drive kept the value it was built with)."""
+    import numpy as np
+
+    from mwip.hardware.identified import default_twin
+    from mwip.params import REAL
+
+    act = default_twin().actuator(REAL)
+    act.b_over_r = np.array([2.0, 6.0])
+    assert np.array_equal(act.drive.b_over_r, [2.0, 6.0])
+    act.reset(2, seed=0)
+    state = np.zeros((2, 8))
+    state[:, 5] = 3.0  # yaw rate: the wheels turn at +-(b/r) alpha'
+    u = act(0.0, np.full((2, 2), 0.05), state)
+    assert not np.allclose(u[0], u[1])

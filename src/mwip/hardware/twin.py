@@ -324,9 +324,8 @@ class TwinActuator:
         self.mobility = np.asarray(mobility, dtype=float)
         self.masks = twin.masks() if masks is None else np.asarray(masks, dtype=bool)
         m = self.masks
-        self.b_over_r = float(plant_b_over_r)
         self.drive = DriveActuator(
-            twin.motor, twin.drive, plant_b_over_r=self.b_over_r, Ts=twin.Ts,
+            twin.motor, twin.drive, plant_b_over_r=float(plant_b_over_r), Ts=twin.Ts,
             pwm=_col(m, "pwm"), sag=_col(m, "sag"), emf_in_plant=True,
         )  # fmt: skip
         gr = v["drive.gear_ratio"]
@@ -344,6 +343,18 @@ class TwinActuator:
         self.any = bool(np.any(m[:, idx]))
         self.u_prev = np.zeros((0, 2))
         self.last: dict[str, NDArray[np.float64]] = {}
+
+
+    @property
+    def b_over_r(self) -> Any:
+        """The plant's ``b / r`` (a number, or one per robot), from which the drive gets each
+        wheel's speed: the inner :class:`~mwip.hardware.motor.DriveActuator`'s (one value, so
+        setting it here reaches the motor model)."""
+        return self.drive.b_over_r
+
+    @b_over_r.setter
+    def b_over_r(self, value: Any) -> None:
+        self.drive.b_over_r = value
 
     def reset(self, n: int, seed: int | None = None) -> None:
         """Currents, the delay line and the backlash to rest."""
