@@ -17,7 +17,7 @@ import gymnasium
 import numpy as np
 
 import mwip.gym  # noqa: F401  (registers the environments)
-from mwip.control.lqr import design_lqr
+from mwip.laws.lqr.controller import design_lqr
 from mwip.params import NOMINAL
 
 
