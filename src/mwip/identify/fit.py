@@ -133,7 +133,8 @@ def whiteness(r: NDArray[np.float64], max_lag: int = _MAX_LAG) -> float:
 
 
 def cluster_covariance(
-    J: NDArray[np.float64], r: NDArray[np.float64], clusters: int, offsets: int = 0
+    J: NDArray[np.float64], r: NDArray[np.float64], clusters: int, offsets: int = 0,
+    local: int = 0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Cluster-robust (sandwich) covariance of a least-squares estimate whose residuals are
     correlated within clusters and independent between them: the segments.
@@ -159,32 +160,46 @@ def cluster_covariance(
     of the drive parameters on synthetic truth (development seeds 100-119, one earlier state
     of the fit, the same fits for each; docs/twin_fit.md): CR1 0.79, CR2
     (``(I - H_s)^{-1/2}``) 0.87, CR3 0.92. ``V`` is in ``J``'s column units per unit of
-    ``r``; returns ``(V, B)``.
+    ``r``. The first ``P - local G`` columns are the globals, then ``local`` columns per
+    cluster (its nuisances), profiled out of the globals' columns cluster by cluster;
+    returns ``(V, B)`` of the globals.
     """
     m, P = J.shape
     G = int(clusters)
     n = m // G
-    # the bread from the column-equilibrated normal matrix: the nuisances' columns differ
-    # in size by orders of magnitude (a start speed's change barely matters when the
-    # delay or the compensation is small), and an unscaled pseudo-inverse drops global
-    # directions with them
-    d = np.linalg.norm(J, axis=0)
-    d = np.where(d > 0, d, 1.0)
-    Js_all = J / d
-    B = np.linalg.pinv(Js_all.T @ Js_all, rcond=1e-12, hermitian=True) / np.outer(d, d)
+    g = P - local * G  # the global columns come first, then ``local`` per cluster
     Pe = np.zeros((n, n))
     if offsets:
         for j in range(offsets):
             e = np.zeros(n)
             e[j::offsets] = 1.0
             Pe += np.outer(e, e) / float(e @ e)
-    eye = np.eye(n)
-    M = np.zeros((P, P))
+    # the globals' bread with each cluster's own columns profiled out (block elimination, so
+    # no ill-conditioned full normal matrix is inverted: a start speed's change barely
+    # matters when the delay or the compensation is small)
+    At, Qs = [], []
     for s in range(G):
-        Js, rs = J[s * n:(s + 1) * n], r[s * n:(s + 1) * n]
-        lam, U = np.linalg.eigh(eye - Js @ B @ Js.T - Pe)
+        rows = slice(s * n, (s + 1) * n)
+        A = J[rows, :g]
+        Nl = J[rows, g + s * local:g + (s + 1) * local]
+        if local:
+            U, sv, _ = np.linalg.svd(Nl, full_matrices=False)
+            Q = U[:, sv > 1e-10 * max(float(sv.max(initial=0.0)), 1e-300)]
+        else:
+            Q = np.zeros((n, 0))
+        At.append(A - Q @ (Q.T @ A))
+        Qs.append(Q)
+    info = sum((a.T @ a for a in At), np.zeros((g, g)))
+    d = np.sqrt(np.maximum(np.diag(info), 0.0))
+    d = np.where(d > 0, d, 1.0)
+    B = np.linalg.pinv(info / np.outer(d, d), rcond=1e-13, hermitian=True) / np.outer(d, d)
+    eye = np.eye(n)
+    M = np.zeros((g, g))
+    for s in range(G):
+        a, Q, rs = At[s], Qs[s], r[s * n:(s + 1) * n]
+        lam, U = np.linalg.eigh(eye - a @ B @ a.T - Q @ Q.T - Pe)
         inv = np.where(lam > 1e-9, 1.0 / np.maximum(lam, 1e-9), 0.0)
-        u = Js.T @ (U @ (inv * (U.T @ rs)))
+        u = a.T @ (U @ (inv * (U.T @ rs)))
         M += np.outer(u, u)
     V: NDArray[np.float64] = (G - 1) / max(G, 1) * (B @ M @ B)
     return V, np.asarray(B, dtype=float)
@@ -537,7 +552,7 @@ def fit(
         norms = np.linalg.norm(Jd[:, :g], axis=0)
         ok = norms > 1e-6 * max(float(norms.max()), 1e-300)
         keep = np.concatenate([ok, np.ones(Jd.shape[1] - g, dtype=bool)])
-        cov_all, bread = cluster_covariance(Jd[:, keep], r, seg.n, offsets=2)
+        cov_all, bread = cluster_covariance(Jd[:, keep], r, seg.n, offsets=2, local=_NUIS)
         names_ok = [n for n, o in zip(stand_free, ok, strict=True) if o]
         ng = len(names_ok)
         cov = cov_all[:ng, :ng]
