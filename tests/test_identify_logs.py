@@ -148,3 +148,24 @@ def test_balancing_logs_from_two_controllers_read_and_leave_drive_not_informed(
     assert res.free == []
     assert res.status["drive.gear_ratio"] == "not informed"
     assert any(f.startswith("drive.gear_ratio") for f in res.flags)
+
+
+def test_validate_on_a_balancing_log_of_another_controller(tmp_path: Path) -> None:
+    """`--validate LOG` with a held-out log of the robot balancing (LQR) while the fit's log is
+    the open-loop excitation: fit.json has the balancing prediction errors of the fit and of
+    the prior centre, and the fit's are smaller."""
+    import json
+
+    from mwip.identify import excite, synth
+
+    t, duty, mode = excite.schedule(static=0.3, step=0.06, chirp=0.5)
+    truth = synth.draw_truth(5)
+    p = synth.write_csv(tmp_path / "log.csv", synth.stand_log(truth, duty, mode, seed=5))
+    v = synth.write_csv(tmp_path / "lqr.csv", synth.balancing_log(truth, "lqr", 0.3, seed=6))
+    out = tmp_path / "fit"
+    assert main(["twin", "fit", str(p), "--validate", str(v), "--out", str(out)]) == 0
+    val = json.loads((out / "fit.json").read_text())["validation"]
+    fitted, prior = val["fitted"], val["prior_centre"]
+    assert fitted["balance_segments"] >= 5
+    assert fitted["balance_enc_rms"] < prior["balance_enc_rms"]
+    assert fitted["balance_gyro_rms"] < prior["balance_gyro_rms"]

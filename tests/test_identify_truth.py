@@ -12,9 +12,8 @@ from mwip.identify.fit import fit, predict_error
 from mwip.identify.logs import Log
 
 SEEDS = range(20)
-#: Measured 2-sigma coverage must reach this (the target is 0.95; see docs/twin_fit.md for the
-#: measured rate, 0.79 over 20 seeds x 10 parameters, and why it falls short of 0.95).
-COVERAGE_BOUND = 0.7
+#: Nominal coverage of a 2-sigma interval.
+NOMINAL = 0.9545
 
 
 def _log(cols: dict, name: str = "synthetic") -> Log:
@@ -36,7 +35,12 @@ def fits() -> list[tuple[dict, object, Log]]:
     return out
 
 
-def test_coverage_of_two_sigma_intervals(fits: list) -> None:
+#: The previous revision's measured coverage (sigma^2 (J^T J)^-1 with a Bartlett-inflated
+#: sigma^2, the segment start w_{-1} = w_0): 157/199. This revision measures 180/198 = 0.909.
+PREVIOUS = 157 / 199
+
+
+def _coverage(fits: list) -> tuple[int, int]:
     hits = total = 0
     per: dict[str, list[int]] = {}
     for truth, res, _ in fits:
@@ -47,12 +51,40 @@ def test_coverage_of_two_sigma_intervals(fits: list) -> None:
             per.setdefault(n, []).append(int(ok))
             hits += ok
             total += 1
-    rate = hits / total
-    print(f"\n2-sigma coverage over {len(fits)} seeds x parameters: {rate:.3f} ({hits}/{total})")
+    print(f"\n2-sigma coverage over {len(fits)} seeds x parameters: {hits / total:.3f} "
+          f"({hits}/{total})")  # fmt: skip
     for n, v in per.items():
         print(f"  {n:24s} {np.mean(v):.2f}")
+    return hits, total
+
+
+@pytest.mark.slow
+def test_coverage_improves_on_the_previous_revision(fits: list) -> None:
+    """The cluster-robust (CR3) standard errors and the segment start state: more coverage than
+    the previous revision's 0.79 (not a claim of 0.95: see the next test)."""
+    hits, total = _coverage(fits)
     assert total >= 20 * 9
-    assert rate >= COVERAGE_BOUND
+    assert hits / total > PREVIOUS
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured 180/198 = 0.909, below the binomial 1 % "
+                   "bound 182 of 0.9545 (docs/twin_fit.md: what is left)")  # fmt: skip
+def test_coverage_of_two_sigma_intervals(fits: list) -> None:
+    """Issue 23: each identifiable parameter within its reported 2-sigma interval in about
+    95 % of cases. The count of hits over the n cases (seeds x fitted parameters) must lie
+    inside the central 98 % of Binomial(n, 0.9545): below it the standard errors are too
+    small (or the estimates biased), above it too large. (The cases of one seed share a
+    log, so they are not independent; the binomial band is the nominal one.) Not met yet:
+    strict xfail, so the day it holds the mark must go."""
+    from scipy.stats import binom
+
+    hits, total = _coverage(fits)
+
+    lo, hi = binom.ppf(0.01, total, NOMINAL), binom.isf(0.01, total, NOMINAL)
+    print(f"  consistent with {NOMINAL}: {lo:.0f} <= hits <= {hi:.0f}")
+    assert total >= 20 * 9
+    assert lo <= hits <= hi, (hits, total, lo, hi)
 
 
 def test_not_informed_parameters_are_flagged(fits: list) -> None:
@@ -85,3 +117,43 @@ def test_the_fit_says_how_far_it_has_come() -> None:
     fit([lg], progress=lines.append)
     assert lines and all(line.startswith("fit: stage ") for line in lines)
     assert "model evaluations, residual RMS" in lines[0]
+
+
+def _stand_base() -> object:
+    """The elements of the generator's twin (synth.twin_for: backlash off)."""
+    from dataclasses import replace
+
+    from mwip.hardware.elements import ELEMENTS
+    from mwip.hardware.twin import Twin
+
+    return replace(Twin(), elements=frozenset(e for e in ELEMENTS if e != "backlash"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("controller", ["lqr", "hodosmc"])
+def test_fit_predicts_a_log_of_another_controller_better_than_prior(
+    fits: list, controller: str
+) -> None:
+    """Issue 23: the held-out log is produced under a different controller than the fitting
+    log: fitted on the open-loop excitation (wheels off the ground), validated on the robot
+    balancing under LQR or HODOSMC (50 ms predictions from fitted start states,
+    mwip.identify.balance). On every seed the fit predicts the encoders and the gyro better
+    than the prior's centre, and the encoders within 1.5 times the error of the true
+    parameters (the gyro's floor is its noise)."""
+    from mwip.identify.model import Known
+
+    base = _stand_base()
+    for seed, (truth, res, _) in zip(SEEDS, fits[:3], strict=False):
+        held = _log(synth.balancing_log(truth, controller, 0.4, seed=seed + 900))
+        k = Known.from_twin(base, held.Ts)
+        prior = {n: centre(n) for n in res.estimates}
+        e_fit = predict_error(held, res.estimates, k, twin=base)
+        e_pri = predict_error(held, prior, k, twin=base)
+        e_true = predict_error(held, truth, k, twin=base)
+        assert e_fit["balance_segments"] >= 5
+        assert e_fit["balance_enc_rms"] < e_pri["balance_enc_rms"], (seed, e_fit, e_pri)
+        assert e_fit["balance_gyro_rms"] < e_pri["balance_gyro_rms"], (seed, e_fit, e_pri)
+        assert e_fit["balance_enc_rms"] <= 1.5 * e_true["balance_enc_rms"], (seed, e_fit, e_true)
+        print(f"\n{controller} seed {seed}: enc {e_fit['balance_enc_rms']:.3g} (prior "
+              f"{e_pri['balance_enc_rms']:.3g}, truth {e_true['balance_enc_rms']:.3g}), gyro "
+              f"{e_fit['balance_gyro_rms']:.3g} (prior {e_pri['balance_gyro_rms']:.3g})")

@@ -137,8 +137,8 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
         prior = {n: centre(n) for n in result.estimates}
         prior.update(result.fixed)
         known = Known.from_twin(base, held.Ts)
-        fitted = predict_error(held, result.estimates, known, segment)
-        at_prior = predict_error(held, prior, known, segment)
+        fitted = predict_error(held, result.estimates, known, segment, twin=base)
+        at_prior = predict_error(held, prior, known, segment, twin=base)
         result.validation = {"log": str(validate), "sha256": held.sha256,
                              "fitted": fitted, "prior_centre": at_prior}  # fmt: skip
     outdir.claim(target, "twin fit")

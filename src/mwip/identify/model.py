@@ -103,13 +103,25 @@ def stand_rollout(
     w0: NDArray[np.float64],
     k: Known,
     widths: tuple[float, float] = (DEADBAND_WIDTH, COULOMB_WIDTH),
+    w_prev: NDArray[np.float64] | None = None,
+    cmd_prev2: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Wheel angles (relative to the start) and speeds over segments, both (S, L, 2).
 
     ``cmd`` (S, L + 1, 2): the command of the sample before each segment (0 at a log's start),
     then the segment's: duties where ``is_duty`` (S,) else wheel torques (N m); ``w0`` (S, 2)
-    the wheel speeds at the segments' first samples (taken for the sample before, too: the
-    back-EMF compensation of the delayed command, the current and battery load before).
+    the wheel speeds at the segments' first samples.
+
+    The state a segment starts from is more than ``w0``: the delayed command of the sample
+    before, ``d'_{-1} = d_{-1} + c k_e N w_{-1} / V_0``, holds the back-EMF compensation of
+    the speed ``w_prev`` (S, 2) of the sample before (default ``w0``), and the current and
+    battery load at the start are the steady ones of the voltage held over the sample before,
+    the delay's mix ``D d'_{-2} + (1 - D) d'_{-1}`` (``cmd_prev2`` (S, 2), the command two
+    samples before; default ``cmd[:, 0]``; ``w_{-2}`` taken as ``w_prev``: the current's
+    transient carries over only ``f = (tau_e / Ts)(1 - e^{-Ts/tau_e})`` of it). With
+    ``w_prev = w0`` and no ``cmd_prev2`` the first step is off by
+    ``D c k_e N (w0 - w_{-1}) / V_0`` of duty, which after a step or in a chirp is of the
+    order of 0.01-0.03 and biased the fit (docs/twin_fit.md).
     """
     N = float(p["drive.gear_ratio"])
     c = float(p["drive.emf_compensation"])
@@ -141,10 +153,14 @@ def stand_rollout(
         return np.clip(np.clip(v, emf - band, emf + band), -vs, vs)
 
     w = np.array(w0, dtype=float)
-    emf = k.ke * N * w
+    emf = k.ke * N * (w if w_prev is None else np.asarray(w_prev, dtype=float))
     dprev = duty_cmd[:, 0] + c * emf / k.Vs
+    if cmd_prev2 is None:
+        dheld = dprev
+    else:
+        dheld = dl * (cmd_prev2 * scale[:, 0] + c * emf / k.Vs) + (1.0 - dl) * dprev
     vs0 = np.full((S, 1), k.Vs)
-    v = voltage(dprev, emf, vs0)
+    v = voltage(dheld, emf, vs0)
     i = (v - emf) / k.R
     ibat = np.sum(v / vs0 * i, axis=1, keepdims=True)
     phi = np.zeros((S, 2))

@@ -26,7 +26,8 @@ def fitted_twin(result: FitResult, base: object | None = None) -> Any:
     from mwip.hardware.twin import Twin
 
     tw: Twin = Twin() if base is None else base  # type: ignore[assignment]
-    use = {n: v for n, v in result.estimates.items() if result.status[n] in ("fitted", "fixed")}
+    use = {n: v for n, v in result.estimates.items()
+           if result.status[n] in ("fitted", "fixed", "not identified")}  # fmt: skip
 
     return tw.with_values(use)
 

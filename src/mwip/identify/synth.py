@@ -7,11 +7,12 @@ exactly (``J w' = T - D w``, ``J = I_wa + N^2 J_r``, ``D`` the twin plant's ``Db
 back-EMF damping and the gearbox viscous friction), read by the twin's encoders
 (:func:`mwip.hardware.encoder.count`) and IMU (:class:`mwip.hardware.imu.Imu` with its noise,
 bias and drift, :class:`mwip.hardware.imu.TiltFilter`). The fractional back-EMF compensation
-``c`` (not in today's twin) is the torque command's share ``c eta N k_t k_e omega_m / R``.
+``c`` is added to the torque command as its share ``c eta N k_t k_e omega_m / R`` (the
+driver's own compensation off), as the driver does it.
 Backlash is switched off (it is not identified).
 
 Balancing logs: :func:`mwip.hardware.twin.run_on_twin` with a controller of
-:mod:`mwip.laws.registry` (``emf_feedforward = c >= 0.5``).
+:mod:`mwip.laws.registry` on the same twin.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ def draw_truth(seed: int, inner: float = 0.1) -> dict[str, float]:
 
 
 def twin_for(truth: Mapping[str, float], base: object | None = None) -> Any:
-    """The twin with ``truth``'s values (backlash off; ``emf_feedforward = c >= 0.5``)."""
+    """The twin with ``truth``'s values (backlash off)."""
     from mwip.hardware.elements import ELEMENTS
     from mwip.hardware.twin import Twin
 
@@ -51,7 +52,7 @@ def twin_for(truth: Mapping[str, float], base: object | None = None) -> Any:
         tw,
         drive=replace(tw.drive, gear_ratio=n, deadband=truth["drive.deadband"],
                       current_limit=truth["drive.current_limit"],
-                      emf_feedforward=truth["drive.emf_compensation"] >= 0.5),
+                      emf_compensation=truth["drive.emf_compensation"]),
         encoder=replace(tw.encoder, gear_ratio=n),
         gearbox=replace(tw.gearbox, coulomb=truth["gearbox.coulomb"],
                         viscous=truth["gearbox.viscous"]),
@@ -87,7 +88,7 @@ def stand_log(
     J = float(REAL.Iwa) + N * N * m.rotor_inertia
     D = d.emf_damping(m) + tw.gearbox.viscous + float(REAL.Db)
     a = np.exp(-D * Ts / J)
-    tw_ff = replace(tw, drive=replace(d, emf_feedforward=False))
+    tw_ff = replace(tw, drive=replace(d, emf_compensation=0.0))
     br = float(REAL.b / REAL.r)
     act = TwinActuator(tw_ff, plant_b_over_r=br, mobility=1.0 / J)
     act.reset(1)
