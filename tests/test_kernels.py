@@ -392,6 +392,7 @@ def test_the_check_can_fail():
 # ``__call__`` (the batch kernels, checked against the oracles above).
 K_SAMPLES = 6
 N_PACKED = 4
+T0 = 0.37  # the run starts at t0 != 0 (TSMC's cubics run on t - t0)
 
 
 def _drive(step: Callable[..., Any], law: Any, ys: np.ndarray, Ts: float
@@ -404,7 +405,7 @@ def _drive(step: Callable[..., Any], law: Any, ys: np.ndarray, Ts: float
     for k in range(ys.shape[0]):
         for i in range(n):
             ym[0] = ys[k, i]
-            step(P[i if P.shape[0] > 1 else 0], X[i], np.int64(k), k * Ts, ym, u, lg)
+            step(P[i if P.shape[0] > 1 else 0], X[i], np.int64(k), T0 + k * Ts, ym, u, lg)
             us[k, i], lgs[k, i] = u[0], lg
     return us, lgs
 
@@ -413,12 +414,12 @@ def _own(ctrl: Any, law_of: Callable[[], Any], ys: np.ndarray, Ts: float
          ) -> tuple[Any, np.ndarray, np.ndarray]:  # fmt: skip
     from mwip.core import Measurement
 
-    ctrl.reset(Measurement(0.0, ys[0]))
+    ctrl.reset(Measurement(T0, ys[0]))
     law = law_of()
     us = np.empty((ys.shape[0], ys.shape[1], 2))
     lgs = np.empty((ys.shape[0], ys.shape[1], law.log_width))
     for k in range(ys.shape[0]):
-        us[k] = ctrl(k * Ts, Measurement(k * Ts, ys[k]))
+        us[k] = ctrl(T0 + k * Ts, Measurement(T0 + k * Ts, ys[k]))
         logs = ctrl.log()
         lgs[k] = np.column_stack([np.asarray(logs[name], dtype=float).reshape(ys.shape[1], -1)
                                   for name, _ in law.log_names]) if law.log_names else \
