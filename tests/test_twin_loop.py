@@ -147,3 +147,37 @@ def test_a_kalman_twin_keeps_the_python_loop() -> None:
     assert a.settings["compiled"] is False
     with pytest.raises(ValueError, match="compiled=True"):
         _run(_hodosmc, True, twin=tw, duration=0.2, dist=False)
+
+
+def test_a_campaign_block_on_the_twin_matches_the_python_loop(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The tuner's path (mwip.campaign.blocks.run_block on the twin): the campaign's
+    per-sample disturbance is tabulated by its distinct columns (none, the book's sinusoids),
+    robot i reading its own; the same runs as the Python loop's per-robot table."""
+    from dataclasses import replace
+
+    import mwip.sim.engine as engine
+    from mwip.campaign.blocks import _disturbance, draw, run_block
+    from mwip.campaign.spec import ControllerEntry
+    from mwip.laws.registry import get
+    from mwip.tune.evaluate import robot_set
+
+    rs = robot_set("robustness", 8, 8, 2026, plant="twin", duration=1.0)
+    camp = replace(rs.campaign, controllers=(ControllerEntry("hodosmc", "hodosmc", ()),))
+    labels = draw(camp, np.arange(8))["disturbance"]
+    dist = _disturbance(camp, labels)
+    assert dist is not None and len(set(dist.column_of.tolist())) == 2  # both kinds present
+    spec = get("hodosmc")
+    ctrl = spec.build(camp.design, spec.resolve({}))
+    got = {}
+    orig = engine.simulate
+    for compiled in (False, None):
+
+        def sim(*a, _c=compiled, **k):  # noqa: ANN002, ANN003, ANN202
+            got[_c] = orig(*a, compiled=_c, **k)
+            return got[_c]
+
+        monkeypatch.setattr(engine, "simulate", sim)
+        run_block(camp, 0, {"hodosmc": ctrl})
+    _close(got[False], got[None])

@@ -152,7 +152,8 @@ class TwinRun:
         return tl.run_parallel if self.n >= PARALLEL_MIN else tl.run
 
     def __call__(self, first: NDArray[np.float64], y: NDArray[np.float64], coef: NDArray,
-                 tau: Callable[[int, int], NDArray], method: int, dt: float, n_sub: int,
+                 tau: Callable[[int, int], NDArray], column: NDArray[np.int64], method: int,
+                 dt: float, n_sub: int,
                  Ts: float, rec_idx: NDArray[np.int64], code: int, P: NDArray, X: NDArray,
                  states: NDArray, us: NDArray, log_arr: NDArray, status: NDArray,
                  t_end: NDArray) -> dict[str, NDArray[np.float64]]:  # fmt: skip
@@ -165,8 +166,8 @@ class TwinRun:
         chunk = max(16, tl.CHUNK_NUMBERS // per_sample)
         u_app = np.full((n, rec_idx.size, 2), np.nan)
         M0 = np.ascontiguousarray(first, dtype=float)
-        ROW = np.zeros(n, dtype=np.int64)
-        LEFT = np.zeros(n, dtype=np.int64)
+        RUN = np.zeros((n, 3), dtype=np.int64)  # next record row, left, disturbance column
+        RUN[:, 2] = column
         fn = self.function()
         no_noise = np.zeros((1, 4, 1))
         for k0 in range(0, n_samples + 1, chunk):
@@ -178,7 +179,7 @@ class TwinRun:
                  if sensor.any and z > 0 else no_noise)  # fmt: skip
             fn(y, coef, tk, method, dt, n_sub, n_samples, Ts, rec_idx, np.int64(code), P, X,
                M0, Z, SP, SS, C0, DP, DS, states, us, log_arr, u_app, status, t_end,
-               np.int64(k0), np.int64(k1), ROW, LEFT)  # fmt: skip
-            if bool(LEFT.all()):
+               np.int64(k0), np.int64(k1), RUN)  # fmt: skip
+            if bool(RUN[:, 1].all()):
                 break
         return {"u_applied": u_app}

@@ -364,8 +364,8 @@ def simulate(
     law = _compiled_law(controller, sensor, actuator, compiled, own is not None)
     if law is not None and own is not None:
         settings["compiled"] = True
-        _run_own(own, law, meas.y, y, coef, _tau_chunks(disturbance, Ts, sub_times, n), method,
-                 dt, n_sub, Ts, rec_idx, states, us, logs, status, t_end)  # fmt: skip
+        _run_own(own, law, meas.y, y, coef, *_tau_chunks(disturbance, Ts, sub_times, n),
+                 method, dt, n_sub, Ts, rec_idx, states, us, logs, status, t_end)  # fmt: skip
         if progress is not None:
             progress(n_samples)
         return _finish(t_rec, states, us, logs, status, t_end, y, r, batched, settings)
@@ -496,22 +496,39 @@ def _tau_all(
 
 def _tau_chunks(
     disturbance: Disturbance | None, Ts: float, sub_times: NDArray[np.float64], n: int
-) -> Callable[[int, int], NDArray[np.float64]]:
-    """``tau(k0, k1)``: the disturbance at the sub-step times of samples ``k0 .. k1 - 1``,
-    (k1 - k0 or 1, S, 1 or N, 3), at the same times ``k Ts + sub_times`` as the Python loop's
-    (a loop that takes the disturbance a chunk of samples at a time, whatever the run's
-    length)."""
+) -> tuple[Callable[[int, int], NDArray[np.float64]], NDArray[np.int64]]:
+    """``(tau, column)``: ``tau(k0, k1)`` the disturbance at the sub-step times of samples
+    ``k0 .. k1 - 1``, (k1 - k0 or 1, S, C, 3), at the same times ``k Ts + sub_times`` as the
+    Python loop's (a loop that takes the disturbance a chunk of samples at a time, whatever
+    the run's length), robot ``i`` reading column ``column[i]``. A disturbance that offers
+    ``columns(t)`` (K, C, 3) and ``column_of`` (N,) (a few distinct disturbances shared by the
+    robots, e.g. a campaign's) is tabulated by its columns, not per robot."""
     S = sub_times.size
     zero = np.zeros((1, S, 1, 3))
+    cols = getattr(disturbance, "columns", None)
+    column_of = getattr(disturbance, "column_of", None)
+
+    def times(k0: int, k1: int) -> NDArray[np.float64]:
+        return ((np.arange(k0, k1) * Ts)[:, None] + sub_times[None, :]).reshape(-1)
+
+    if disturbance is None:
+        return (lambda k0, k1: zero), np.zeros(n, dtype=np.int64)
+    if cols is not None and column_of is not None:
+        column = np.ascontiguousarray(column_of, dtype=np.int64)
+        if column.shape == (n,):
+
+            def tau_cols(k0: int, k1: int) -> NDArray[np.float64]:
+                blk = np.asarray(cols(times(k0, k1)), dtype=float)
+                return np.ascontiguousarray(blk.reshape(k1 - k0, S, blk.shape[1], 3))
+
+            return tau_cols, column
 
     def tau(k0: int, k1: int) -> NDArray[np.float64]:
-        if disturbance is None:
-            return zero
-        times = (np.arange(k0, k1) * Ts)[:, None] + sub_times[None, :]
-        blk = _tau_block(disturbance, times.reshape(-1), n)
+        blk = _tau_block(disturbance, times(k0, k1), n)
         return np.ascontiguousarray(blk.reshape(k1 - k0, S, blk.shape[1], 3))
 
-    return tau
+    wide = _tau_block(disturbance, np.array([0.0]), n).shape[1] > 1
+    return tau, (np.arange(n, dtype=np.int64) if wide else np.zeros(n, dtype=np.int64))
 
 
 def _run_own(
@@ -521,6 +538,7 @@ def _run_own(
     y: NDArray[np.float64],
     coef: NDArray[np.float64],
     tau: Callable[[int, int], NDArray[np.float64]],
+    column: NDArray[np.int64],
     method: int,
     dt: float,
     n_sub: int,
@@ -533,7 +551,8 @@ def _run_own(
     t_end: NDArray[np.float64],
 ) -> None:
     """Run the sensor's own compiled loop (:func:`_own_loop`) from the first measurement
-    ``first`` and unpack the law's log columns and the loop's own logs into ``logs``."""
+    ``first``, the disturbance by chunks (:func:`_tau_chunks`: ``tau``, ``column``), and
+    unpack the law's log columns and the loop's own logs into ``logs``."""
     import numba
 
     n = y.shape[0]
@@ -543,8 +562,8 @@ def _run_own(
     old = numba.set_parallel_chunksize(max(1, n // (16 * numba.get_num_threads())))
     try:
         P, X = law.arrays(n)
-        extra = own(first, y, coef, tau, method, dt, n_sub, Ts, rec_idx, law.code, P, X,
-                    states, us, log_arr, status, t_end)  # fmt: skip
+        extra = own(first, y, coef, tau, column, method, dt, n_sub, Ts, rec_idx, law.code, P,
+                    X, states, us, log_arr, status, t_end)  # fmt: skip
     finally:
         numba.set_parallel_chunksize(old)
     col = 0

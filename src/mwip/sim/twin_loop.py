@@ -288,13 +288,13 @@ def _drive(yi, u0, u1, dp, ds, ua):  # noqa: ANN001, ANN202 - compiled kernel
 
 @njit(inline="always")
 def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P, X, M0, Z,  # noqa: ANN001, ANN202, PLR0913
-             SP, SS, C0, DP, DS, states, us, logs, u_app, status, t_end, k0, k1, ROW,
-             LEFT):  # fmt: skip
-    if LEFT[i] != 0:
+             SP, SS, C0, DP, DS, states, us, logs, u_app, status, t_end, k0, k1,
+             RUN):  # fmt: skip
+    if RUN[i, 1] != 0:
         return
     yi = y[i]
     c = coef[i if coef.shape[0] > 1 else 0]
-    ti = i if tau.shape[2] > 1 else 0
+    ti = RUN[i, 2]
     p = P[i if P.shape[0] > 1 else 0]
     x = X[i]
     sp = SP[i if SP.shape[0] > 1 else 0]
@@ -308,7 +308,7 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P,
     u1 = np.zeros((1, 2))
     ua = np.zeros(2)
     lg = np.zeros(logs.shape[2])
-    row = ROW[i]
+    row = RUN[i, 0]
     n_rec = rec_idx.shape[0]
     for k in range(k0, k1):
         t = k * Ts
@@ -330,7 +330,7 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P,
                 logs[i, row, j] = lg[j]
             row += 1
         if k == n_samples or status[i] != OK:  # a stop is recorded at the next sample instant
-            LEFT[i] = 1
+            RUN[i, 1] = 1
             break
         tk = tau[k - k0 if tau.shape[0] > 1 else 0]
         ur, ul = ua[0], ua[1]
@@ -344,39 +344,40 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P,
                 status[i] = DIVERGED if not finite else FELL
                 t_end[i] = t + (s + 1) * h
                 break
-    ROW[i] = row
+    RUN[i, 0] = row
 
 
 @njit
 def run(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P, X, M0, Z, SP, SS, C0,  # noqa: ANN001, ANN201, PLR0913
-        DP, DS, states, us, logs, u_app, status, t_end, k0, k1, ROW, LEFT):  # fmt: skip
+        DP, DS, states, us, logs, u_app, status, t_end, k0, k1, RUN):  # fmt: skip
     """Samples ``k0 .. k1 - 1`` of every robot's closed loop on the twin, one robot after the
     other (a run is one call with ``k0 = 0, k1 = n_samples + 1``, or consecutive chunks);
     returns the robots still running. The arguments of :func:`mwip.sim.loop.run` with ``tau``
-    the disturbance of samples ``k0 ..`` (or one block for all), and ``M0`` (N, 8) the first
-    measurement, ``Z`` (samples, 4, 1 or N) the IMU variates of samples ``max(k0, 1) ..``,
-    ``SP`` / ``DP`` (1 or N, ...) the sensor's and drive's parameters, ``SS`` / ``C0`` / ``DS``
-    (N, ...) their states, ``ROW`` (N,) the next record row and ``LEFT`` (N,) 1 once a robot
-    has left the run (all updated in place), ``u_app`` (N, R, 2) the applied torques
-    recorded. A robot that stops is recorded at the next sample instant and then left."""
+    the disturbance of samples ``k0 ..`` (or one block for all) in columns, and ``M0`` (N, 8)
+    the first measurement, ``Z`` (samples, 4, 1 or N) the IMU variates of samples
+    ``max(k0, 1) ..``, ``SP`` / ``DP`` (1 or N, ...) the sensor's and drive's parameters,
+    ``SS`` / ``C0`` / ``DS`` (N, ...) their states, ``RUN`` (N, 3) int64 per robot: the next
+    record row, 1 once it has left the run (both updated in place) and the column of ``tau``
+    it reads; ``u_app`` (N, R, 2) the applied torques recorded. A robot that stops is
+    recorded at the next sample instant and then left."""
     running = 0
     for i in range(y.shape[0]):
         _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P, X, M0, Z,
-                 SP, SS, C0, DP, DS, states, us, logs, u_app, status, t_end, k0, k1, ROW,
-                 LEFT)  # fmt: skip
+                 SP, SS, C0, DP, DS, states, us, logs, u_app, status, t_end, k0, k1,
+                 RUN)  # fmt: skip
         running += status[i] == OK
     return running
 
 
 @njit(parallel=True)
 def run_parallel(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P, X, M0, Z, SP,  # noqa: ANN001, ANN201, PLR0913
-                 SS, C0, DP, DS, states, us, logs, u_app, status, t_end, k0, k1, ROW,
-                 LEFT):  # fmt: skip
+                 SS, C0, DP, DS, states, us, logs, u_app, status, t_end, k0, k1,
+                 RUN):  # fmt: skip
     """:func:`run` with the robots spread over threads: one barrier per call."""
     for i in numba.prange(y.shape[0]):
         _run_one(np.int64(i), y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P,
                  X, M0, Z, SP, SS, C0, DP, DS, states, us, logs, u_app, status, t_end, k0, k1,
-                 ROW, LEFT)  # fmt: skip
+                 RUN)  # fmt: skip
     running = 0
     for i in range(y.shape[0]):
         running += status[i] == OK
