@@ -67,6 +67,7 @@ SOURCES: tuple[str, ...] = (
     "fuzzy/_kernel.py",
     "fuzzy/ts_model.py",
     "fuzzy/layout.py",
+    "sim/twin_loop.py",
 )
 
 _ROOT = Path(__file__).resolve().parent

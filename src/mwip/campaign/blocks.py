@@ -58,6 +58,23 @@ class _PerSample:
             out[:, mask, :] = np.asarray(part(t), dtype=float)[:, None, :]
         return out
 
+    @property
+    def column_of(self) -> NDArray[np.int64]:
+        """Sample j's column of :meth:`columns` (0: none)."""
+        col = np.zeros(self.n, dtype=np.int64)
+        for k, (_, mask) in enumerate(self.used):
+            col[mask] = k + 1
+        return col
+
+    def columns(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The distinct disturbances, (K, 1 + parts, 3): zero, then each part used; sample j's
+        is column ``column_of[j]`` (the same numbers as its column of the call, without the
+        (K, N, 3) table: the twin's compiled loop, :func:`mwip.sim.engine.simulate`)."""
+        out = np.zeros((np.size(t), 1 + len(self.used), 3))
+        for k, (part, _) in enumerate(self.used):
+            out[:, k + 1, :] = np.asarray(part(t), dtype=float)
+        return out
+
 
 def _disturbance(campaign: Campaign, labels: NDArray) -> Disturbance | None:
     names = [label for label, _ in campaign.disturbances]

@@ -442,6 +442,19 @@ class TwinSensor:
         self._prev = None
         self.last = {}
 
+    def compiled_loop(self, actuator: Any, n: int, n_samples: int) -> Any:
+        """The engine's hook (:func:`mwip.sim.engine.simulate`): this sensor and ``actuator``
+        (a :class:`TwinActuator`) as a compiled loop around a packed law
+        (:mod:`mwip.sim.twin_loop`), or ``None`` where the Python loop stays (a subclass
+        of either, another actuator, a Kalman filter). Called after the first measurement."""
+        if type(self) is not TwinSensor or type(actuator) is not TwinActuator:
+            return None
+        if self.any and self._prev is None:
+            return None
+        from mwip.hardware.twin_pack import prepare
+
+        return prepare(self, actuator, n, n_samples)
+
     def _relative(self, state: NDArray[np.float64]) -> NDArray[np.float64]:
         psi, th, al = state[:, 0], state[:, 1], state[:, 2]
         return np.column_stack([psi + self.b_over_r * al - th, psi - self.b_over_r * al - th])

@@ -251,7 +251,9 @@ def simulate(
     compiled : bool, optional
         Run the whole loop compiled (:mod:`mwip.sim.loop`): ``None`` (default) when the
         controller offers ``packed_law()`` and the loop has the ideal sensor and no actuator
-        model; ``False`` forces the Python loop; ``True`` raises if it cannot be compiled.
+        model, or a sensor with its own compiled loop (the digital twin's sensor and drive,
+        :mod:`mwip.sim.twin_loop`); ``False`` forces the Python loop; ``True`` raises if
+        it cannot be compiled.
     budget : Budget
         Bounds on the run's cost (:mod:`mwip.budget`), checked before it starts; a run above
         them raises :class:`mwip.budget.BudgetError` (a ``ValueError``).
@@ -358,7 +360,15 @@ def simulate(
 
     meas = sensor(0.0, y)
     controller.reset(meas)
-    law = _compiled_law(controller, sensor, actuator, compiled)
+    own = _own_loop(sensor, actuator, n, n_samples, compiled)
+    law = _compiled_law(controller, sensor, actuator, compiled, own is not None)
+    if law is not None and own is not None:
+        settings["compiled"] = True
+        _run_own(own, law, meas.y, y, coef, *_tau_chunks(disturbance, Ts, sub_times, n),
+                 method, dt, n_sub, Ts, rec_idx, states, us, logs, status, t_end)  # fmt: skip
+        if progress is not None:
+            progress(n_samples)
+        return _finish(t_rec, states, us, logs, status, t_end, y, r, batched, settings)
     if law is not None:
         tau_all = _tau_all(disturbance, n_samples, Ts, sub_times, n)
         if tau_all is not None:
@@ -411,11 +421,26 @@ def simulate(
     return _finish(t_rec, states, us, logs, status, t_end, y, r, batched, settings)
 
 
+def _own_loop(
+    sensor: Sensor, actuator: Actuator | None, n: int, n_samples: int, compiled: bool | None
+) -> Any:
+    """The sensor's own compiled loop for this run, or ``None``: a sensor (with its actuator)
+    may offer ``compiled_loop(actuator, n, n_samples)`` returning a callable that runs the
+    packed law with them in compiled code (the digital twin's,
+    :mod:`mwip.sim.twin_loop`, packed by :mod:`mwip.hardware.twin_pack`); the engine imports
+    no hardware."""
+    if compiled is False:
+        return None
+    get = getattr(sensor, "compiled_loop", None)
+    return get(actuator, n, n_samples) if get is not None else None
+
+
 def _compiled_law(
-    controller: Controller, sensor: Sensor, actuator: Actuator | None, compiled: bool | None
-) -> PackedLaw | None:
+    controller: Controller, sensor: Sensor, actuator: Actuator | None, compiled: bool | None,
+    own_loop: bool = False,
+) -> PackedLaw | None:  # fmt: skip
     """The controller's :class:`~mwip.laws.packing.PackedLaw` when the whole loop can run
-    compiled.
+    compiled: the plain loop, or the sensor's own (``own_loop``, :func:`_own_loop`).
 
     A subclass that overrides what the Python loop calls (``__call__``, ``reset``, ``log``)
     below the class that defines ``packed_law`` runs the Python loop: its compiled law
@@ -426,11 +451,12 @@ def _compiled_law(
     if get is not None and _overrides_below_packed_law(type(controller)):
         get = None
     law = get() if get is not None else None
-    ok = law is not None and type(sensor) is IdealSensor and actuator is None
+    plain = type(sensor) is IdealSensor and actuator is None
+    ok = law is not None and (plain or own_loop)
     if compiled and not ok:
         raise ValueError(
-            "compiled=True needs a controller with packed_law(), the ideal sensor and no "
-            "actuator model"
+            "compiled=True needs a controller with packed_law(), and the ideal sensor and no "
+            "actuator model or a sensor with its own compiled loop (the twin's)"
         )
     return law if ok else None
 
@@ -466,6 +492,85 @@ def _tau_all(
     times = (np.arange(n_samples) * Ts)[:, None] + sub_times[None, :]
     blk = _tau_block(disturbance, times.reshape(-1), n)
     return np.ascontiguousarray(blk.reshape(n_samples, S, blk.shape[1], 3))
+
+
+def _tau_chunks(
+    disturbance: Disturbance | None, Ts: float, sub_times: NDArray[np.float64], n: int
+) -> tuple[Callable[[int, int], NDArray[np.float64]], NDArray[np.int64]]:
+    """``(tau, column)``: ``tau(k0, k1)`` the disturbance at the sub-step times of samples
+    ``k0 .. k1 - 1``, (k1 - k0 or 1, S, C, 3), at the same times ``k Ts + sub_times`` as the
+    Python loop's (a loop that takes the disturbance a chunk of samples at a time, whatever
+    the run's length), robot ``i`` reading column ``column[i]``. A disturbance that offers
+    ``columns(t)`` (K, C, 3) and ``column_of`` (N,) (a few distinct disturbances shared by the
+    robots, e.g. a campaign's) is tabulated by its columns, not per robot."""
+    S = sub_times.size
+    zero = np.zeros((1, S, 1, 3))
+    cols = getattr(disturbance, "columns", None)
+    column_of = getattr(disturbance, "column_of", None)
+
+    def times(k0: int, k1: int) -> NDArray[np.float64]:
+        return ((np.arange(k0, k1) * Ts)[:, None] + sub_times[None, :]).reshape(-1)
+
+    if disturbance is None:
+        return (lambda k0, k1: zero), np.zeros(n, dtype=np.int64)
+    if cols is not None and column_of is not None:
+        column = np.ascontiguousarray(column_of, dtype=np.int64)
+        if column.shape == (n,):
+
+            def tau_cols(k0: int, k1: int) -> NDArray[np.float64]:
+                blk = np.asarray(cols(times(k0, k1)), dtype=float)
+                return np.ascontiguousarray(blk.reshape(k1 - k0, S, blk.shape[1], 3))
+
+            return tau_cols, column
+
+    def tau(k0: int, k1: int) -> NDArray[np.float64]:
+        blk = _tau_block(disturbance, times(k0, k1), n)
+        return np.ascontiguousarray(blk.reshape(k1 - k0, S, blk.shape[1], 3))
+
+    wide = _tau_block(disturbance, np.array([0.0]), n).shape[1] > 1
+    return tau, (np.arange(n, dtype=np.int64) if wide else np.zeros(n, dtype=np.int64))
+
+
+def _run_own(
+    own: Any,
+    law: PackedLaw,
+    first: NDArray[np.float64],
+    y: NDArray[np.float64],
+    coef: NDArray[np.float64],
+    tau: Callable[[int, int], NDArray[np.float64]],
+    column: NDArray[np.int64],
+    method: int,
+    dt: float,
+    n_sub: int,
+    Ts: float,
+    rec_idx: NDArray[np.int64],
+    states: NDArray[np.float64],
+    us: NDArray[np.float64],
+    logs: dict[str, NDArray[np.float64]],
+    status: NDArray[np.int64],
+    t_end: NDArray[np.float64],
+) -> None:
+    """Run the sensor's own compiled loop (:func:`_own_loop`) from the first measurement
+    ``first``, the disturbance by chunks (:func:`_tau_chunks`: ``tau``, ``column``), and
+    unpack the law's log columns and the loop's own logs into ``logs``."""
+    import numba
+
+    n = y.shape[0]
+    width = sum(w for _, w in law.log_names)
+    log_arr = np.full((n, rec_idx.size, width), np.nan)
+    _compile_notice(own.function(), "the digital twin's loop")
+    old = numba.set_parallel_chunksize(max(1, n // (16 * numba.get_num_threads())))
+    try:
+        P, X = law.arrays(n)
+        extra = own(first, y, coef, tau, column, method, dt, n_sub, Ts, rec_idx, law.code, P,
+                    X, states, us, log_arr, status, t_end)  # fmt: skip
+    finally:
+        numba.set_parallel_chunksize(old)
+    col = 0
+    for name, w in law.log_names:
+        logs[name] = log_arr[:, :, col : col + w]
+        col += w
+    logs.update(extra)
 
 
 def _run_compiled(

@@ -1,0 +1,183 @@
+"""The twin's compiled loop (mwip.sim.twin_loop) against the Python loop it replaces.
+
+A batch of twins that differ per robot (their unknowns and their element sets), with IMU noise
+and a disturbance, runs once through the Python loop (``compiled=False``: the twin's NumPy
+sensor and drive, the engine's sample loop) and once through the compiled twin loop (the
+default when the controller has a packed law). The two must agree to round-off: the one
+operation of the sensor whose compiled form is not NumPy's is the accelerometer tilt
+``arctan2`` (NumPy's SIMD loop and the C library's ``atan2`` differ in the last bit for about
+0.1 % of arguments), which moves the fused pitch by ulps; the PWM quantisation absorbs that
+before it reaches the torque, so the plant states stay identical; the law's own state (the
+high-gain disturbance observer's ``tau_hat``) carries the ulps, amplified by its gains (a few
+1e-10 N m over a 256-robot, 10 s batch). Tolerance 1e-9, absolute and relative: far below any
+physical quantity, far above what an ulp of the tilt becomes over these runs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mwip.hardware.elements import ELEMENTS
+from mwip.hardware.identified import default_twin
+from mwip.hardware.imu import FusionSpec
+from mwip.laws.batch import batch
+from mwip.laws.registry import build
+from mwip.params import NOMINAL, REAL
+from mwip.sim import simulate
+from mwip.sim.disturbance import Sinusoid
+
+TOL = 1e-9
+N = 6
+NAMES = ("drive.gear_ratio", "drive.emf_compensation", "drive.deadband", "drive.current_limit",
+         "gearbox.coulomb", "gearbox.backlash", "delay", "imu.gyro_bias", "imu.accel_sigma",
+         "imu.gyro_sigma", "imu.height", "fusion.tau")  # fmt: skip
+
+
+def _values(twin, n: int = N) -> dict[str, np.ndarray]:  # noqa: ANN001
+    rng = np.random.default_rng(11)
+    return {k: twin.prior[k].low + rng.random(n) * (twin.prior[k].high - twin.prior[k].low)
+            for k in NAMES}  # fmt: skip
+
+
+def _rows() -> list[list[str]]:
+    every = list(ELEMENTS)
+    return [every, [e for e in every if e != "encoder"], [e for e in every if e != "fusion"],
+            [e for e in every if e not in ("motor", "pwm", "sag")],
+            [e for e in every if e not in ("backlash", "friction", "delay")],
+            [e for e in every if e not in ("imu_noise", "sag")]]  # fmt: skip
+
+
+def _run(ctrl_factory, compiled, *, twin=None, rows=None, values=None, common=False,  # noqa: ANN001, ANN202
+         seed=3, duration=2.0, dist=True):  # fmt: skip
+    tw = default_twin() if twin is None else twin
+    vals = tw.row_values(values)[0] if values is not None else None
+    base = REAL.with_payload(0.3, 0.05) if rows is None else REAL
+    p = tw.plant(base, rows, vals)
+    if p.batch_shape == ():
+        from dataclasses import replace
+
+        p = replace(p, Db=np.full(N, float(p.Db)))
+    sensor = tw.sensor(p, rows, common_noise=common, values=vals)
+    act = tw.actuator(p, rows, vals)
+    r = np.broadcast_to(np.asarray(p.r, dtype=float), (N,))
+    sensor.r = r.copy()  # per-robot wheel geometry, as the campaigns set it
+    sensor.b_over_r = np.asarray(p.b, dtype=float) / r
+    q0 = np.column_stack([np.zeros(N), np.linspace(-0.15, 0.15, N), np.zeros(N)])
+    d = Sinusoid(amplitude=(0.3, 0.2, 0.05), omega=(3.0, 5.0, 2.0)) if dist else None
+    return simulate(ctrl_factory(), p, q0=q0, duration=duration, Ts=tw.Ts, dt=tw.dt,
+                    disturbance=d, sensor=sensor, actuator=act, seed=seed, record_every=3,
+                    compiled=compiled)  # fmt: skip
+
+
+def _hodosmc():  # noqa: ANN202
+    return build("hodosmc", NOMINAL, {})
+
+
+def _close(a, b) -> None:  # noqa: ANN001
+    assert a.settings["compiled"] is False and b.settings["compiled"] is True
+    assert list(a.status) == list(b.status)
+    np.testing.assert_array_equal(a.t_end, b.t_end)
+    assert sorted(a.logs) == sorted(b.logs) and "u_applied" in b.logs
+    np.testing.assert_allclose(b.states, a.states, rtol=0, atol=TOL)
+    np.testing.assert_allclose(b.inputs, a.inputs, rtol=TOL, atol=TOL)
+    for k in a.logs:
+        np.testing.assert_allclose(b.logs[k], a.logs[k], rtol=TOL, atol=TOL, err_msg=k)
+    np.testing.assert_array_equal(np.isnan(a.states), np.isnan(b.states))
+
+
+@pytest.mark.parametrize("chunked", [False, True])
+def test_per_robot_twins_with_noise_and_disturbance_match_the_python_loop(
+    chunked: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``chunked``: the compiled loop takes the disturbance and the noise 16 samples at a
+    time (what a long run or a large batch does) and must give the same run."""
+    from mwip.sim import twin_loop
+
+    if chunked:
+        monkeypatch.setattr(twin_loop, "CHUNK_NUMBERS", 1000)
+    tw = default_twin()
+    vals = _values(tw)
+    a = _run(_hodosmc, False, values=vals, rows=_rows())
+    b = _run(_hodosmc, None, values=vals, rows=_rows())
+    _close(a, b)
+    assert np.nanstd(a.logs["u_applied"][:, 1:] - a.inputs[:, 1:]) > 1e-3  # the drive acts
+
+
+def test_one_setting_per_robot_common_noise_and_a_fall_match() -> None:
+    """PackedController (one parameter vector per robot), common noise, the payload plant,
+    one robot started past recovery (it falls: recorded up to its stop, then NaN)."""
+    settings = [{"K": (6.3 * f, 4.0)} for f in (0.6, 0.8, 1.0, 1.2, 1.4, 1.6)]
+
+    def ctrl():  # noqa: ANN202
+        return batch("hodosmc", settings, NOMINAL, Ts=0.005)
+
+    def run(compiled):  # noqa: ANN001, ANN202
+        tw = default_twin()
+        p = tw.plant(REAL.with_payload(0.5, 0.1))
+        from dataclasses import replace
+
+        p = replace(p, Db=np.full(N, float(p.Db)))
+        q0 = np.column_stack([np.zeros(N), [0.1, -0.1, 0.05, 1.2, 0.0, 0.2], np.zeros(N)])
+        return simulate(ctrl(), p, q0=q0, duration=1.5, Ts=tw.Ts, dt=tw.dt,
+                        sensor=tw.sensor(p, common_noise=True), actuator=tw.actuator(p),
+                        disturbance=Sinusoid(amplitude=(0.2, 0.0, 0.0)), seed=8,
+                        compiled=compiled)  # fmt: skip
+
+    a, b = run(False), run(None)
+    assert "fell" in list(a.status)
+    _close(a, b)
+
+
+def test_the_fast_path_is_deterministic_and_follows_the_seed() -> None:
+    vals = _values(default_twin())
+    a = _run(_hodosmc, None, values=vals, seed=5, duration=1.0)
+    b = _run(_hodosmc, None, values=vals, seed=5, duration=1.0)
+    c = _run(_hodosmc, None, values=vals, seed=6, duration=1.0)
+    assert np.array_equal(a.states, b.states, equal_nan=True)
+    assert np.array_equal(a.inputs, b.inputs, equal_nan=True)
+    assert not np.array_equal(a.inputs, c.inputs, equal_nan=True)
+
+
+def test_a_kalman_twin_keeps_the_python_loop() -> None:
+    from dataclasses import replace
+
+    tw = replace(default_twin(), fusion=FusionSpec(kind="kalman"))
+    a = _run(_hodosmc, None, twin=tw, duration=0.2, dist=False)
+    assert a.settings["compiled"] is False
+    with pytest.raises(ValueError, match="compiled=True"):
+        _run(_hodosmc, True, twin=tw, duration=0.2, dist=False)
+
+
+def test_a_campaign_block_on_the_twin_matches_the_python_loop(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The tuner's path (mwip.campaign.blocks.run_block on the twin): the campaign's
+    per-sample disturbance is tabulated by its distinct columns (none, the book's sinusoids),
+    robot i reading its own; the same runs as the Python loop's per-robot table."""
+    from dataclasses import replace
+
+    import mwip.sim.engine as engine
+    from mwip.campaign.blocks import _disturbance, draw, run_block
+    from mwip.campaign.spec import ControllerEntry
+    from mwip.laws.registry import get
+    from mwip.tune.evaluate import robot_set
+
+    rs = robot_set("robustness", 8, 8, 2026, plant="twin", duration=1.0)
+    camp = replace(rs.campaign, controllers=(ControllerEntry("hodosmc", "hodosmc", ()),))
+    labels = draw(camp, np.arange(8))["disturbance"]
+    dist = _disturbance(camp, labels)
+    assert dist is not None and len(set(dist.column_of.tolist())) == 2  # both kinds present
+    spec = get("hodosmc")
+    ctrl = spec.build(camp.design, spec.resolve({}))
+    got = {}
+    orig = engine.simulate
+    for compiled in (False, None):
+
+        def sim(*a, _c=compiled, **k):  # noqa: ANN002, ANN003, ANN202
+            got[_c] = orig(*a, compiled=_c, **k)
+            return got[_c]
+
+        monkeypatch.setattr(engine, "simulate", sim)
+        run_block(camp, 0, {"hodosmc": ctrl})
+    _close(got[False], got[None])
