@@ -43,7 +43,8 @@ KERNELS = {  # module file under src/mwip -> [(kernel function, mismatch functio
                             ("asta_sample", "asta_sample_mismatch"),
                             ("step", "asta_packed_mismatch")],
     "laws/lqr/kernel.py": [("lqr_law", "lqr_mismatch"), ("step", "lqr_packed_mismatch")],
-    "fuzzy/_kernel.py": [("fls_batch", "fls_mismatch"), ("_pairwise", "pairwise_mismatch")],
+    "fuzzy/_kernel.py": [("fls_batch", "fls_mismatch"), ("_pairwise", "pairwise_mismatch"),
+                         ("pdc_weights_batch", "pdc_mismatch")],
     "laws/fig53/kernel.py": [("fig53_law", "fig53_mismatch"), ("step", "fig53_packed_mismatch")],
     "observers/_hodo_kernel.py": [("hodo_update", "hodo_mismatch")],
 }  # fmt: skip

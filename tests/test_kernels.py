@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from mwip.fuzzy._kernel import _pairwise, fls_batch
+from mwip.fuzzy._kernel import _pairwise, fls_batch, pdc_weights_batch
 from mwip.fuzzy.mamdani import MamdaniFLS, RuleBase, direction_controller, position_controller
 from mwip.fuzzy.sets import UniformPartition
 from mwip.laws.asta.kernel import asta_sample, asta_terms
@@ -37,6 +37,7 @@ from oracle_laws import (
     fig53,
     hodo_step,
     mamdani,
+    pdc_weights,
     sliding_surface,
     smc_law,
     subsystem,
@@ -318,6 +319,25 @@ def fls_mismatch(kernel: Callable[..., Any] = fls_batch, seeds: tuple[int, ...] 
                 if not np.array_equal(out, mamdani(fls, x1, x2)):
                     return 1.0
     return 0.0
+
+
+def pdc_mismatch(kernel: Callable[..., Any] = pdc_weights_batch,
+                 seeds: tuple[int, ...] = SEEDS) -> float:  # fmt: skip
+    """The PDC weights (5.8) / type 1 of the kernel against ``oracle_laws.pdc_weights`` on
+    pitches inside and beyond the model's domain, both kinds."""
+    worst = 0.0
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        theta = _nonzero(rng, 1e-3, 0.8, 4 * N)  # beyond pi/6 too (saturated)
+        for kind in ("it2", "t1"):
+            out = np.empty((theta.size, 2))
+            kernel(theta, kind == "t1", out)
+            worst = max(worst, _err(out, pdc_weights(theta, kind)))
+    return worst
+
+
+def test_pdc_weights_kernel_equals_oracle():
+    assert pdc_mismatch() < TOL
 
 
 def test_fls_batch_equals_oracle():
