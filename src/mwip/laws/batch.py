@@ -113,12 +113,8 @@ class PackedController:
         step_batch(np.int64(self._law.code), self._P, self._X, np.int64(self._k), float(t), y,
                    u, lg)  # fmt: skip
         self._k += 1
-        col = 0
-        self._logs = {}
-        for name, w in self._law.log_names:
-            block = lg[:, col : col + w]
-            self._logs[name] = block[:, 0].copy() if w == 1 else block.copy()
-            col += w
+        self._logs = {name: (v[:, 0] if v.shape[1] == 1 else v).copy()
+                      for name, v in self._law.split_logs(lg).items()}  # fmt: skip
         return u
 
     def log(self) -> Mapping[str, NDArray[np.float64]]:

@@ -165,6 +165,16 @@ class PackedLaw:
     def log_width(self) -> int:
         return sum(w for _, w in self.log_names)
 
+    def split_logs(self, columns: FloatArray) -> dict[str, FloatArray]:
+        """The log columns ``columns`` (..., :attr:`log_width`), as the kernel writes them, by
+        log name: views of width ``w`` each, in :attr:`log_names` order."""
+        out: dict[str, FloatArray] = {}
+        col = 0
+        for name, w in self.log_names:
+            out[name] = columns[..., col : col + w]
+            col += w
+        return out
+
     def fields(self, row: int = 0) -> dict[str, FloatArray]:
         """The parameters of robot ``row`` by name (copies), e.g. ``fields()["gain"]``."""
         return {k: v.copy() for k, v in self.param_layout.unpack(self.params[row]).items()}

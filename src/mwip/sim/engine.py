@@ -556,8 +556,7 @@ def _run_own(
     import numba
 
     n = y.shape[0]
-    width = sum(w for _, w in law.log_names)
-    log_arr = np.full((n, rec_idx.size, width), np.nan)
+    log_arr = np.full((n, rec_idx.size, law.log_width), np.nan)
     _compile_notice(own.function(), "the digital twin's loop")
     old = numba.set_parallel_chunksize(max(1, n // (16 * numba.get_num_threads())))
     try:
@@ -566,10 +565,7 @@ def _run_own(
                     X, states, us, log_arr, status, t_end)  # fmt: skip
     finally:
         numba.set_parallel_chunksize(old)
-    col = 0
-    for name, w in law.log_names:
-        logs[name] = log_arr[:, :, col : col + w]
-        col += w
+    logs.update(law.split_logs(log_arr))
     logs.update(extra)
 
 
@@ -593,8 +589,7 @@ def _run_compiled(
 ) -> None:
     """Run :mod:`mwip.sim.loop` and unpack its log columns into ``logs``."""
     n = y.shape[0]
-    width = sum(w for _, w in law.log_names)
-    log_arr = np.full((n, n_rec, width), np.nan)
+    log_arr = np.full((n, n_rec, law.log_width), np.nan)
     fn: Any = aot.run_function() if n < PARALLEL_MIN else None  # no Numba import (mwip.sim.aot)
     old = None
     if fn is None:
@@ -616,10 +611,7 @@ def _run_compiled(
     finally:
         if old is not None:
             numba.set_parallel_chunksize(old)
-    col = 0
-    for name, w in law.log_names:
-        logs[name] = log_arr[:, :, col : col + w]
-        col += w
+    logs.update(law.split_logs(log_arr))
 
 
 def _compile_notice(fn: Any, what: str) -> None:
