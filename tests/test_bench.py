@@ -219,21 +219,46 @@ def test_scores_table_rows_and_wilson_intervals(reference: tuple[Path, Path]) ->
 
 
 def test_a_level_without_effects_repeats_the_nominal_runs(reference: tuple[Path, Path]) -> None:
-    """The posterior has one member (the default twin), a zero push and noise x1 change
-    nothing: replicate i of each repeats nominal replicate i exactly (common random numbers)."""
+    """A zero push and noise x1 change nothing: replicate i of each repeats nominal replicate
+    i exactly (common random numbers). (The posterior level draws the packaged posterior's
+    members, :func:`test_the_posterior_level_draws_the_packaged_members`.)"""
     ref, _ = reference
     res = pd.read_parquet(ref / "results.parquet")
     cols = ["success", "status", "rms_theta", "rms_speed_error", "peak_torque", "control_tv"]
     for c in ("dlqr", "hodosmc"):
         mine = res[res["controller"] == c]
         nominal = mine[mine["axis"] == "nominal"].sort_values("replicate")[cols]
-        for level in ("posterior", "push 0", "noise x1"):
+        for level in ("push 0", "noise x1"):
             other = mine[mine["level"] == level].sort_values("replicate")[cols]
             pd.testing.assert_frame_equal(nominal.reset_index(drop=True),
                                           other.reset_index(drop=True), check_exact=True)
         assert nominal["success"].all()  # the book's controllers balance the nominal twin
         hard = mine[mine["axis"] == "hard"]
         assert not np.allclose(hard["rms_theta"].to_numpy()[:3], nominal["rms_theta"].to_numpy())
+
+
+def test_the_posterior_level_draws_the_packaged_members(reference: tuple[Path, Path]) -> None:
+    """The ``posterior`` level's twins are members of the identified twin's posterior
+    (``book-twin.json``: a thinned set of the book calibration's chain states), inside the
+    prior's box, and not all the default twin: its runs differ from the nominal ones."""
+    import json
+
+    from mwip.bench.run import posterior_members
+    from mwip.hardware.identified import STATUS_FILE
+
+    doc = json.loads(STATUS_FILE.read_text(encoding="utf-8"))
+    members = posterior_members()
+    assert len(members) == len(doc["members"]) > 1
+    box = dict(zip(doc["prior"]["names"], doc["prior"]["bounds"], strict=True))
+    for m in members:
+        assert set(m) == set(box)
+        assert all(box[k][0] <= v <= box[k][1] for k, v in m.items())
+    ref, _ = reference
+    res = pd.read_parquet(ref / "results.parquet")
+    mine = res[res["controller"] == "dlqr"]
+    nominal = mine[mine["axis"] == "nominal"].sort_values("replicate")["rms_theta"]
+    post = mine[mine["level"] == "posterior"].sort_values("replicate")["rms_theta"]
+    assert len(post) == len(nominal) and not np.array_equal(post.to_numpy(), nominal.to_numpy())
 
 
 class _NoTorque:

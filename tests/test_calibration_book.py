@@ -12,11 +12,12 @@ import pytest
 from click.testing import CliRunner
 
 from mwip.calibration.book import calibrate_book
+from mwip.calibration.chains import ChainPlan
 from mwip.calibration.runs import RUNS, run_batch
 from mwip.hardware.twin import Twin
 
 SMALL = {"samples": 4, "block": 2, "duration": 0.6, "jobs": 1, "progress": None,
-         "proposal_draws": 3}
+         "proposal_draws": 3, "chains": ChainPlan(chains=4, steps=8, burn=2, seed=1)}
 
 
 def test_one_draw_at_the_default_values_is_the_studys_run():
@@ -46,9 +47,20 @@ def test_deterministic_and_resumable(tmp_path: Path):
     chunks = sorted((tmp_path / "b" / "prior-draws" / "chunks").iterdir())
     chunks[-1].unlink()
     (tmp_path / "b" / "prior-draws" / "results.parquet").unlink()
+    gens = sorted((tmp_path / "b" / "chains").glob("gen-*.parquet"))
+    assert len(gens) == 8
+    gens[-1].unlink()
     calibrate_book(tmp_path / "b", **SMALL)
     again = pd.read_parquet(tmp_path / "b" / "prior-draws" / "results.parquet")
     pd.testing.assert_frame_equal(table, again)
+    assert json.loads((tmp_path / "b" / "posterior.json").read_text()) == da
+    # stage 3 sampled the posterior stages 1-2 conditioned: the same facts, every member
+    # meets them, intervals at the chains' effective size
+    p = da["posterior"]
+    s3, s12 = p["sampler"], p["stage12"]
+    assert p["used"] == s12["used"] and p["size"] == 4 * 6 and s3["kept"] == 6
+    assert 0 < p["effective_size"] == s3["ess_min"] <= 4 * 6 * np.log10(24)
+    assert all(c["effective_n"] >= 1 for c in da["claims"])
     for name in ("posterior.md", "marginals.png"):
         assert (tmp_path / "a" / name).stat().st_size > 0
     doc = da
@@ -65,7 +77,8 @@ def test_cli_evidence_book(tmp_path: Path):
 
     out = tmp_path / "cal"
     r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out", str(out),
-                                 "--samples", "2", "--duration", "0.4", "--stage2-draws", "1"])
+                                 "--samples", "2", "--duration", "0.4", "--stage2-draws", "1",
+                                 "--chain-steps", "0"])
     assert r.exit_code == 0, r.output
     assert "twins evaluated 3 " in r.output and (out / "posterior.json").is_file()
     r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out",

@@ -181,3 +181,35 @@ def test_a_campaign_block_on_the_twin_matches_the_python_loop(
         monkeypatch.setattr(engine, "simulate", sim)
         run_block(camp, 0, {"hodosmc": ctrl})
     _close(got[False], got[None])
+
+
+@pytest.mark.parametrize("case", [1, 3])
+def test_run_on_twin_without_drive_logs_runs_compiled_and_records_the_measurement(
+    case: int,
+) -> None:
+    """``run_on_twin(..., drive_logs=False)`` (the book calibration's runs) lets a packed law
+    run in the compiled twin loop, which then records the measurement the law read: ``y_meas``
+    and the law's logs equal the Python loop's (``drive_logs=True``, the wrapper's record) to
+    round-off, over a batch of twins with different unknowns and, in Case 3, the stick."""
+    from mwip.hardware.twin import run_on_twin
+    from mwip.studies.exp_hodosmc import make_controller
+    from mwip.studies.twin_settings import study_settings
+
+    tw = default_twin()
+    cfg = dict(study_settings("exp-hodosmc-obstacle" if case == 3 else "exp-hodosmc-balance",
+                              None, tw)[0])  # fmt: skip
+    values = {"drive.deadband": np.array([0.0, 0.002, 0.004]),
+              "imu.gyro_sigma": np.array([0.001, 0.002, 0.004])}  # fmt: skip
+    runs = {}
+    for logs in (False, True):
+        ctrl = make_controller("do1smc", cfg, -7.0 if case == 3 else 0.0, NOMINAL)
+        runs[logs] = run_on_twin(ctrl, case, twin=tw, values=values, duration=2.0,
+                                 q0=np.tile([0.0, 0.05, 0.0], (3, 1)), drive_logs=logs)
+    fast, slow = runs[False], runs[True]
+    assert fast.settings["compiled"] is True and slow.settings.get("compiled") is not True
+    assert "drive_duty" in slow.series() and "drive_duty" not in fast.series()
+    assert list(fast.status) == list(slow.status)
+    ym_f, ym_s = fast.series()["y_meas"], slow.series()["y_meas"]
+    assert ym_f.shape == ym_s.shape and np.isfinite(ym_f[:, :50]).all()
+    np.testing.assert_allclose(ym_f, ym_s, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(fast.states, slow.states, rtol=0, atol=1e-9)

@@ -37,7 +37,9 @@ def notes(work: BenchRun) -> list[str]:
     post = ("the identified twin's posterior (book-twin.json) has a single member, the default "
             "twin itself: the twin axis's 'posterior' level therefore repeats the nominal runs, "
             "and the plausible ranges come from the declared prior (mwip.hardware.prior)"
-            if m == 1 else f"the identified twin's posterior has {m} members")  # fmt: skip
+            if m == 1 else f"the identified twin's 'posterior' level draws {m} members of the book "
+            "calibration's posterior (a thinned set of its Markov chain states, book-twin.json)")
+    # fmt: skip
     origins = sorted({f"{e.label}: {e.origin}" for e in work.entrants if e.origin != "registry"})
     out = ["Every entrant runs on the identified default twin (mwip twin show), designed on "
            "its design model (the book's nominal, Table 3.2, unless a scenario says otherwise);"

@@ -126,8 +126,8 @@ def _controllers(work: BenchRun) -> dict[str, Any]:
 
 def posterior_members() -> list[dict[str, float]]:
     """The identified twin's posterior members as unknown values: ``members`` of
-    ``book-twin.json`` if it lists them, else (the packaged posterior has ONE member, the most
-    probable, which is the default twin) the default twin's values alone."""
+    ``book-twin.json`` (a thinned set of the book calibration's Markov chain states), else (a
+    posterior of stages 1-2 alone lists none) the default twin's values alone."""
     from mwip.hardware.identified import STATUS_FILE, default_twin
 
     try:

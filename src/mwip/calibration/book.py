@@ -48,12 +48,98 @@ def _cols(table: Any) -> dict[str, np.ndarray]:
             if c not in ("evidence", "sample")}  # fmt: skip
 
 
+def _chain_cols(chains: Any, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The chains' kept states as columns, C K rows chain by chain."""
+    C, K, _ = chains.x.shape
+    cols = {k: np.asarray(v, dtype=float).reshape(C * K) for k, v in chains.cols.items()}
+    for j, n in enumerate(names):
+        cols[f"param.{n}"] = chains.x[:, :, j].reshape(C * K).copy()
+    return cols
+
+
+#: Posterior members written to ``posterior.json`` per chain (its kept states, evenly spaced,
+#: the last one included): what ``mwip bench``'s ``posterior`` level draws from.
+MEMBERS_PER_CHAIN = 4
+
+
+def _members(chains: Any, names: tuple[str, ...]) -> list[dict[str, float]]:
+    """A thinned set of the chains' kept states as unknown values (chain by chain)."""
+    C, K, _ = chains.x.shape
+    picks = np.unique(np.linspace(K - 1, 0, MEMBERS_PER_CHAIN).round().astype(int))[::-1]
+    return [{n: float(chains.x[c, k, j]) for j, n in enumerate(names)}
+            for c in range(C) for k in sorted(picks)]  # fmt: skip
+
+
+def _beyond(chains: Any, ev: Evidence, used: tuple[str, ...]) -> dict[str, Any]:
+    """Whether a twin the chains evaluated met more than the conditioned facts: the largest
+    such set's extra facts and how many proposals met it (it does not change the conditioning,
+    fixed by stages 1-2 before the chains ran)."""
+    from mwip.calibration.posterior import facts
+    from mwip.calibration.runs import run_names
+
+    props = chains.proposals
+    if props is None or len(props) == 0:
+        return {"proposals": 0, "extra": [], "count": 0}
+    cols = {c: props[c].to_numpy(dtype=float) for c in props.columns
+            if c not in ("chain", "generation", "inside", "moved")}  # fmt: skip
+    f = facts(cols, run_names(), ev)
+    mask = np.array([n in set(used) for n in f.names], dtype=bool)
+    meets = np.all(f.S[:, mask], axis=1)
+    extra = f.S[:, ~mask] & meets[:, None]
+    k = extra.sum(axis=1)
+    best = int(k.max()) if k.size else 0
+    if best == 0:
+        return {"proposals": int(len(props)), "extra": [], "count": 0}
+    rows = extra[k == best]
+    first = rows[0]
+    names = [n for n, m in zip(np.asarray(f.names)[~mask], first, strict=True) if m]
+    return {"proposals": int(len(props)), "extra": names,
+            "count": int(np.all(rows == first, axis=1).sum())}
+
+
+def _chain_diagnostics(
+    chains: Any, cols: dict[str, np.ndarray], names: tuple[str, ...]
+) -> tuple[dict[str, Any], dict[str, float]]:
+    """The sampler's record (acceptance, final scale, evaluations, each unknown's split
+    R-hat and ESS) and each held-out claim's ESS (a claim constant over the sample: the
+    smallest ESS of the unknowns)."""
+    from mwip.calibration.claims import claim_rows
+    from mwip.calibration.diagnostics import ess, split_rhat
+
+    C, K, _ = chains.x.shape
+    p_ess, p_rhat = {}, {}
+    for j, n in enumerate(names):
+        x = chains.x[:, :, j]
+        if np.ptp(x) > 0:
+            p_ess[n], p_rhat[n] = ess(x), split_rhat(x)
+    floor = min(p_ess.values()) if p_ess else float(C * K)
+    verdicts = claim_rows({k: v[: C * K] for k, v in cols.items()})
+    c_ess = {}
+    for key, v in verdicts.items():
+        e = ess(np.asarray(v, dtype=float).reshape(C, K))
+        c_ess[key] = floor if not np.isfinite(e) else min(e, float(C * K))
+    record = {"chains": C, "kept": K, "burn": chains.burn, "evaluations": chains.evaluations,
+              "acceptance": chains.acceptance(), "acceptance_burn_in":
+              float(chains.moved[:, : chains.burn].mean()), "scale": chains.scale,
+              "ess": p_ess, "rhat": p_rhat, "ess_min": floor,
+              "rhat_max": max(p_rhat.values()) if p_rhat else None}  # fmt: skip
+    limit = chains.plan.converged if chains.plan is not None else 1.1
+    record["converged_below"] = limit
+    record["converged"] = bool(record["rhat_max"] is not None and record["rhat_max"] < limit)
+    return record, c_ess
+
+
 def analyse(table: Any, ev: Evidence, *, prior: Any = None,
-            prior_draws: Any = None) -> BookCalibration:  # fmt: skip
+            prior_draws: Any = None, chains: Any = None) -> BookCalibration:  # fmt: skip
     """Condition the draws ``table`` (the prior draws of the calibration campaign, pooled
     with stage 2's box draws and their ``weight`` column, :mod:`mwip.calibration.proposal`)
     on the evidence ``ev`` and judge the held-out claims and numbers. ``prior_draws``: the
-    plain prior draws (each run's standing rate in the prior; default ``table``)."""
+    plain prior draws (each run's standing rate in the prior; default ``table``).
+    ``chains``: stage 3's :class:`~mwip.calibration.chains.ChainResult`, which samples the
+    posterior ``table`` conditioned (the same facts): the marginals, claims and numbers are
+    then the chains' kept states, each interval at its effective size, and the default twin
+    stays the pool's most probable member (every chain state meets the same facts, so its
+    kernel ties with it or is smaller; the declared tie-break is the first in draw order)."""
     from mwip.calibration.claims import claim_rows, judge
     from mwip.calibration.posterior import condition, facts, weighted_quantile
     from mwip.calibration.runs import PUBLISHED, run_names
@@ -61,39 +147,65 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None,
     from mwip.hardware.twin import Twin
 
     pr = PRIOR if prior is None else prior
-    cols = _cols(table)
-    params = {n: cols[f"param.{n}"] for n in pr.names}
+    pool = _cols(table)
     bounds = {n: (float(lo), float(hi)) for n, (lo, hi) in zip(pr.names, pr.bounds, strict=True)}
     names = run_names()
-    f = facts(cols, names, ev)
-    weights = cols.get("weight")
-    post = condition(f, params, bounds, ev, weights=weights)
+    f = facts(pool, names, ev)
+    weights = pool.get("weight")
+    stage12 = condition(f, {n: pool[f"param.{n}"] for n in pr.names}, bounds, ev,
+                        weights=weights)  # fmt: skip
+    sampler: dict[str, Any] | None = None
+    c_ess: dict[str, float] | None = None
+    if chains is not None and stage12.map_index >= 0:
+        chain = _chain_cols(chains, tuple(pr.names))
+        post = condition(facts(chain, names, ev), {n: chain[f"param.{n}"] for n in pr.names},
+                         bounds, ev, used=stage12.used, conflicts=stage12.conflicts)  # fmt: skip
+        if not np.all(post.accepted):
+            raise ValueError("a chain state does not meet the conditioned facts")
+        n_ch = len(post.accepted)
+        # the pool's most probable member as one more row: not a member, it carries the
+        # default twin's verdicts and numbers
+        cols = {k: np.append(v, pool[k][stage12.map_index]) for k, v in chain.items()}
+        accepted = np.arange(n_ch + 1) < n_ch
+        post_w = accepted.astype(float)
+        map_index = n_ch
+        sampler, c_ess = _chain_diagnostics(chains, cols, tuple(pr.names))
+        sampler["beyond"] = _beyond(chains, ev, stage12.used)
+        summary = post.summary()
+        summary.update(n_prior=int(len(table)), size=n_ch, map_index=stage12.map_index,
+                       effective_size=sampler["ess_min"], sampler=sampler,
+                       stage12=stage12.summary())  # fmt: skip
+    else:
+        cols, post = pool, stage12
+        accepted, post_w, map_index = post.accepted, post.weights, post.map_index
+        summary = post.summary()
+    params = {n: cols[f"param.{n}"] for n in pr.names}
     verdicts = claim_rows(cols)
-    claims = judge(verdicts, post.accepted, params, post.map_index, ev.decided,
-                   weights=post.weights)  # fmt: skip
+    claims = judge(verdicts, accepted, params, map_index, ev.decided, weights=post_w,
+                   ess=c_ess)  # fmt: skip
     calib = {n.key for n in ev.numbers}
     numbers = []
     lo_q, hi_q = (1 - ev.interval) / 2, 1 - (1 - ev.interval) / 2
     for key, book in PUBLISHED.items():
-        x = cols[key][post.accepted] if key in cols else np.zeros(0)
-        wx = post.weights[post.accepted][np.isfinite(x)] if key in cols else np.zeros(0)
+        x = cols[key][accepted] if key in cols else np.zeros(0)
+        wx = post_w[accepted][np.isfinite(x)] if key in cols else np.zeros(0)
         x = x[np.isfinite(x)]
         entry: dict[str, Any] = {"key": key, "book": book, "role": "calibration" if key in calib
                                  else "held-out", "n": int(x.size)}  # fmt: skip
         if x.size:
             lo, med, hi = (float(v) for v in weighted_quantile(x, wx, [lo_q, 0.5, hi_q]))
             entry.update(low=lo, median=med, high=hi, inside=bool(lo <= book <= hi))
-        if post.map_index >= 0 and key in cols:
-            entry["default_twin"] = float(cols[key][post.map_index])
+        if map_index >= 0 and key in cols:
+            entry["default_twin"] = float(cols[key][map_index])
         numbers.append(entry)
-    map_standing = ({r: bool(cols[f"{r}.stands"][post.map_index] == 1.0) for r in names}
-                    if post.map_index >= 0 else {})  # fmt: skip
-    pcols = cols if prior_draws is None else _cols(prior_draws)
+    map_standing = ({r: bool(cols[f"{r}.stands"][map_index] == 1.0) for r in names}
+                    if map_index >= 0 else {})  # fmt: skip
+    pcols = pool if prior_draws is None else _cols(prior_draws)
     standing = {r: float(np.mean(pcols[f"{r}.stands"])) for r in names}
     map_values: dict[str, float] = {}
     twin = None
-    if post.map_index >= 0:
-        map_values = {n: float(params[n][post.map_index]) for n in pr.names}
+    if map_index >= 0:
+        map_values = {n: float(params[n][map_index]) for n in pr.names}
         twin = Twin().with_values(map_values)
     counts = {v: sum(1 for c in claims if c["verdict"] == v)
               for v in ("holds", "fails", "undecided", "no posterior")}  # fmt: skip
@@ -109,10 +221,10 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None,
         "prior": {"names": list(pr.names), "bounds": [list(map(float, b)) for b in pr.bounds]},
         "standing_in_prior": standing,
         "calibration_numbers": [{"key": n.key, "book": n.book, "source": n.source,
-                                 "map": (float(cols[n.key][post.map_index])
-                                         if post.map_index >= 0 else None)}
+                                 "map": (float(cols[n.key][map_index])
+                                         if map_index >= 0 else None)}
                                 for n in ev.numbers],  # fmt: skip
-        "posterior": post.summary(),
+        "posterior": summary,
         "map_values": map_values,
         "map_standing": map_standing,
         "claims": claims,
@@ -120,7 +232,9 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None,
         "numbers": numbers,
         "evaluated": int(len(table)),
     }
-    return BookCalibration(doc, twin, post.accepted)
+    if chains is not None and sampler is not None:
+        doc["members"] = _members(chains, tuple(pr.names))
+    return BookCalibration(doc, twin, stage12.accepted)
 
 
 def calibrate_book(
@@ -134,6 +248,8 @@ def calibrate_book(
     progress: Callable[[int, int, float], None] | None = None,
     proposal: Any = True,
     proposal_draws: int | None = None,
+    chains: Any = True,
+    chain_steps: int | None = None,
     note: Callable[[str], None] | None = None,
 ) -> BookCalibration:
     """Run (or resume) the book calibration into ``out``; returns the result and writes
@@ -141,8 +257,10 @@ def calibrate_book(
     ``samples``, ``seed``, ``block`` default to the declaration's; ``duration`` > 0 caps every
     run (a smoke test: its verdicts are not the book's experiments). ``proposal``: stage 2's
     box sample (:class:`mwip.calibration.proposal.BoxProposal`; ``True``: the declaration's,
-    ``None``: none), ``proposal_draws`` its size (a smoke test); ``note`` receives one line per
-    stage-2 block."""
+    ``None``: none), ``proposal_draws`` its size (a smoke test); ``chains``: stage 3's plan
+    (:class:`mwip.calibration.chains.ChainPlan`; ``True``: the declaration's, ``None``: none),
+    ``chain_steps`` its generations with the burn-in scaled alike (a smoke test); ``note``
+    receives one line per stage-2 block and per stage-3 generation."""
     import pandas as pd
 
     from mwip.calibration.sample import calibration_campaign
@@ -166,7 +284,13 @@ def calibrate_book(
     if box is not None:
         pop = box_sample(table, ev, box, out / "proposal", jobs=jobs or 1, duration=duration,
                          note=note)  # fmt: skip
-    res = analyse(pop, ev, prior_draws=table)
+    plan = (ev.chains if chains is True else chains) if chains is not None else None
+    if plan is not None and chain_steps is not None:
+        burn = max(2, int(round(plan.burn * chain_steps / plan.steps)))
+        plan = replace(plan, steps=max(int(chain_steps), burn + 4), burn=burn)
+    ch = (chain_stage(pop, ev, plan, out / "chains", duration=duration, note=note)
+          if plan is not None else None)  # fmt: skip
+    res = analyse(pop, ev, prior_draws=table, chains=ch)
     res.doc["samples"] = camp.samples
     res.doc["seed"] = camp.seed
     res.doc["duration_cap"] = duration or None
@@ -177,10 +301,16 @@ def calibrate_book(
 
         write_text_atomic(out / "twin.toml", provenance(res.doc) + twin_to_toml(
             res.twin, identified="most probable twin of the book calibration (above)"))
-    ok = res.accepted
-    w = pop["weight"].to_numpy(dtype=float) if "weight" in pop else np.ones(len(ok))
-    post = {n: pop[f"param.{n}"].to_numpy(dtype=float)[ok] for n in res.doc["prior"]["names"]}
-    _figure(table, res.doc, post, w[ok], out / "marginals.png")
+    names = res.doc["prior"]["names"]
+    if ch is not None and "sampler" in res.doc["posterior"]:
+        post = {n: ch.x[:, :, j].reshape(-1) for j, n in enumerate(names)}
+        wk = np.ones(ch.x.shape[0] * ch.x.shape[1])
+    else:
+        ok = res.accepted
+        w = pop["weight"].to_numpy(dtype=float) if "weight" in pop else np.ones(len(ok))
+        post = {n: pop[f"param.{n}"].to_numpy(dtype=float)[ok] for n in names}
+        wk = w[ok]
+    _figure(table, res.doc, post, wk, out / "marginals.png")
     return res
 
 
@@ -208,6 +338,45 @@ def box_sample(table: Any, ev: Evidence, box: Any, store: Path, *, jobs: int = 1
     return pool
 
 
+def chain_stage(pool: Any, ev: Evidence, plan: Any, store: Path, *, duration: float = 0.0,
+                note: Callable[[str], None] | None = None) -> Any:  # fmt: skip
+    """Stage 3 (:mod:`mwip.calibration.chains`): the chains of ``plan`` from the consistent
+    twins of the pool ``pool`` (stages 1-2), conditioned on the facts the pool conditioned
+    on; ``None`` when no twin of the pool is consistent (nothing to start from). Each
+    generation is one batch of twins in this process (the compiled twin loop spreads a batch
+    over the cores)."""
+    from mwip.calibration.chains import run_chains
+    from mwip.calibration.posterior import condition, facts
+    from mwip.calibration.runs import run_names
+    from mwip.calibration.sample import evaluate
+    from mwip.hardware.prior import PRIOR
+
+    names = list(PRIOR.names)
+    bounds = np.asarray(PRIOR.bounds, dtype=float)
+    cols = _cols(pool)
+    runs = run_names()
+    f = facts(cols, runs, ev)
+    post = condition(f, {n: cols[f"param.{n}"] for n in names},
+                     {n: (float(lo), float(hi)) for n, (lo, hi) in zip(names, bounds, strict=True)},
+                     ev, weights=cols.get("weight"))  # fmt: skip
+    if not post.accepted.any():
+        return None
+    mask = np.array([n in set(post.used) for n in f.names], dtype=bool)
+    idx = np.nonzero(post.accepted)[0]
+    keys = [k for k in cols if not k.startswith("param.") and k != "weight"]
+    start = np.column_stack([cols[f"param.{n}"][idx] for n in names])
+    start_cols = {k: cols[k][idx] for k in keys}
+
+    def consistent(c: Any) -> np.ndarray:
+        return np.all(facts(dict(c), runs, ev).S[:, mask], axis=1)
+
+    def run(values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return evaluate(values, jobs=1, block=10**6, duration=duration)
+
+    return run_chains(plan, names, bounds, start, start_cols, run, consistent, store=store,
+                      note=note)  # fmt: skip
+
+
 def provenance(doc: dict[str, Any]) -> str:
     """The comment block a calibrated twin file starts with."""
     p = doc["posterior"]
@@ -222,6 +391,13 @@ def provenance(doc: dict[str, Any]) -> str:
         + (f", dropped {len(p['dropped'])}: {', '.join(p['dropped'])}" if p["dropped"] else "")
         + ".",
     ]
+    s3 = p.get("sampler")
+    if s3:
+        lines.append(f"# Stage 3: {s3['chains']} Metropolis chains x {s3['kept']} kept "
+                     f"generations ({s3['evaluations']} twins evaluated), acceptance "
+                     f"{s3['acceptance']:.2f}, smallest ESS {s3['ess_min']:.0f}, largest "
+                     f"split R-hat {s3['rhat_max']:.3f} ("
+                     + ("converged" if s3["converged"] else "NOT converged") + ").")  # fmt: skip
     return "\n".join(lines) + "\n"
 
 
@@ -238,6 +414,34 @@ def report_text(doc: dict[str, Any]) -> str:
            f"(docs/twin_fit.md): {p['n_prior']}; consistent with the calibration evidence: "
            f"**{p['size']}** (effective size {p.get('effective_size', p['size']):.0f})."]
     # fmt: skip
+    s3 = p.get("sampler")
+    if s3:
+        s12 = p["stage12"]
+        out += ["", "## Stage 3: Markov chains in the conditioned set", "",
+                f"Stages 1-2 left {s12['size']} consistent twin(s) (effective size "
+                f"{s12['effective_size']:.0f}). {s3['chains']} random-walk Metropolis chains "
+                "started there and sampled the same posterior (the prior restricted to the "
+                "twins meeting the conditioned facts; mwip/calibration/chains.py): "
+                f"{s3['burn']} generations of adapting burn-in discarded, {s3['kept']} kept "
+                f"per chain, {s3['evaluations']} twins evaluated; acceptance "
+                f"{s3['acceptance']:.3f} (burn-in {s3['acceptance_burn_in']:.3f}). The "
+                f"posterior's members are the {p['size']} kept states; every interval below "
+                "is at its effective sample size (ESS), not at the count. Smallest ESS over "
+                f"the unknowns {s3['ess_min']:.0f}, largest split R-hat "
+                f"{s3['rhat_max']:.3f} (near 1 when the chains agree): "
+                + (f"**converged** (below {s3['converged_below']:g})." if s3["converged"] else
+                   f"**not converged** (the declared threshold is {s3['converged_below']:g}): "
+                   "the chains still remember where they started, the intervals below "
+                   "understate the uncertainty and the verdicts are provisional."),
+                "",
+                "| unknown | ESS | split R-hat |", "|---|---|---|"]
+        out += [f"| {n} | {e:.0f} | {s3['rhat'][n]:.3f} |" for n, e in s3["ess"].items()]
+        b = s3["beyond"]
+        out += ["", (f"A twin the chains evaluated met more facts than those conditioned on: "
+                     f"{', '.join(b['extra'])} ({b['count']} proposals). The conditioning "
+                     "stays that of stages 1-2 (declared before the chains ran)."
+                     if b["extra"] else "No twin the chains evaluated met a fact beyond those "
+                     "conditioned on.")]  # fmt: skip
     if p["conflicts"]:
         out += ["", "The calibration facts conflict: no draw satisfies them all. Smallest "
                 "conflicting sets:"]
@@ -249,11 +453,14 @@ def report_text(doc: dict[str, Any]) -> str:
     out += [f"| {r} | {_pct(v)} |" for r, v in doc["standing_in_prior"].items()]
     out += ["", "## Marginals", "",
             "| unknown | prior | posterior 5-50-95 % | identified |", "|---|---|---|---|"]
+    unsure = bool(s3) and not s3["converged"]
     for name, m in p["marginals"].items():
         post = (f"{m['q05']:.4g} - {m['median']:.4g} - {m['q95']:.4g}" if "median" in m
                 else "n/a")  # fmt: skip
-        out.append(f"| {name} | {m['prior'][0]:g} .. {m['prior'][1]:g} | {post} | "
-                   f"{'yes' if m['identified'] else 'no'} |")  # fmt: skip
+        ident = "yes" if m["identified"] else "no"
+        if unsure and m["identified"]:
+            ident = "yes, provisional (chains not converged)"
+        out.append(f"| {name} | {m['prior'][0]:g} .. {m['prior'][1]:g} | {post} | {ident} |")
     c = doc["claim_counts"]
     out += ["", "## Held-out claims", "",
             f"{c['holds']} hold, {c['fails']} fail, {c['undecided']} undecided "

@@ -161,30 +161,34 @@ def judge(
     map_index: int,
     decided: float,
     weights: NDArray[np.float64] | None = None,
+    ess: Mapping[str, float] | None = None,
 ) -> list[dict[str, Any]]:
     """Each claim across the posterior (``accepted`` draws, importance ``weights`` against the
     prior, default 1): its weighted fraction and the Wilson 95 % interval at Kish's
     effective size ``n_eff = (sum w)^2 / sum w^2`` (rounded; ``k = fraction n_eff``), verdict
     (holds / fails / undecided by ``decided``), the deciding unknown of an undecided claim, and
-    the verdict on the most probable member ``map_index``."""
+    the verdict on the most probable member ``map_index``. ``ess``: each claim's effective
+    size where the draws are a Markov chain sample (:mod:`mwip.calibration.diagnostics`),
+    used instead of Kish's."""
     from mwip.campaign.stats import wilson
 
     w_all = np.ones(len(accepted)) if weights is None else np.asarray(weights, dtype=float)
     wa = w_all[accepted]
-    ess = int(round(wa.sum() ** 2 / np.sum(wa * wa))) if wa.size else 0
+    kish = int(round(wa.sum() ** 2 / np.sum(wa * wa))) if wa.size else 0
     out = []
     for c in CLAIMS:
         v = np.asarray(verdicts[c.key], dtype=bool)
         va = v[accepted]
         n = int(va.size)
         k = int(va.sum())
+        n_eff = kish if ess is None else int(round(ess[c.key]))
         entry: dict[str, Any] = {"study": c.study, "id": c.id, "text": c.text, "n": n,
-                                 "holds_in": k, "effective_n": ess}  # fmt: skip
+                                 "holds_in": k, "effective_n": n_eff}  # fmt: skip
         if n == 0:
             entry.update(verdict="no posterior", fraction=None, interval=None)
         else:
             frac = float(np.sum(wa * va) / np.sum(wa))
-            ne = max(ess, 1)
+            ne = max(n_eff, 1)
             lo, hi = wilson(min(ne, max(0, int(round(frac * ne)))), ne)
             entry.update(fraction=frac, interval=[float(lo), float(hi)])
             if frac >= decided:

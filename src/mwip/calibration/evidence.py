@@ -2,7 +2,8 @@
 
 The file was written before any fit and is read, never computed: the calibration facts
 (every Chapter 6 run stands; Table 6.4's Case 1 SMC numbers), the acceptance tolerance, the
-verdict thresholds across the posterior and the prior sample (size, seed, block).
+verdict thresholds across the posterior and the prior sample (size, seed, block); then its
+dated revisions: stage 2's box proposal and stage 3's Markov chains.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ class Evidence:
     block: int
     source: dict[str, Any]
     proposal: Any = None  # mwip.calibration.proposal.BoxProposal, or None
+    chains: Any = None  # mwip.calibration.chains.ChainPlan, or None
 
     @property
     def log_tolerance(self) -> float:
@@ -62,6 +64,18 @@ def _proposal(entry: Any) -> Any:
         return None
     box = {str(k): (float(v[0]), float(v[1])) for k, v in entry.get("box", {}).items()}
     return BoxProposal(draws=int(entry["draws"]), seed=int(entry["seed"]), box=box)
+
+
+def _chains(entry: Any) -> Any:
+    from mwip.calibration.chains import ChainPlan
+
+    if entry is None:
+        return None
+    return ChainPlan(chains=int(entry["chains"]), steps=int(entry["steps"]),
+                     burn=int(entry["burn"]), seed=int(entry["seed"]),
+                     scale=float(entry["scale"]), accept=float(entry["accept"]),
+                     adapt_every=int(entry["adapt_every"]),
+                     converged=float(entry["converged"]))  # fmt: skip
 
 
 def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
@@ -88,6 +102,7 @@ def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
             block=int(s["block"]),
             source=data,
             proposal=_proposal(data.get("proposal")),
+            chains=_chains(data.get("chains")),
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"evidence file {str(path)!r}: missing or bad entry {exc}") from None

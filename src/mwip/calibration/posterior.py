@@ -144,13 +144,25 @@ def consistent_subset(f: Facts) -> tuple[NDArray[np.bool_], list[list[str]]]:
 
 def condition(f: Facts, params: Mapping[str, NDArray[np.float64]],
               bounds: Mapping[str, tuple[float, float]], ev: Evidence, *,
-              weights: NDArray[np.float64] | None = None) -> Posterior:  # fmt: skip
+              weights: NDArray[np.float64] | None = None,
+              used: Sequence[str] | None = None,
+              conflicts: Sequence[Sequence[str]] = ()) -> Posterior:  # fmt: skip
     """Condition the draws (their unknowns ``params``: name -> (N,), prior ``bounds``) on the
     facts ``f``; see the module docstring. ``weights`` are the draws' importance weights
-    against the prior (default 1: prior draws; :mod:`mwip.calibration.proposal`)."""
+    against the prior (default 1: prior draws; :mod:`mwip.calibration.proposal`). ``used``:
+    the facts to condition on, decided elsewhere (stage 3's chains sample the posterior that
+    stages 1-2 conditioned, :mod:`mwip.calibration.chains`), with their ``conflicts``."""
     S = f.S
     n = S.shape[0]
-    mask, conflicts = consistent_subset(f)
+    if used is None:
+        mask, found = consistent_subset(f)
+    else:
+        unknown = sorted(set(used) - set(f.names))
+        if unknown:
+            raise ValueError(f"used: {unknown[0]!r} is not a calibration fact")
+        mask = np.array([nm in set(used) for nm in f.names], dtype=bool)
+        found = [list(c) for c in conflicts]
+    conflicts = found
     w_all = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
     accepted = np.all(S[:, mask], axis=1) if n else np.zeros(0, dtype=bool)
     num_used = np.array([mask[len(f.names) - f.log_err.shape[1] + k]

@@ -203,12 +203,15 @@ def run_batch(
     nominal: Params | None = None,
     duration: float | None = None,
     progress: Callable[[str], None] | None = None,
+    drive_logs: bool = False,
 ) -> dict[str, NDArray[np.float64]]:
     """Every run of ``runs`` on the batch of twins ``values`` (name -> (N,) array of the
     prior's unknowns, the rest from ``twin``, default the default twin), on the robot ``plant``
     (default Table 6.1) with designs on ``nominal`` (default Table 6.2). ``duration``
-    overrides the studies' durations (a smoke test; windows are clipped to it). Returns
-    columns ``<run name>.<metric>`` of (N,) arrays."""
+    overrides the studies' durations (a smoke test; windows are clipped to it). The runs need
+    only the measured signals, so they run in the compiled twin loop (``drive_logs=False``
+    of :func:`mwip.hardware.twin.run_on_twin`; ``True``: the Python loop, equal to round-off).
+    Returns columns ``<run name>.<metric>`` of (N,) arrays."""
     from mwip.studies.registry import robot as book_robot
 
     tw = Twin() if twin is None else twin
@@ -235,7 +238,8 @@ def run_batch(
         q0 = np.tile([0.0, float(cfg["theta0"]), 0.0], (n, 1))
         res = run_on_twin(
             ctrl, case, twin=tw, base=base, values=values, q0=q0, duration=float(cfg["duration"]),
-            record_every=int(cfg["record_every"]), seed=int(cfg["seed"]), **kw,
+            record_every=int(cfg["record_every"]), seed=int(cfg["seed"]),
+            drive_logs=drive_logs, **kw,
         )  # fmt: skip
         for k, v in _metrics(run, res, cfg, nom).items():
             cols[f"{run.name}.{k}"] = np.asarray(v, dtype=float)

@@ -94,10 +94,14 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
 @click.option("--stage2-draws", "stage2", type=click.IntRange(0, 100_000), default=None,
               help="--evidence: twins of stage 2, the declared box proposal (default: the "
               "declaration's, 1000; 0: none).")
+@click.option("--chain-steps", "chain_steps", type=click.IntRange(0, 100_000), default=None,
+              help="--evidence: generations of stage 3's Markov chains, burn-in scaled alike "
+              "(default: the declaration's, 90; 0: no chains).")
 def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: str | None,
              fix: tuple[str, ...], validate: Path | None, segment: int,
              force: bool, evidence: str | None, samples: int | None, seed: int | None,
-             jobs: int, duration: float, stage2: int | None) -> None:  # fmt: skip
+             jobs: int, duration: float, stage2: int | None,
+             chain_steps: int | None) -> None:  # fmt: skip
     """Identify the twin from robot logs (docs/twin_fit.md), or with --evidence book the
     book's robot from the book's evidence."""
     from mwip import outdir
@@ -105,7 +109,7 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
     if evidence is not None:
         if logs:
             raise click.UsageError("give LOG files or --evidence book, not both")
-        _fit_book(out, force, samples, seed, jobs, duration, stage2)
+        _fit_book(out, force, samples, seed, jobs, duration, stage2, chain_steps)
         return
     if not logs:
         raise click.UsageError("missing LOG files (or --evidence book)")
@@ -149,7 +153,8 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
 
 
 def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, jobs: int,
-              duration: float, stage2: int | None = None) -> None:  # fmt: skip
+              duration: float, stage2: int | None = None,
+              chain_steps: int | None = None) -> None:  # fmt: skip
     """``twin fit --evidence book``: :func:`mwip.calibration.book.calibrate_book` into ``out``
     (a folder of mwip's own: a rerun resumes the prior draws)."""
     from mwip import outdir
@@ -158,11 +163,16 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
     target = outdir.check(out, force, command="twin fit")
     outdir.claim(target, "twin fit")
     res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration,
-                         proposal_draws=stage2, note=lambda line: click.echo(line, err=True))
+                         proposal_draws=stage2, chains=None if chain_steps == 0 else True,
+                         chain_steps=chain_steps or None,
+                         note=lambda line: click.echo(line, err=True))
     # fmt: skip
     p, c = res.doc["posterior"], res.doc["claim_counts"]
-    click.echo(f"twins evaluated {res.doc['evaluated']} (prior draws and stage 2), posterior "
-               f"{p['size']} (effective {p['effective_size']:.0f})"
+    s3 = p.get("sampler")
+    chains = (f"; stage 3: {s3['chains']} chains x {s3['kept']} kept generations, "
+              f"{s3['evaluations']} twins evaluated" if s3 else "")
+    click.echo(f"twins evaluated {res.doc['evaluated']} (prior draws and stage 2{chains}), "
+               f"posterior {p['size']} (effective {p['effective_size']:.0f})"
                + (f" (conditioned on {len(p['used'])} facts; dropped: {len(p['dropped'])})"
                   if p["dropped"] else ""))  # fmt: skip
     click.echo(f"held-out claims: {c['holds']} hold, {c['fails']} fail, {c['undecided']} "

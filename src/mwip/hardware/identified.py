@@ -87,9 +87,17 @@ def status(twin: Any = None) -> dict[str, Any]:
               for c in doc.get("claims", [])]  # fmt: skip
     n_up, n_runs = sum(bool(v) for v in stand.values()), len(stand)
     size = int(p.get("size", 0) or 0)
-    which = ("the only twin found" if size == 1 else f"the most probable of {size} twins")
-    text = (f"the default twin is {which} consistent with "
-            f"the book's calibration evidence (effective {p.get('effective_size', 0):.0f}; "
+    s3 = p.get("sampler")
+    if s3:  # stage 3: every chain state ties with the default twin for most probable
+        which = (f"the first twin found consistent with the book's calibration evidence, of a "
+                 f"posterior of {size} Markov chain states (effective "
+                 f"{p.get('effective_size', 0):.0f}, "
+                 + ("converged" if s3.get("converged") else "not converged") + ";")
+    else:
+        which = ("the only twin found" if size == 1 else f"the most probable of {size} twins")
+        which += (f" consistent with the book's calibration evidence (effective "
+                  f"{p.get('effective_size', 0):.0f};")  # fmt: skip
+    text = (f"the default twin is {which} "
             f"{len(p.get('used', []))} facts conditioned on, {len(p.get('dropped', []))} met "
             f"by no twin); {n_up} of {n_runs} Chapter 6 runs stand on it")  # fmt: skip
     return {"identified": True, "text": text, "provenance": provenance(),

@@ -404,7 +404,11 @@ class TwinSensor:
     rates, odometry for ``x, y``, per row as the elements say (``encoder``, ``fusion``,
     ``accel_motion``, ``imu_noise``, ``imu_bias``); a row without ``encoder`` gets the true
     ``psi, alpha``, rates and position, one without ``fusion`` the true ``theta, theta'``.
-    ``last`` holds the raw readings of the last call."""
+    ``last`` holds the raw readings of the last call. ``record_measurement``: the compiled
+    twin loop also records the measurement as the log ``y_meas`` (set by :func:`run_on_twin`
+    with ``drive_logs=False``)."""
+
+    record_measurement: bool = False
 
     def __init__(
         self, plant: Params = REAL, twin: Twin | None = None, *,
@@ -546,6 +550,21 @@ class _Logged:
         return out
 
 
+class _Measured(_Logged):
+    """:class:`_Logged` that lets a packed controller run in the compiled twin loop
+    (:mod:`mwip.sim.twin_loop`, which then records ``y_meas`` itself; the drive and IMU logs
+    are the Python loop's only): ``packed_law`` is the controller's own, unless the
+    controller's class overrides what the Python loop calls below the class that packs it."""
+
+    def packed_law(self) -> Any:
+        from mwip.sim.engine import _overrides_below_packed_law
+
+        get = getattr(self._c, "packed_law", None)
+        if get is None or _overrides_below_packed_law(type(self._c)):
+            return None
+        return get()
+
+
 def case_plant(
     case: int, base: Params = REAL, twin: Twin | None = None,
     values: Mapping[str, Any] | None = None,
@@ -596,6 +615,7 @@ def run_on_twin(
     progress: Callable[[int], None] | None = None,
     values: Mapping[str, ArrayLike] | None = None,
     base: Params | None = None,
+    drive_logs: bool = True,
 ) -> SimResult:
     """Run ``controller`` (any mwip controller, unchanged) on the twin for a Chapter 6 case.
 
@@ -615,7 +635,10 @@ def run_on_twin(
     ``torque`` (whole motor torque), ``limited``, ``friction`` and the IMU's raw tilt and gyro
     beside the controller's own logs and the applied torque ``u_applied`` (the held part: a
     voltage drive's back-EMF torque is in the plant's ``Db``). ``progress(k)`` is called as
-    samples complete (as :func:`mwip.sim.engine.simulate`).
+    samples complete (as :func:`mwip.sim.engine.simulate`). ``drive_logs=False`` keeps of the
+    twin's logs only ``y_meas`` and ``u_applied``, so that a controller with a packed law runs
+    in the compiled twin loop (:mod:`mwip.sim.twin_loop`; the same arithmetic, equal to the
+    Python loop to round-off, tests/test_twin_loop.py).
     """
     tw = twin if twin is not None else default_twin()
     rows = None if rows is None else [list(r) for r in rows]
@@ -655,8 +678,11 @@ def run_on_twin(
     common = batch if common_noise is None else common_noise
     sensor = tw.sensor(p, rows, common_noise=common, values=vals)
     actuator = tw.actuator(p, rows, vals)
+    if not drive_logs and isinstance(sensor, TwinSensor):
+        sensor.record_measurement = True
+    wrap = _Logged if drive_logs else _Measured
     return simulate(
-        _Logged(controller, sensor, actuator), p, q0=q0, qdot0=qdot0, duration=duration,
+        wrap(controller, sensor, actuator), p, q0=q0, qdot0=qdot0, duration=duration,
         Ts=tw.Ts, dt=tw.dt, disturbance=dist, sensor=sensor, actuator=actuator,
         record_every=record_every, seed=seed, progress=progress,
     )  # fmt: skip

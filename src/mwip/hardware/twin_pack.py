@@ -140,7 +140,8 @@ def prepare(sensor: Any, actuator: Any, n: int, n_samples: int) -> TwinRun | Non
 class TwinRun:
     """A prepared compiled twin run (:func:`prepare`): called by the engine with the packed law,
     the disturbance by chunks of samples and the run's arrays, it fills them and returns the
-    extra log ``u_applied``."""
+    extra log ``u_applied``, and ``y_meas`` (the measurement the law read) when the sensor's
+    ``record_measurement`` is set."""
 
     def __init__(self, sensor: Any, actuator: Any, n: int, n_samples: int) -> None:
         self.sensor, self.actuator, self.n, self.n_samples = sensor, actuator, n, n_samples
@@ -164,7 +165,8 @@ class TwinRun:
         m = 1 if sensor.imu.common else n
         per_sample = tau(0, 1).size + (4 * m if sensor.any else 0)
         chunk = max(16, tl.CHUNK_NUMBERS // per_sample)
-        u_app = np.full((n, rec_idx.size, 2), np.nan)
+        measured = bool(getattr(sensor, "record_measurement", False))
+        u_app = np.full((n, rec_idx.size, 10 if measured else 2), np.nan)
         M0 = np.ascontiguousarray(first, dtype=float)
         RUN = np.zeros((n, 3), dtype=np.int64)  # next record row, left, disturbance column
         RUN[:, 2] = column
@@ -182,4 +184,6 @@ class TwinRun:
                np.int64(k0), np.int64(k1), RUN)  # fmt: skip
             if bool(RUN[:, 1].all()):
                 break
+        if measured:  # the log run_on_twin's wrapper keeps in the Python loop
+            return {"u_applied": u_app[:, :, :2].copy(), "y_meas": u_app[:, :, 2:].copy()}
         return {"u_applied": u_app}

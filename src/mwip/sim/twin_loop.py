@@ -326,6 +326,9 @@ def _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P,
             us[i, row, 1] = u1[0, 1]
             u_app[i, row, 0] = ua[0]
             u_app[i, row, 1] = ua[1]
+            if u_app.shape[2] >= 10:  # the measurement the law read, on request
+                for j in range(8):
+                    u_app[i, row, 2 + j] = ym[0, j]
             for j in range(lg.shape[0]):
                 logs[i, row, j] = lg[j]
             row += 1
@@ -358,8 +361,9 @@ def run(y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P, X, M0, 
     ``max(k0, 1) ..``, ``SP`` / ``DP`` (1 or N, ...) the sensor's and drive's parameters,
     ``SS`` / ``C0`` / ``DS`` (N, ...) their states, ``RUN`` (N, 3) int64 per robot: the next
     record row, 1 once it has left the run (both updated in place) and the column of ``tau``
-    it reads; ``u_app`` (N, R, 2) the applied torques recorded. A robot that stops is
-    recorded at the next sample instant and then left."""
+    it reads; ``u_app`` (N, R, 2) the applied torques recorded, or (N, R, 10): then also
+    the measurement ``y_m`` the law read at each recorded sample (columns 2-9). A robot that
+    stops is recorded at the next sample instant and then left."""
     running = 0
     for i in range(y.shape[0]):
         _run_one(i, y, coef, tau, method, h, n_sub, n_samples, Ts, rec_idx, code, P, X, M0, Z,
