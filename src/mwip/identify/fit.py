@@ -5,10 +5,14 @@ replayed open-loop over a whole log: each log is cut into segments of ``segment`
 every segment starts from its own state (nuisance parameters: the wheel speeds at its first
 sample and at the sample before, whose back-EMF compensation the delayed first duty holds;
 the angle offsets are projected out) and all segments are integrated in one batch
-(:func:`mwip.identify.model.stand_rollout`). The global parameters and the nuisances are fitted
-together by bounded :func:`scipy.optimize.least_squares` (sparse Jacobian by finite
-differences, parameters scaled to their bounds), after a coarse search over the gear ratio,
+(:func:`mwip.identify.model.stand_rollout`). The global parameters (scaled to their bounds)
+and the nuisances are fitted together by variable projection (:mod:`mwip.identify.solve`: the
+nuisances eliminated segment by segment, bounded :func:`scipy.optimize.least_squares` with the
+exact trust-region solver over the globals only), after a coarse search over the gear ratio,
 the compensation and the current limit (a kink: started at its centre and at its upper bound).
+Stage 1 fits the smooth model (no PWM quantisation); stage 2, for a quantising driver, refits
+with the PWM rounding errors of the stage-1 trajectories held (the quantised model on that
+trajectory, smooth in the parameters; docs/twin_fit.md).
 
 Experiments (the ``mode`` column) and what they inform (docs/twin_fit.md):
 
@@ -263,7 +267,7 @@ def _informed(logs: Sequence[Log]) -> dict[str, str]:
 
 #: Stage 2 (PWM quantisation): at most this many refits with the rounding errors held, until
 #: none moves by more than :data:`_QUANT_TOL` of a duty step.
-_QUANT_ITERS = 3
+_QUANT_ITERS = 1
 _QUANT_TOL = 0.01
 
 #: Nuisances per segment: the wheel speeds at its first sample and their change over the
@@ -388,8 +392,8 @@ def _descend(res: Residual, jac_res: Residual | None, x: NDArray[np.float64],
 
     red = Reduced(res, np.array(z, dtype=float), jac_res, warm)
     out = least_squares(red.fun, np.clip(x, 0.0, 1.0), jac=red.jac, bounds=(0.0, 1.0),
-                        method="trf", tr_solver="exact", x_scale="jac", xtol=1e-10,
-                        ftol=1e-10, gtol=1e-10, max_nfev=nfev)  # fmt: skip
+                        method="trf", tr_solver="exact", x_scale="jac", xtol=1e-8,
+                        ftol=1e-8, gtol=1e-8, max_nfev=nfev)  # fmt: skip
     return out, red
 
 
@@ -455,7 +459,7 @@ def _fit_stand(
             xg, warm = out.x, red.warm
         else:
             xg = starts[0]
-    out, red = _descend(res1, None, xg, z0, 100, warm)
+    out, red = _descend(res1, None, xg, z0, 60, warm)
     xg, warm = out.x, red.warm
     z, r, Jn = red.state(xg)
     if n_stages == 2:
@@ -466,7 +470,7 @@ def _fit_stand(
         q = quant.rounding_errors(xg, z)
         for _ in range(_QUANT_ITERS):
             prob = _Problem(seg, smooth.known, free, values, qerr=q)
-            out, red = _descend(count.wrap(prob), None, xg, z0, 100, z)
+            out, red = _descend(count.wrap(prob), None, xg, z0, 30, z)
             xg = out.x
             z, r, Jn = red.state(xg)
             q_new = quant.rounding_errors(xg, z)

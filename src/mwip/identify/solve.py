@@ -109,7 +109,7 @@ def project_out(Jn: NDArray[np.float64], A: NDArray[np.float64]) -> NDArray[np.f
 
 def nuisance_solve(
     res: Residual, x: NDArray[np.float64], z0: NDArray[np.float64],
-    jac_res: Residual | None = None, max_iter: int = 20,
+    jac_res: Residual | None = None, max_iter: int = 12,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
     """Minimise every segment's ``|r_s(x, z_s)|^2`` over its nuisances, ``x`` held: batched
     Levenberg-Marquardt (Marquardt's scaling ``diag(J^T J)``), one damping, one acceptance
