@@ -5,10 +5,14 @@ replayed open-loop over a whole log: each log is cut into segments of ``segment`
 every segment starts from its own state (nuisance parameters: the wheel speeds at its first
 sample and at the sample before, whose back-EMF compensation the delayed first duty holds;
 the angle offsets are projected out) and all segments are integrated in one batch
-(:func:`mwip.identify.model.stand_rollout`). The global parameters and the nuisances are fitted
-together by bounded :func:`scipy.optimize.least_squares` (sparse Jacobian by finite
-differences, parameters scaled to their bounds), after a coarse search over the gear ratio,
+(:func:`mwip.identify.model.stand_rollout`). The global parameters (scaled to their bounds)
+and the nuisances are fitted together by variable projection (:mod:`mwip.identify.solve`: the
+nuisances eliminated segment by segment, bounded :func:`scipy.optimize.least_squares` with the
+exact trust-region solver over the globals only), after a coarse search over the gear ratio,
 the compensation and the current limit (a kink: started at its centre and at its upper bound).
+Stage 1 fits the smooth model (no PWM quantisation); stage 2, for a quantising driver, refits
+with the PWM rounding errors of the stage-1 trajectories held (the quantised model on that
+trajectory, smooth in the parameters; docs/twin_fit.md).
 
 Experiments (the ``mode`` column) and what they inform (docs/twin_fit.md):
 
@@ -42,14 +46,19 @@ from numpy.typing import NDArray
 from mwip.identify.bounds import BOUNDS, NAMES, centre
 from mwip.identify.logs import Log, LogError
 from mwip.identify.model import STAND_PARAMS, Known, stand_rollout
+from mwip.identify.solve import (
+    Reduced,
+    Residual,
+    global_jacobian,
+    nuisance_solve,
+    project_out,
+)
 
 __all__ = ["FitResult", "Segments", "fit", "stand_segments", "predict_error", "whiteness"]
 
 #: Encoder residual scale (rad) the least-squares problem is written in.
 _RES = 1e-3
 _MAX_LAG = 20
-#: Relative finite-difference step (of the scaled variables).
-_STEP = 1e-4
 
 
 @dataclass
@@ -133,15 +142,16 @@ def whiteness(r: NDArray[np.float64], max_lag: int = _MAX_LAG) -> float:
 
 
 def cluster_covariance(
-    J: NDArray[np.float64], r: NDArray[np.float64], clusters: int, offsets: int = 0,
-    local: int = 0,
+    A: NDArray[np.float64], N: NDArray[np.float64], r: NDArray[np.float64], offsets: int = 0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Cluster-robust (sandwich) covariance of a least-squares estimate whose residuals are
     correlated within clusters and independent between them: the segments.
 
-    The rows of ``J`` (m, P) and ``r`` (m,) form ``G = clusters`` equal consecutive blocks
-    ``s`` (``J_s``, ``r_s``); each block's rows cycle over ``offsets`` signals whose mean was
-    projected out of ``r`` (the wheel-angle offsets: projector ``P_s``). With the bread
+    Cluster ``s`` has the residuals ``r_s`` (row ``s`` of ``r`` (G, n)), the Jacobian of the
+    globals ``A_s`` (``A`` (G, n, g)) and of its own nuisances ``N_s`` (``N`` (G, n, k)),
+    ``J_s = [A_s, N_s]`` its rows of the full Jacobian; its rows cycle over ``offsets``
+    signals whose mean was projected out of ``r`` (the wheel-angle offsets: projector
+    ``P_s``). With the bread
     ``B = (J^T J)^+``, the block's leverage ``H_s = J_s B J_s^T + P_s`` and the scores
     ``u_s = J_s^T (I - H_s)^{-1} r_s``,
 
@@ -160,47 +170,35 @@ def cluster_covariance(
     of the drive parameters on synthetic truth (development seeds 100-119, one earlier state
     of the fit, the same fits for each; docs/twin_fit.md): CR1 0.79, CR2
     (``(I - H_s)^{-1/2}``) 0.87, CR3 0.92. ``V`` is in ``J``'s column units per unit of
-    ``r``. The first ``P - local G`` columns are the globals, then ``local`` columns per
-    cluster (its nuisances), profiled out of the globals' columns cluster by cluster;
-    returns ``(V, B)`` of the globals.
+    ``r``. Computed for the globals only, by block elimination: ``Q_s`` an orthonormal basis
+    of ``N_s``, ``A~_s = (I - Q_s Q_s^T) A_s``, ``B = (sum_s A~_s^T A~_s)^-1`` (the globals'
+    block of ``(J^T J)^-1``), ``H_s = A~_s B A~_s^T + Q_s Q_s^T + P_s``,
+    ``u_s = A~_s^T (I - H_s)^-1 r_s``: the same numbers as the full matrices, without
+    inverting the ill-conditioned full normal matrix. Returns ``(V, B)`` of the globals.
     """
-    m, P = J.shape
-    G = int(clusters)
-    n = m // G
-    g = P - local * G  # the global columns come first, then ``local`` per cluster
+    G, n, g = A.shape
     Pe = np.zeros((n, n))
     if offsets:
         for j in range(offsets):
             e = np.zeros(n)
             e[j::offsets] = 1.0
             Pe += np.outer(e, e) / float(e @ e)
-    # the globals' bread with each cluster's own columns profiled out (block elimination, so
-    # no ill-conditioned full normal matrix is inverted: a start speed's change barely
-    # matters when the delay or the compensation is small)
-    At, Qs = [], []
-    for s in range(G):
-        rows = slice(s * n, (s + 1) * n)
-        A = J[rows, :g]
-        Nl = J[rows, g + s * local:g + (s + 1) * local]
-        if local:
-            U, sv, _ = np.linalg.svd(Nl, full_matrices=False)
-            Q = U[:, sv > 1e-10 * max(float(sv.max(initial=0.0)), 1e-300)]
-        else:
-            Q = np.zeros((n, 0))
-        At.append(A - Q @ (Q.T @ A))
-        Qs.append(Q)
-    info = sum((a.T @ a for a in At), np.zeros((g, g)))
+    Q = np.zeros((G, n, 0))
+    if N.shape[2]:
+        from mwip.identify.solve import _basis
+
+        Q = _basis(N)
+    At = project_out(N, A) if N.shape[2] else A
+    info = np.einsum("sni,snj->ij", At, At)
     d = np.sqrt(np.maximum(np.diag(info), 0.0))
     d = np.where(d > 0, d, 1.0)
     B = np.linalg.pinv(info / np.outer(d, d), rcond=1e-13, hermitian=True) / np.outer(d, d)
-    eye = np.eye(n)
-    M = np.zeros((g, g))
-    for s in range(G):
-        a, Q, rs = At[s], Qs[s], r[s * n:(s + 1) * n]
-        lam, U = np.linalg.eigh(eye - a @ B @ a.T - Q @ Q.T - Pe)
-        inv = np.where(lam > 1e-9, 1.0 / np.maximum(lam, 1e-9), 0.0)
-        u = a.T @ (U @ (inv * (U.T @ rs)))
-        M += np.outer(u, u)
+    Mi = (np.eye(n) - At @ B @ At.transpose(0, 2, 1) - Q @ Q.transpose(0, 2, 1) - Pe)
+    lam, U = np.linalg.eigh(Mi)
+    inv = np.where(lam > 1e-9, 1.0 / np.maximum(lam, 1e-9), 0.0)
+    loo = np.einsum("snk,sk->sn", U, inv * np.einsum("snk,sn->sk", U, r))
+    u = np.einsum("sni,sn->si", At, loo)
+    M = u.T @ u
     V: NDArray[np.float64] = (G - 1) / max(G, 1) * (B @ M @ B)
     return V, np.asarray(B, dtype=float)
 
@@ -267,6 +265,11 @@ def _informed(logs: Sequence[Log]) -> dict[str, str]:
     return out
 
 
+#: Stage 2 (PWM quantisation): at most this many refits with the rounding errors held, until
+#: none moves by more than :data:`_QUANT_TOL` of a duty step.
+_QUANT_ITERS = 1
+_QUANT_TOL = 0.01
+
 #: Nuisances per segment: the wheel speeds at its first sample and their change over the
 #: sample before (``w_0 - w_{-1}``), both / 10 rad/s.
 _NUIS = 4
@@ -278,9 +281,12 @@ class _Problem:
     ``(w_0 - w_{-1}) / 10`` (right, left), rad/s."""
 
     def __init__(self, seg: Segments, known: Known, free: Sequence[str],
-                 values: Mapping[str, float]) -> None:  # fmt: skip
+                 values: Mapping[str, float],
+                 qerr: NDArray[np.float64] | None = None) -> None:  # fmt: skip
         self.seg, self.known, self.free = seg, known, list(free)
         self.values = dict(values)
+        #: held PWM rounding errors (S, L, 2) (:func:`~mwip.identify.model.stand_rollout`)
+        self.qerr = qerr
         self.lo = np.array([BOUNDS[n][0] for n in self.free])
         self.span = np.array([BOUNDS[n][1] - BOUNDS[n][0] for n in self.free])
         self.S = seg.n
@@ -290,6 +296,15 @@ class _Problem:
         p = dict(self.values)
         for i, n in enumerate(self.free):
             p[n] = float(self.lo[i] + self.span[i] * x[i])
+        return p
+
+    def params_rows(self, x: NDArray[np.float64]) -> dict[str, Any]:
+        """:meth:`params` of ``x`` (g,), or one set per row of ``x`` (B, g) as (B,) arrays."""
+        if np.ndim(x) == 1:
+            return self.params(x)
+        p: dict[str, Any] = dict(self.values)
+        for i, n in enumerate(self.free):
+            p[n] = self.lo[i] + self.span[i] * x[:, i]
         return p
 
     def split(self, x: NDArray[np.float64]) -> tuple[dict[str, float], NDArray[np.float64],
@@ -306,61 +321,115 @@ class _Problem:
         nu = np.concatenate([self.seg.w0, dw], axis=1) / 10.0
         return np.concatenate([g, nu.ravel()])
 
-    def rollout(self, p: Mapping[str, float], w0: NDArray[np.float64],
-                w_prev: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
-        phi, _ = stand_rollout(p, self.seg.cmd, self.seg.is_duty, w0, self.known,
-                               w_prev=w_prev, cmd_prev2=self.seg.prev2)  # fmt: skip
+    def rollout(self, p: Mapping[str, Any], w0: NDArray[np.float64],
+                w_prev: NDArray[np.float64], idx: Any = slice(None),
+                qerr_out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:  # fmt: skip
+        """Wheel angles (S', L, 2) of the segments ``idx`` (default all; repeats allowed)."""
+        sg = self.seg
+        prev2 = None if sg.prev2 is None else sg.prev2[idx]
+        q = None if self.qerr is None else self.qerr[idx]
+        phi, _ = stand_rollout(p, sg.cmd[idx], sg.is_duty[idx], w0, self.known,
+                               w_prev=w_prev, cmd_prev2=prev2, qerr=q,
+                               qerr_out=qerr_out)  # fmt: skip
         return phi
 
-    def residual_arr(self, p: Mapping[str, float], w0: NDArray[np.float64],
-                     w_prev: NDArray[np.float64]) -> NDArray:  # fmt: skip
-        r = self.seg.enc - self.rollout(p, w0, w_prev)
+    def residual_arr(self, p: Mapping[str, Any], w0: NDArray[np.float64],
+                     w_prev: NDArray[np.float64], idx: Any = slice(None)) -> NDArray:  # fmt: skip
+        r = self.seg.enc[idx] - self.rollout(p, w0, w_prev, idx)
         return r - r.mean(axis=1, keepdims=True)
 
     def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         p, w0, wp = self.split(x)
         return (self.residual_arr(p, w0, wp) / _RES).ravel()
 
-    def sparsity(self) -> Any:
-        from scipy.sparse import lil_matrix
+    def segment_residual(self, xg: NDArray[np.float64], z: NDArray[np.float64],
+                         idx: Any = slice(None)) -> NDArray[np.float64]:  # fmt: skip
+        """Residuals (S', 2 L) of the segments ``idx`` (default all) for the scaled globals
+        ``xg`` (g,) or one row each (S', g) and their nuisances ``z`` (S', :data:`_NUIS`), the
+        form :mod:`mwip.identify.solve` takes: any batch of (globals, segment) pairs is one
+        rollout."""
+        nu = 10.0 * np.asarray(z, dtype=float)
+        r = self.residual_arr(self.params_rows(xg), nu[:, :2], nu[:, :2] - nu[:, 2:], idx)
+        return (r / _RES).reshape(nu.shape[0], -1)
 
-        g = len(self.free)
-        m = self.S * self.L * 2
-        A = lil_matrix((m, g + _NUIS * self.S), dtype=int)
-        A[:, :g] = 1
-        for s in range(self.S):
-            A[s * self.L * 2:(s + 1) * self.L * 2, g + _NUIS * s:g + _NUIS * (s + 1)] = 1
-        return A.tocsr()
+    def rounding_errors(self, xg: NDArray[np.float64],
+                        z: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
+        """The PWM rounding errors (S, L, 2) along the quantised model's trajectories."""
+        nu = 10.0 * np.asarray(z, dtype=float)
+        out = np.zeros((self.S, self.L, 2))
+        self.rollout(self.params(xg), nu[:, :2], nu[:, :2] - nu[:, 2:], qerr_out=out)
+        return out
 
 
-def _counting(prob: _Problem, stage: str, progress: Callable[[str], None] | None) -> Any:
-    """``prob`` that says, every 100 evaluations, how far the stage has come."""
-    if progress is None:
-        return prob
-    n = [0]
+class _Progress:
+    """Counts the model evaluations of a stage and says every 100 how far it has come."""
 
-    def fun(x: NDArray) -> NDArray:
-        r = prob(x)
-        n[0] += 1
-        if n[0] % 100 == 0:
-            progress(f"fit: {stage}: {n[0]} model evaluations, residual RMS "
-                     f"{float(np.sqrt(np.mean(r**2))):.4g}")  # fmt: skip
-        return r
+    def __init__(self, stage: str, progress: Callable[[str], None] | None) -> None:
+        self.stage, self.progress, self.n = stage, progress, 0
 
-    return fun
+    def wrap(self, prob: _Problem) -> Residual:
+        """``prob.segment_residual``, counted."""
+        if self.progress is None:
+            return prob.segment_residual
+
+        def fun(x: NDArray, z: NDArray, idx: Any = slice(None)) -> NDArray:
+            r = prob.segment_residual(x, z, idx)
+            self.n += 1
+            if self.n % 100 == 0 and self.progress is not None:
+                self.progress(f"fit: {self.stage}: {self.n} model evaluations, residual RMS "
+                              f"{float(np.sqrt(np.mean(r**2))):.4g}")  # fmt: skip
+            return r
+
+        return fun
+
+
+def _descend(res: Residual, jac_res: Residual | None, x: NDArray[np.float64],
+             z: NDArray[np.float64], nfev: int,
+             warm: NDArray[np.float64] | None = None) -> tuple[Any, Reduced]:  # fmt: skip
+    """Bounded least squares over the globals of the reduced problem (:mod:`.solve`): the
+    nuisances from the first guesses ``z`` and from ``warm``."""
+    from scipy.optimize import least_squares
+
+    red = Reduced(res, np.array(z, dtype=float), jac_res, warm)
+    out = least_squares(red.fun, np.clip(x, 0.0, 1.0), jac=red.jac, bounds=(0.0, 1.0),
+                        method="trf", tr_solver="exact", x_scale="jac", xtol=1e-8,
+                        ftol=1e-8, gtol=1e-8, max_nfev=nfev)  # fmt: skip
+    return out, red
+
+
+@dataclass
+class _StandFit:
+    """The stand fit at its optimum: parameters, scaled globals ``x``, nuisances ``z``
+    (S, :data:`_NUIS`), residuals ``r`` (S, n), the smooth model's Jacobians of the globals
+    ``A`` (S, n, g) and of each segment's nuisances ``Jn`` (S, n, :data:`_NUIS`)."""
+
+    p: dict[str, float]
+    x: NDArray[np.float64]
+    z: NDArray[np.float64]
+    r: NDArray[np.float64]
+    A: NDArray[np.float64]
+    Jn: NDArray[np.float64]
+    prob: _Problem
 
 
 def _fit_stand(
     seg: Segments, known: Known, free: Sequence[str], values: Mapping[str, float], search: bool,
     progress: Callable[[str], None] | None = None,
-) -> tuple[dict[str, float], NDArray, Any, NDArray, _Problem]:
+) -> _StandFit:
+    """Coarse search, then variable projection (:mod:`mwip.identify.solve`): stage 1 the
+    smooth model, stage 2 (a quantising driver) the twin's quantised duty with the smooth
+    model's Jacobian."""
     from dataclasses import replace
 
-    from scipy.optimize import least_squares
-
-    prob = _Problem(seg, replace(known, pwm_levels=0), free, values)
+    smooth = _Problem(seg, replace(known, pwm_levels=0), free, values)
+    prob = smooth
     g = len(free)
-    x0 = prob.x0(values)
+    x0 = smooth.x0(values)
+    z0 = x0[g:].reshape(seg.n, _NUIS)
+    xg = x0[:g]
+    warm: NDArray[np.float64] | None = None
+    n_stages = 2 if known.pwm_levels > 0 else 1
+    res1 = _Progress(f"stage 1 of {n_stages}", progress).wrap(smooth)
     if search and "drive.gear_ratio" in free:
         i = free.index("drive.gear_ratio")
         j = free.index("drive.emf_compensation") if "drive.emf_compensation" in free else None
@@ -374,66 +443,45 @@ def _fit_stand(
         for N in (4.5, 6.0, 8.0, 11.0, 15.0, 20.0, 27.0, 36.0, 45.0, 50.0):
             for c in ((0.15, 0.5, 0.85) if j is not None else (0.0,)):
                 for lim in ((float(x0[m]), 1.0) if m is not None else (None,)):
-                    x = x0.copy()
-                    x[i] = (N - prob.lo[i]) / prob.span[i]
+                    x = xg.copy()
+                    x[i] = (N - smooth.lo[i]) / smooth.span[i]
                     if j is not None:
                         x[j] = c
                     if m is not None and lim is not None:
                         x[m] = lim
-                    cost = float(np.sum(prob(x) ** 2))
+                    cost = float(np.sum(res1(x, z0) ** 2))
                     if cost < best.get(lim, (np.inf, x))[0]:
                         best[lim] = (cost, x)
         starts = [x for _, x in best.values()]
         if len(starts) > 1:
-            lb0 = np.concatenate([np.zeros(g), np.full(_NUIS * seg.n, -np.inf)])
-            ub0 = np.concatenate([np.ones(g), np.full(_NUIS * seg.n, np.inf)])
-            tries = [least_squares(prob, x, bounds=(lb0, ub0), jac_sparsity=prob.sparsity(),
-                                   method="trf", tr_solver="lsmr", x_scale=1.0,
-                                   diff_step=1e-8, max_nfev=25) for x in starts]  # fmt: skip
-            x0 = min(tries, key=lambda t: float(t.cost)).x
+            tries = [_descend(res1, None, x, z0, 8) for x in starts]
+            out, red = min(tries, key=lambda t: float(t[0].cost))
+            xg, warm = out.x, red.warm
         else:
-            x0 = starts[0]
-    lb = np.concatenate([np.zeros(g), np.full(_NUIS * seg.n, -np.inf)])
-    ub = np.concatenate([np.ones(g), np.full(_NUIS * seg.n, np.inf)])
-    # stage 1: without the PWM quantisation (smooth); stage 2: the twin's quantised duty
-    stages = [(replace(known, pwm_levels=0), 1e-8, "2-point", 200)]
-    if known.pwm_levels > 0:
-        stages.append((known, _STEP, "3-point", 40))
-    res = None
-    for k, (kn, step, scheme, nfev) in enumerate(stages):
-        prob = _Problem(seg, kn, free, values)
-        fun = _counting(prob, f"stage {k + 1} of {len(stages)}", progress)
-        res = least_squares(fun, x0, bounds=(lb, ub), jac_sparsity=prob.sparsity(),
-                            method="trf", tr_solver="lsmr", x_scale=1.0, jac=scheme,
-                            diff_step=step, xtol=1e-10, ftol=1e-10, gtol=1e-10,
-                            max_nfev=nfev)  # fmt: skip
-        x0 = res.x
-    assert res is not None
-    p = prob.params(res.x)
-    # the statistics' Jacobian: the smooth model (no quantisation steps) at the optimum
-    smooth = _Problem(seg, replace(known, pwm_levels=0), free, values)
-    return p, res.x, _jacobian(smooth, res.x), res.fun, prob
-
-
-def _jacobian(prob: _Problem, x: NDArray[np.float64], h: float = 1e-7) -> NDArray[np.float64]:
-    """Forward-difference Jacobian, the nuisances :data:`_NUIS` colours at a time (each
-    segment's rows depend on its own nuisances only); dense (m, g + _NUIS S)."""
-    g, S, L = len(prob.free), prob.S, prob.L
-    f0 = prob(x)
-    J = np.zeros((f0.size, g + _NUIS * S))
-    for i in range(g):
-        xi = x.copy()
-        step = h if x[i] + h <= 1.0 else -h
-        xi[i] += step
-        J[:, i] = (prob(xi) - f0) / step
-    rows = np.arange(f0.size).reshape(S, L * 2)
-    for colour in range(_NUIS):
-        xi = x.copy()
-        xi[g + colour::_NUIS] += h
-        d = ((prob(xi) - f0) / h).reshape(S, L * 2)
-        cols = g + _NUIS * np.arange(S) + colour
-        J[rows, cols[:, None]] = d
-    return J
+            xg = starts[0]
+    out, red = _descend(res1, None, xg, z0, 60, warm)
+    xg, warm = out.x, red.warm
+    z, r, Jn = red.state(xg)
+    if n_stages == 2:
+        # stage 2: the quantised model, as the fixed point of the smooth model with its
+        # rounding errors held at those of its own trajectory (docs/twin_fit.md)
+        quant = _Problem(seg, known, free, values)
+        count = _Progress("stage 2 of 2", progress)
+        q = quant.rounding_errors(xg, z)
+        for _ in range(_QUANT_ITERS):
+            prob = _Problem(seg, smooth.known, free, values, qerr=q)
+            out, red = _descend(count.wrap(prob), None, xg, z0, 30, z)
+            xg = out.x
+            z, r, Jn = red.state(xg)
+            q_new = quant.rounding_errors(xg, z)
+            moved = float(np.max(np.abs(q_new - q))) * known.pwm_levels
+            q = q_new
+            if moved < _QUANT_TOL:
+                break
+    # the statistics' Jacobians: the smooth model (with the held rounding errors of stage 2)
+    # at the optimum
+    A = global_jacobian(prob.segment_residual, xg, z)
+    return _StandFit(smooth.params(xg), xg, z, r, A, Jn, prob)
 
 
 def _rest_rows(logs: Sequence[Log]) -> list[tuple[Log, NDArray[np.bool_]]]:
@@ -546,13 +594,11 @@ def fit(
     cond: float | None = None
     stand_free = [n for n in STAND_PARAMS if n in want and n in informed]
     if seg is not None and stand_free:
-        p, x, J, r, prob = _fit_stand(seg, known, stand_free, values, search, progress)
-        g = len(stand_free)
-        Jd = J.toarray() if hasattr(J, "toarray") else np.asarray(J)
-        norms = np.linalg.norm(Jd[:, :g], axis=0)
+        sf = _fit_stand(seg, known, stand_free, values, search, progress)
+        p, r = sf.p, sf.r
+        norms = np.sqrt(np.einsum("sni,sni->i", sf.A, sf.A))
         ok = norms > 1e-6 * max(float(norms.max()), 1e-300)
-        keep = np.concatenate([ok, np.ones(Jd.shape[1] - g, dtype=bool)])
-        cov_all, bread = cluster_covariance(Jd[:, keep], r, seg.n, offsets=2, local=_NUIS)
+        cov_all, bread = cluster_covariance(sf.A[:, :, ok], sf.Jn, r, offsets=2)
         names_ok = [n for n, o in zip(stand_free, ok, strict=True) if o]
         ng = len(names_ok)
         cov = cov_all[:ng, :ng]
@@ -590,7 +636,8 @@ def fit(
         residuals["enc"] = {"rms": float(np.sqrt(np.mean(res_arr**2))),
                             "whiteness": whiteness(res_arr.transpose(0, 2, 1).ravel()),
                             "n": float(res_arr.size)}  # fmt: skip
-        _, w0, wp = prob.split(x)
+        w0 = 10.0 * sf.z[:, :2]
+        wp = w0 - 10.0 * sf.z[:, 2:]
         phi = _Problem(seg, known, [], values).rollout(values, w0, wp)
         trace = {"t": seg.t, "enc": seg.enc, "pred": phi + (seg.enc - phi).mean(1, keepdims=True)}
     walk = float(getattr(getattr(tw, "imu", None), "gyro_bias_walk", 0.0))
@@ -628,7 +675,7 @@ def predict_error(log: Log, values: Mapping[str, float], known: Known,
     and gyro RMS of 50 ms predictions from fitted start states
     (:func:`mwip.identify.balance.balance_error` on the base ``twin``, default the default
     twin, with ``values``)."""
-    from scipy.optimize import least_squares
+    from dataclasses import replace
 
     from mwip.identify.balance import balance_error
 
@@ -636,9 +683,12 @@ def predict_error(log: Log, values: Mapping[str, float], known: Known,
     seg = stand_segments([log], segment)
     if seg is not None:
         prob = _Problem(seg, known, [], values)
-        res = least_squares(prob, prob.x0(values), jac_sparsity=prob.sparsity(),
-                            method="trf", tr_solver="lsmr", max_nfev=50)  # fmt: skip
-        out["enc_rms"] = float(np.sqrt(np.mean(res.fun**2))) * _RES
+        smooth = _Problem(seg, replace(known, pwm_levels=0), [], values)
+        none = np.zeros(0)
+        _, r, _ = nuisance_solve(prob.segment_residual, none,
+                                 prob.x0(values).reshape(seg.n, _NUIS),
+                                 smooth.segment_residual if known.pwm_levels else None)  # fmt: skip
+        out["enc_rms"] = float(np.sqrt(np.mean(r**2))) * _RES
     on = np.isin(log.mode, ("static", "wheels-off-ground"))
     if on.any():
         g = log.columns["theta_rate"][on] - values["imu.gyro_bias"]

@@ -19,15 +19,16 @@ Wheels-off-ground (the robot on a stand: body fixed, each wheel free) per wheel 
 6. ``J w' = T - (c_emf + b_v + D_b) w`` integrated exactly over the sample
    (``c_emf = eta N^2 k_t k_e / R``, the back-EMF's continuous viscous torque).
 
-PWM quantisation (``pwm_levels`` of the base twin) is applied as the twin does (``round``);
-the finite-difference Jacobian uses central differences of a step large enough to see
-through its steps.
+PWM quantisation (``pwm_levels`` of the base twin) is applied as the twin does (``round``), or
+its errors along a trajectory are held (``qerr``): the smooth model with the quantised one's
+errors, which the fit's second stage iterates to a fixed point (:mod:`mwip.identify.fit`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -80,14 +81,14 @@ def _softplus(x: NDArray[np.float64], w: float) -> NDArray[np.float64]:
     return w * np.logaddexp(0.0, x / w)
 
 
-def deadband(d: NDArray[np.float64], db: float, width: float) -> NDArray[np.float64]:
+def deadband(d: NDArray[np.float64], db: Any, width: float) -> NDArray[np.float64]:
     """Smooth ``sign(d) max(|d| - db, 0)`` (exact for ``width = 0``)."""
     if width <= 0:
         return np.sign(d) * np.maximum(np.abs(d) - db, 0.0)
     return _softplus(d - db, width) - _softplus(-d - db, width)
 
 
-def karnopp(w: NDArray[np.float64], drive: NDArray[np.float64], fc: float, mob: float,
+def karnopp(w: NDArray[np.float64], drive: NDArray[np.float64], fc: Any, mob: Any,
             Ts: float, width: float) -> NDArray[np.float64]:  # fmt: skip
     """Coulomb friction held over the sample (stick-slip form, smooth sliding sign)."""
     need = -w / (Ts * mob) - drive
@@ -96,8 +97,13 @@ def karnopp(w: NDArray[np.float64], drive: NDArray[np.float64], fc: float, mob: 
     return np.where(np.abs(need) <= fc, need, -fc * sgn)
 
 
+def _col(v: object) -> float | NDArray[np.float64]:
+    """A parameter as a float, or one per segment as an (S, 1) column."""
+    return float(v) if np.ndim(v) == 0 else np.asarray(v, dtype=float).reshape(-1, 1)  # type: ignore[arg-type]
+
+
 def stand_rollout(
-    p: Mapping[str, float],
+    p: Mapping[str, float | NDArray[np.float64]],
     cmd: NDArray[np.float64],
     is_duty: NDArray[np.bool_],
     w0: NDArray[np.float64],
@@ -105,12 +111,15 @@ def stand_rollout(
     widths: tuple[float, float] = (DEADBAND_WIDTH, COULOMB_WIDTH),
     w_prev: NDArray[np.float64] | None = None,
     cmd_prev2: NDArray[np.float64] | None = None,
+    qerr: NDArray[np.float64] | None = None,
+    qerr_out: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Wheel angles (relative to the start) and speeds over segments, both (S, L, 2).
 
     ``cmd`` (S, L + 1, 2): the command of the sample before each segment (0 at a log's start),
     then the segment's: duties where ``is_duty`` (S,) else wheel torques (N m); ``w0`` (S, 2)
-    the wheel speeds at the segments' first samples.
+    the wheel speeds at the segments' first samples. Each parameter of ``p`` is a number or
+    one per segment (S,) (a batch of parameter sets in one call).
 
     The state a segment starts from is more than ``w0``: the delayed command of the sample
     before, ``d'_{-1} = d_{-1} + c k_e N w_{-1} / V_0``, holds the back-EMF compensation of
@@ -122,14 +131,20 @@ def stand_rollout(
     ``w_prev = w0`` and no ``cmd_prev2`` the first step is off by
     ``D c k_e N (w0 - w_{-1}) / V_0`` of duty, which after a step or in a chirp is of the
     order of 0.01-0.03 and biased the fit (docs/twin_fit.md).
+
+    PWM quantisation: with ``k.pwm_levels`` the clipped duty of each sample (index 0: the one
+    held before the segment) is rounded as the twin does, and ``qerr_out`` (S, L, 2), if
+    given, receives the rounding errors ``q(d) - d``; with ``qerr`` (S, L, 2) those errors are
+    added instead, held (a smooth model that reproduces the quantised one where its errors
+    are those of the trajectory; :mod:`mwip.identify.fit`, stage 2).
     """
-    N = float(p["drive.gear_ratio"])
-    c = float(p["drive.emf_compensation"])
-    db = float(p["drive.deadband"])
-    imax = float(p["drive.current_limit"])
-    fc = float(p["gearbox.coulomb"])
-    bv = float(p["gearbox.viscous"])
-    dl = float(p["delay"])
+    N = _col(p["drive.gear_ratio"])
+    c = _col(p["drive.emf_compensation"])
+    db = _col(p["drive.deadband"])
+    imax = _col(p["drive.current_limit"])
+    fc = _col(p["gearbox.coulomb"])
+    bv = _col(p["gearbox.viscous"])
+    dl = _col(p["delay"])
     S, L1, _ = cmd.shape
     L = L1 - 1
     gain = N * k.eta * k.ke
@@ -139,15 +154,21 @@ def stand_rollout(
     mob = 1.0 / J
     e_el = np.exp(-k.Ts / k.tau_e)
     f_el = (k.tau_e / k.Ts) * (1.0 - e_el)
-    scale = np.where(is_duty, 1.0, k.R / (gain * k.Vs))[:, None, None]
-    duty_cmd = cmd * scale
+    scale = np.where(is_duty[:, None], 1.0, k.R / (gain * k.Vs))
+    duty_cmd = cmd * scale[:, :, None]
     band = k.R * imax
+    Jd = J / D * (1.0 - a)
 
     def voltage(dmix: NDArray[np.float64], emf: NDArray[np.float64],
-                vs: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
+                vs: NDArray[np.float64], j: int) -> NDArray[np.float64]:  # fmt: skip
         d = np.clip(dmix, -1.0, 1.0)
-        if k.pwm_levels > 0:
-            d = np.round(d * k.pwm_levels) / k.pwm_levels
+        if qerr is not None:
+            d = d + qerr[:, j]
+        elif k.pwm_levels > 0:
+            q = np.round(d * k.pwm_levels) / k.pwm_levels
+            if qerr_out is not None:
+                qerr_out[:, j] = q - d
+            d = q
         d = deadband(d, db, widths[0])
         v = d * vs
         return np.clip(np.clip(v, emf - band, emf + band), -vs, vs)
@@ -158,9 +179,9 @@ def stand_rollout(
     if cmd_prev2 is None:
         dheld = dprev
     else:
-        dheld = dl * (cmd_prev2 * scale[:, 0] + c * emf / k.Vs) + (1.0 - dl) * dprev
+        dheld = dl * (cmd_prev2 * scale + c * emf / k.Vs) + (1.0 - dl) * dprev
     vs0 = np.full((S, 1), k.Vs)
-    v = voltage(dheld, emf, vs0)
+    v = voltage(dheld, emf, vs0, 0)
     i = (v - emf) / k.R
     ibat = np.sum(v / vs0 * i, axis=1, keepdims=True)
     phi = np.zeros((S, 2))
@@ -173,7 +194,7 @@ def stand_rollout(
         dmix = dl * dprev + (1.0 - dl) * dj
         dprev = dj
         vs = np.maximum(k.Vs - k.Rs * ibat, 0.0)
-        v = voltage(dmix, emf, vs)
+        v = voltage(dmix, emf, vs, j + 1)
         iss = (v - emf) / k.R
         i_mean = iss + (i - iss) * f_el
         i = iss + (i - iss) * e_el
@@ -182,7 +203,7 @@ def stand_rollout(
         torque = gain * i_mean + gain * emf / k.R
         T = torque + karnopp(w, torque, fc, mob, k.Ts, widths[1])
         wss = T / D
-        phi = phi + wss * k.Ts + (w - wss) * (J / D) * (1.0 - a)
+        phi = phi + wss * k.Ts + (w - wss) * Jd
         w = wss + (w - wss) * a
         out_phi[:, j + 1] = phi
         out_w[:, j + 1] = w
