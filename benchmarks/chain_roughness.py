@@ -5,7 +5,8 @@ Reads ``DIR/chains/gen-*.parquet`` and ``DIR/posterior.json`` (``mwip twin fit -
 
 1. each conditioned fact's share of the rejected proposals (which fact stops the chains);
 2. how often each chain moved (the least and most mobile chains);
-3. around the final state of the 3 least and the 2 most mobile chains, the fraction of
+3. around the final state of the 3 least and the 2 most mobile chains (and around the default
+   twin, stages 1-2's consistent twin), the fraction of
    ``--neighbours`` random neighbours at relative distances 1e-6, 1e-3 and 1e-2 of the prior
    widths (Gaussian, clipped to the box, seed 1) on which the most rejecting fact's run still
    stands. A smooth set would keep nearly every near neighbour; a set that is rough at that
@@ -65,14 +66,17 @@ def main() -> None:
           f"{int(np.median(m))}, max {m.max()}; chains that never moved: {(m == 0).sum()}")
     rng = np.random.default_rng(1)
     order = np.argsort(m, kind="stable")
-    for c in [*order[:3], *order[-2:]]:
+    centre = np.array([doc["map_values"][n[6:]] for n in names])
+    for c in [*order[:3], *order[-2:], -1]:
         out = []
         for rel in (1e-6, 1e-3, 1e-2):
-            X = np.clip(x[c] + rel * w * rng.standard_normal((a.neighbours, len(names))),
+            at = centre if c < 0 else x[c]
+            X = np.clip(at + rel * w * rng.standard_normal((a.neighbours, len(names))),
                         b[:, 0], b[:, 1])  # fmt: skip
             st = run_batch({n[6:]: X[:, j] for j, n in enumerate(names)}, runs=(run,))
             out.append(f"{rel:g}: {np.mean(st[f'{run.name}.stands']):.2f}")
-        print(f"chain {c} ({m[c]} moves): {worst} stands on neighbours at " + ", ".join(out))
+        who = "the default twin" if c < 0 else f"chain {c} ({m[c]} moves)"
+        print(f"{who}: {worst} stands on neighbours at " + ", ".join(out))
 
 
 if __name__ == "__main__":
