@@ -99,7 +99,8 @@ def status(twin: Any = None) -> dict[str, Any]:
                   f"{p.get('effective_size', 0):.0f};")  # fmt: skip
     text = (f"the default twin is {which} "
             f"{len(p.get('used', []))} facts conditioned on, {len(p.get('dropped', []))} met "
-            f"by no twin); {n_up} of {n_runs} Chapter 6 runs stand on it")  # fmt: skip
+            f"by no twin of {'stages 1-2' if s3 else 'the sample'}); {n_up} of {n_runs} "
+            "Chapter 6 runs stand on it")  # fmt: skip
     return {"identified": True, "text": text, "provenance": provenance(),
             "size": p.get("size"), "effective_size": p.get("effective_size"),
             "used": p.get("used", []), "dropped": p.get("dropped", []),
