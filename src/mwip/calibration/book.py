@@ -98,15 +98,16 @@ def _beyond(chains: Any, ev: Evidence, used: tuple[str, ...]) -> dict[str, Any]:
 
 
 def _wider(pool: dict[str, np.ndarray], chains: Any, chain: dict[str, np.ndarray],
-           ev: Evidence, used: tuple[str, ...]) -> dict[str, Any] | None:  # fmt: skip
+           verdicts: dict[str, np.ndarray], ev: Evidence,
+           used: tuple[str, ...]) -> dict[str, Any] | None:  # fmt: skip
     """The original rule (the largest consistent subset) over *every* twin evaluated, the
     pool and the chains' proposals alike; ``None`` when it is the conditioned set. Then the
     kept chain states that also meet the extra facts are a sample of the posterior on that
     larger set (a sample of ``pi`` restricted to a subset is one of ``pi`` conditioned on it),
-    as converged as the chains are: each held-out claim's fraction on them, by the declared
-    verdict rule. A secondary result: the conditioning of record stays ``used``."""
-    from mwip.calibration.claims import claim_rows
-    from mwip.calibration.posterior import Facts, consistent_subset, facts
+    as converged as the chains are: each held-out claim's fraction on them (``verdicts``: each
+    claim's per-state verdict over ``chain``), by the declared verdict rule. A secondary
+    result: the conditioning of record stays ``used``."""
+    from mwip.calibration.posterior import consistent_subset, facts
     from mwip.calibration.runs import run_names
 
     names = run_names()
@@ -114,7 +115,7 @@ def _wider(pool: dict[str, np.ndarray], chains: Any, chain: dict[str, np.ndarray
     keys = [k for k in pool if not k.startswith("param.") and k != "weight"]
     both = {k: np.concatenate([pool[k], props[k].to_numpy(dtype=float)]) for k in keys}
     f = facts(both, names, ev)
-    mask, _ = consistent_subset(Facts(f.names, f.S, f.log_err))
+    mask, _ = consistent_subset(f)
     wide = tuple(n for n, m in zip(f.names, mask, strict=True) if m)
     if set(wide) <= set(used):
         return None
@@ -129,9 +130,8 @@ def _wider(pool: dict[str, np.ndarray], chains: Any, chain: dict[str, np.ndarray
         "chains": int(np.unique(np.nonzero(sel.reshape(C, K))[0]).size), "claims": [],
     }
     if sel.any():
-        verdicts = claim_rows({k: v[sel] for k, v in chain.items()})
         for key, v in verdicts.items():
-            frac = float(np.mean(v))
+            frac = float(np.mean(v[sel]))
             verdict = ("holds" if frac >= ev.decided else "fails" if frac <= 1 - ev.decided
                        else "undecided")  # fmt: skip
             out["claims"].append({"claim": key, "fraction": frac, "verdict": verdict})
@@ -139,12 +139,11 @@ def _wider(pool: dict[str, np.ndarray], chains: Any, chain: dict[str, np.ndarray
 
 
 def _chain_diagnostics(
-    chains: Any, cols: dict[str, np.ndarray], names: tuple[str, ...]
+    chains: Any, verdicts: dict[str, np.ndarray], names: tuple[str, ...]
 ) -> tuple[dict[str, Any], dict[str, float]]:
     """The sampler's record (acceptance, final scale, evaluations, each unknown's split
     R-hat and ESS) and each held-out claim's ESS (a claim constant over the sample: the
     smallest ESS of the unknowns)."""
-    from mwip.calibration.claims import claim_rows
     from mwip.calibration.diagnostics import ess, split_rhat
 
     C, K, _ = chains.x.shape
@@ -154,7 +153,6 @@ def _chain_diagnostics(
         if np.ptp(x) > 0:
             p_ess[n], p_rhat[n] = ess(x), split_rhat(x)
     floor = min(p_ess.values()) if p_ess else float(C * K)
-    verdicts = claim_rows({k: v[: C * K] for k, v in cols.items()})
     c_ess = {}
     for key, v in verdicts.items():
         e = ess(np.asarray(v, dtype=float).reshape(C, K))
@@ -210,9 +208,11 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None,
         accepted = np.arange(n_ch + 1) < n_ch
         post_w = accepted.astype(float)
         map_index = n_ch
-        sampler, c_ess = _chain_diagnostics(chains, cols, tuple(pr.names))
+        verdicts = claim_rows(cols)
+        members_v = {k: v[:n_ch] for k, v in verdicts.items()}
+        sampler, c_ess = _chain_diagnostics(chains, members_v, tuple(pr.names))
         sampler["beyond"] = _beyond(chains, ev, stage12.used)
-        sampler["wider"] = _wider(pool, chains, chain, ev, stage12.used)
+        sampler["wider"] = _wider(pool, chains, chain, members_v, ev, stage12.used)
         summary = post.summary()
         summary.update(n_prior=int(len(table)), size=n_ch, map_index=stage12.map_index,
                        effective_size=sampler["ess_min"], sampler=sampler,
@@ -221,8 +221,8 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None,
         cols, post = pool, stage12
         accepted, post_w, map_index = post.accepted, post.weights, post.map_index
         summary = post.summary()
+        verdicts = claim_rows(cols)
     params = {n: cols[f"param.{n}"] for n in pr.names}
-    verdicts = claim_rows(cols)
     claims = judge(verdicts, accepted, params, map_index, ev.decided, weights=post_w,
                    ess=c_ess)  # fmt: skip
     calib = {n.key for n in ev.numbers}

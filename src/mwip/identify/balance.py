@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from mwip.identify.logs import Log
+from mwip.identify.logs import Log, window_starts
 
 __all__ = ["BalanceSegments", "balance_segments", "balance_error"]
 
@@ -62,23 +62,14 @@ def balance_segments(log: Log, H: int = 10, bias: float = 0.0) -> BalanceSegment
     cmd, enc = log.command, log.enc
     th, om = log.columns["theta"], log.columns["theta_rate"]
     cmds, encs, gyros, x0s = [], [], [], []
-    k, n = 0, log.n
-    while k < n:
-        if not on[k]:
-            k += 1
-            continue
-        end = k
-        while end < n and on[end]:
-            end += 1
-        for k0 in range(k, end - H + 1, H):
-            prev = cmd[k0 - 1] if k0 > 0 else np.zeros(2)
-            cmds.append(np.concatenate([prev[None], cmd[k0:k0 + H]]))
-            e = enc[k0:k0 + H] - enc[k0]
-            encs.append(e)
-            gyros.append(om[k0:k0 + H])
-            w, _ = _start_guess(e, log.Ts)
-            x0s.append([th[k0], om[k0] - bias, w[0], w[1]])
-        k = end
+    for k0 in window_starts(on, H):
+        prev = cmd[k0 - 1] if k0 > 0 else np.zeros(2)
+        cmds.append(np.concatenate([prev[None], cmd[k0:k0 + H]]))
+        e = enc[k0:k0 + H] - enc[k0]
+        encs.append(e)
+        gyros.append(om[k0:k0 + H])
+        w, _ = _start_guess(e, log.Ts)
+        x0s.append([th[k0], om[k0] - bias, w[0], w[1]])
     if not cmds:
         return None
     return BalanceSegments(np.array(cmds), np.array(encs), np.array(gyros), np.array(x0s),

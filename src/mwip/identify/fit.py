@@ -44,7 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mwip.identify.bounds import BOUNDS, NAMES, centre
-from mwip.identify.logs import Log, LogError
+from mwip.identify.logs import Log, LogError, window_starts
 from mwip.identify.model import STAND_PARAMS, Known, stand_rollout
 from mwip.identify.solve import (
     Reduced,
@@ -86,28 +86,18 @@ def stand_segments(logs: Sequence[Log], L: int) -> Segments | None:
         on = lg.mode == "wheels-off-ground"
         cmd, enc, t = lg.command, lg.enc, lg.columns["t"]
         Ts = lg.Ts
-        k = 0
-        n = lg.n
-        while k < n:
-            if not on[k]:
-                k += 1
-                continue
-            end = k
-            while end < n and on[end]:
-                end += 1
-            for k0 in range(k, end - L + 1, L):
-                prev = cmd[k0 - 1] if k0 > 0 else np.zeros(2)
-                prev2.append(cmd[k0 - 2] if k0 > 1 else np.zeros(2))
-                cmds.append(np.concatenate([prev[None], cmd[k0:k0 + L]]))
-                e = enc[k0:k0 + L]
-                encs.append(e - e[0])
-                duty.append(lg.inputs == "duty")
-                w, dw = _start_guess(e - e[0], Ts)
-                w0s.append(w)
-                dw0s.append(dw)
-                ts.append(t[k0:k0 + L])
-                ids.append(li)
-            k = end
+        for k0 in window_starts(on, L):
+            prev = cmd[k0 - 1] if k0 > 0 else np.zeros(2)
+            prev2.append(cmd[k0 - 2] if k0 > 1 else np.zeros(2))
+            cmds.append(np.concatenate([prev[None], cmd[k0:k0 + L]]))
+            e = enc[k0:k0 + L]
+            encs.append(e - e[0])
+            duty.append(lg.inputs == "duty")
+            w, dw = _start_guess(e - e[0], Ts)
+            w0s.append(w)
+            dw0s.append(dw)
+            ts.append(t[k0:k0 + L])
+            ids.append(li)
     if not cmds:
         return None
     return Segments(np.array(cmds), np.array(encs), np.array(duty), np.array(w0s),

@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LogError", "Log", "read_log", "REQUIRED", "OPTIONAL", "MODES", "TORQUE_MAX"]
+__all__ = ["LogError", "Log", "read_log", "REQUIRED", "OPTIONAL", "MODES", "TORQUE_MAX",
+           "window_starts"]
 
 REQUIRED = ("t", "theta", "theta_rate", "enc_r", "enc_l")
 INPUTS = (("u_r", "u_l"), ("duty_r", "duty_l"))
@@ -231,3 +232,22 @@ def read_log(path: str | Path) -> Log:
     if all(np.ptp(cols[c]) == 0 for c in cols if c != "t"):
         raise _err(p, "theta", "every signal is constant: nothing to identify")
     return Log(path=p, sha256=sha, columns=cols, mode=mode, inputs=inputs)
+
+
+def window_starts(on: NDArray[np.bool_], length: int) -> list[int]:
+    """Start indices of the consecutive, non-overlapping windows of ``length`` samples that fit
+    inside each run of ``True`` in ``on`` (a log's rows of one mode); a run's tail shorter than
+    ``length`` is left out."""
+    out: list[int] = []
+    k, n = 0, len(on)
+    while k < n:
+        if not on[k]:
+            k += 1
+            continue
+        end = k
+        while end < n and on[end]:
+            end += 1
+        out.extend(range(k, end - length + 1, length))
+        k = end
+    return out
+
