@@ -13,11 +13,13 @@ from click.testing import CliRunner
 
 from mwip.calibration.book import calibrate_book
 from mwip.calibration.chains import ChainPlan
+from mwip.calibration.mixture import MixturePlan
 from mwip.calibration.runs import RUNS, run_batch
 from mwip.hardware.twin import Twin
 
 SMALL = {"samples": 4, "block": 2, "duration": 0.6, "jobs": 1, "progress": None,
-         "proposal_draws": 3, "chains": ChainPlan(chains=4, steps=8, burn=2, seed=1)}
+         "proposal_draws": 3, "chains": ChainPlan(chains=4, steps=8, burn=2, seed=1),
+         "mixture": MixturePlan(draws=5, seed=1, factors=(0.5, 1.0), effective=2.0)}
 
 
 def test_one_draw_at_the_default_values_is_the_studys_run():
@@ -54,12 +56,23 @@ def test_deterministic_and_resumable(tmp_path: Path):
     again = pd.read_parquet(tmp_path / "b" / "prior-draws" / "results.parquet")
     pd.testing.assert_frame_equal(table, again)
     assert json.loads((tmp_path / "b" / "posterior.json").read_text()) == da
-    # stage 3 sampled the posterior stages 1-2 conditioned: the same facts, every member
-    # meets them, intervals at the chains' effective size
+    mix = sorted((tmp_path / "b" / "mixture").glob("block-*.parquet"))
+    assert len(mix) == 1
+    mix[0].unlink()
+    calibrate_book(tmp_path / "b", **SMALL)
+    assert json.loads((tmp_path / "b" / "posterior.json").read_text()) == da
+    # stage 4 is the posterior of record: the pool of stages 1, 2 and 4 conditioned on the
+    # largest consistent subset over every twin stages 1-3 evaluated; stage 3 is a record
     p = da["posterior"]
-    s3, s12 = p["sampler"], p["stage12"]
-    assert p["used"] == s12["used"] and p["size"] == 4 * 6 and s3["kept"] == 6
-    assert 0 < p["effective_size"] == s3["ess_min"] <= 4 * 6 * np.log10(24)
+    s4, s3 = p["sampler"], p["stage3"]
+    assert s4["kind"] == "mixture" and s4["draws"] == 5 and p["n_prior"] == 4 + 3 + 5
+    assert s4["evaluated_before"] == 4 + 3 + s3["evaluations"] and s4["seeds"] >= 1
+    assert s3["kept"] == 6 and s4["components"] == 2 * s4["seeds"]
+    assert sum(s4["hits"].values()) == p["size"] and 0 < p["effective_size"] <= p["size"]
+    assert s4["precise"] == (p["effective_size"] >= 2.0)
+    assert abs(sum(s4["weight_share"].values()) - 1.0) < 1e-9
+    assert len(da["members"]) == 256 and all(set(m) == set(da["prior"]["names"])
+                                             for m in da["members"])  # fmt: skip
     assert all(c["effective_n"] >= 1 for c in da["claims"])
     for name in ("posterior.md", "marginals.png"):
         assert (tmp_path / "a" / name).stat().st_size > 0
@@ -72,15 +85,27 @@ def test_deterministic_and_resumable(tmp_path: Path):
         assert np.all((x >= lo) & (x <= hi))
 
 
+def test_chains_alone_sample_the_posterior_of_stages_1_2(tmp_path: Path):
+    """Without stage 4 (revision 2's record): the chains sample the posterior stages 1-2
+    conditioned, the same facts, every member meets them, intervals at their ESS."""
+    d = calibrate_book(tmp_path / "c", **{**SMALL, "mixture": None}).doc
+    p = d["posterior"]
+    s3, s12 = p["sampler"], p["stage12"]
+    assert p["used"] == s12["used"] and p["size"] == 4 * 6 and s3["kept"] == 6
+    assert 0 < p["effective_size"] == s3["ess_min"] <= 4 * 6 * np.log10(24)
+    assert len(d["members"]) == 4 * 4
+
+
 def test_cli_evidence_book(tmp_path: Path):
     from mwip.cli import cli
 
     out = tmp_path / "cal"
     r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out", str(out),
                                  "--samples", "2", "--duration", "0.4", "--stage2-draws", "1",
-                                 "--chain-steps", "0"])
+                                 "--chain-steps", "0", "--mixture-draws", "2"])
     assert r.exit_code == 0, r.output
-    assert "twins evaluated 3 " in r.output and (out / "posterior.json").is_file()
+    assert "twins evaluated 5 " in r.output and (out / "posterior.json").is_file()
+    assert "stage 4: 2 mixture draws" in r.output
     r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out",
                                  str(tmp_path / "x"), "somelog.csv"])
     assert r.exit_code == 2 and not (tmp_path / "x").exists()

@@ -9,6 +9,11 @@
 3. Judge the held-out evidence on every consistent twin (:mod:`mwip.calibration.claims`) and
    the held-out numbers of Tables 6.4-6.8 against the posterior's predictive range.
 
+The declaration's revisions add samplers of the same posterior: stage 2's box draws
+(:mod:`mwip.calibration.proposal`), stage 3's Markov chains (:mod:`mwip.calibration.chains`)
+and stage 4's mixture draws (:mod:`mwip.calibration.mixture`, revision 3: conditioned on the
+largest consistent subset over every twin stages 1-3 evaluated, the posterior of record).
+
 Outputs in ``OUT``: ``posterior.json`` (everything), ``posterior.md`` (the same in words),
 ``twin.toml`` (the most probable member as a twin file, with its provenance), ``marginals.png``.
 """
@@ -29,6 +34,12 @@ __all__ = ["BookCalibration", "calibrate_book", "analyse", "POSTERIOR_FILE"]
 
 POSTERIOR_FILE = "posterior.json"
 
+#: ``sample`` of stage 4's draw ``s`` is ``STAGE4_OFFSET + s`` (stage 2's: 10^9 + s; stage 1's: s).
+STAGE4_OFFSET = 2 * 10**9
+
+#: Posterior members written to ``posterior.json`` by stage 4 (systematic resampling).
+MEMBERS = 256
+
 
 @dataclass(frozen=True)
 class BookCalibration:
@@ -37,6 +48,21 @@ class BookCalibration:
     doc: dict[str, Any]
     twin: Any
     accepted: np.ndarray  # (N,) the draws consistent with the facts conditioned on
+
+
+@dataclass(frozen=True)
+class MixtureResult:
+    """Stage 4: the facts conditioned on (``used``, the largest consistent subset over the
+    ``evaluated`` twins of stages 1-3, with its smallest ``conflicts``), the ``seeds`` twins
+    meeting them, the fitted ``mixture`` and its draws ``table`` (a DataFrame)."""
+
+    plan: Any  # mwip.calibration.mixture.MixturePlan
+    used: tuple[str, ...]
+    conflicts: tuple[tuple[str, ...], ...]
+    seeds: int
+    evaluated: int
+    mixture: Any  # mwip.calibration.mixture.KernelMixture
+    table: Any
 
 
 def _evidence_hash() -> str:
@@ -74,14 +100,21 @@ def _beyond(chains: Any, ev: Evidence, used: tuple[str, ...]) -> dict[str, Any]:
     """Whether a twin the chains evaluated met more than the conditioned facts: the largest
     such set's extra facts and how many proposals met it (it does not change the conditioning,
     fixed by stages 1-2 before the chains ran)."""
-    from mwip.calibration.posterior import facts
-    from mwip.calibration.runs import run_names
-
     props = chains.proposals
     if props is None or len(props) == 0:
         return {"proposals": 0, "extra": [], "count": 0}
     cols = {c: props[c].to_numpy(dtype=float) for c in props.columns
             if c not in ("chain", "generation", "inside", "moved")}  # fmt: skip
+    return _beyond_cols(cols, ev, used)
+
+
+def _beyond_cols(cols: dict[str, np.ndarray], ev: Evidence,
+                 used: tuple[str, ...]) -> dict[str, Any]:  # fmt: skip
+    """Of the twins ``cols`` that meet the facts ``used``, the largest set of further facts
+    some meet (``extra``) and how many meet exactly it (``count``); ``proposals``: the twins."""
+    from mwip.calibration.posterior import facts
+    from mwip.calibration.runs import run_names
+
     f = facts(cols, run_names(), ev)
     mask = np.array([n in set(used) for n in f.names], dtype=bool)
     meets = np.all(f.S[:, mask], axis=1)
@@ -89,11 +122,11 @@ def _beyond(chains: Any, ev: Evidence, used: tuple[str, ...]) -> dict[str, Any]:
     k = extra.sum(axis=1)
     best = int(k.max()) if k.size else 0
     if best == 0:
-        return {"proposals": int(len(props)), "extra": [], "count": 0}
+        return {"proposals": int(f.S.shape[0]), "extra": [], "count": 0}
     rows = extra[k == best]
     first = rows[0]
     names = [n for n, m in zip(np.asarray(f.names)[~mask], first, strict=True) if m]
-    return {"proposals": int(len(props)), "extra": names,
+    return {"proposals": int(f.S.shape[0]), "extra": names,
             "count": int(np.all(rows == first, axis=1).sum())}
 
 
@@ -168,17 +201,64 @@ def _chain_diagnostics(
     return record, c_ess
 
 
-def analyse(table: Any, ev: Evidence, *, prior: Any = None,
-            prior_draws: Any = None, chains: Any = None) -> BookCalibration:  # fmt: skip
+def _mixture_record(mix: MixtureResult, post: Any, sample: np.ndarray,
+                    pool: dict[str, np.ndarray], ev: Evidence) -> dict[str, Any]:  # fmt: skip
+    """Stage 4's record: its plan, the seed set, hits, the weighted posterior's Kish
+    effective size against the declared threshold, each stage's share of the posterior
+    weight, the largest single weight's share, and whether a stage-4 draw met more facts."""
+    acc, w = post.accepted, post.weights
+    st = np.where(sample >= STAGE4_OFFSET, 2, np.where(sample >= 10**9, 1, 0))
+    total = float(w[acc].sum()) if acc.any() else 0.0
+    share = {name: (float(w[acc & (st == k)].sum()) / total if total > 0 else 0.0)
+             for k, name in enumerate(("prior", "box", "mixture"))}  # fmt: skip
+    hits = {name: int((acc & (st == k)).sum())
+            for k, name in enumerate(("prior", "box", "mixture"))}  # fmt: skip
+    four = st == 2
+    return {
+        "kind": "mixture", "draws": mix.plan.draws, "seed": mix.plan.seed,
+        "factors": list(mix.plan.factors), "components": int(len(mix.mixture.pi)),
+        "seeds": mix.seeds, "evaluated_before": mix.evaluated, "hits": hits,
+        "hit_rate": hits["mixture"] / max(int(four.sum()), 1),
+        "effective_size": post.ess, "effective_needed": mix.plan.effective,
+        "precise": bool(post.ess >= mix.plan.effective),
+        "largest_weight_share": float(w[acc].max() / total) if total > 0 else None,
+        "weight_share": share,
+        "beyond": _beyond_cols({k: v[four] for k, v in pool.items()}, ev, mix.used),
+    }  # fmt: skip
+
+
+def _resampled(params: dict[str, np.ndarray], w: np.ndarray, accepted: np.ndarray,
+               seed: int, n: int = MEMBERS) -> list[dict[str, float]]:  # fmt: skip
+    """``n`` members by systematic resampling of the accepted draws under weights ``w``
+    (one uniform offset from ``(seed, 1)``): each draw appears about ``n w / sum w`` times."""
+    idx = np.nonzero(accepted)[0]
+    if idx.size == 0:
+        return []
+    c = np.cumsum(w[idx])
+    u0 = float(np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1,))).random())
+    pick = idx[np.minimum(np.searchsorted(c / c[-1], (u0 + np.arange(n)) / n), idx.size - 1)]
+    return [{k: float(v[i]) for k, v in params.items()} for i in pick]
+
+
+def analyse(table: Any, ev: Evidence, *, prior: Any = None, prior_draws: Any = None,
+            chains: Any = None, mixture: Any = None) -> BookCalibration:  # fmt: skip
     """Condition the draws ``table`` (the prior draws of the calibration campaign, pooled
     with stage 2's box draws and their ``weight`` column, :mod:`mwip.calibration.proposal`)
     on the evidence ``ev`` and judge the held-out claims and numbers. ``prior_draws``: the
     plain prior draws (each run's standing rate in the prior; default ``table``).
-    ``chains``: stage 3's :class:`~mwip.calibration.chains.ChainResult`, which samples the
-    posterior ``table`` conditioned (the same facts): the marginals, claims and numbers are
-    then the chains' kept states, each interval at its effective size, and the default twin
-    stays the pool's most probable member (every chain state meets the same facts, so its
-    kernel ties with it or is smaller; the declared tie-break is the first in draw order)."""
+
+    ``mixture``: stage 4's :class:`MixtureResult` (revision 3), whose draws ``table`` then
+    also holds (:func:`mixture_pool`: balance-heuristic ``weight`` over stages 1, 2 and 4,
+    stages 1-2's own in ``weight12``): the posterior of record is the weighted pool
+    conditioned on ``mixture.used``, its most probable member the default twin; the chains
+    (if given) are reported as stage 3's record only.
+
+    ``chains`` without ``mixture``: stage 3's :class:`~mwip.calibration.chains.ChainResult`,
+    which samples the posterior ``table`` conditioned (the same facts): the marginals, claims
+    and numbers are then the chains' kept states, each interval at its effective size, and the
+    default twin stays the pool's most probable member (every chain state meets the same
+    facts, so its kernel ties with it or is smaller; the declared tie-break is the first in
+    draw order)."""
     from mwip.calibration.claims import claim_rows, judge
     from mwip.calibration.posterior import condition, facts, weighted_quantile
     from mwip.calibration.runs import PUBLISHED, run_names
@@ -189,13 +269,30 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None,
     pool = _cols(table)
     bounds = {n: (float(lo), float(hi)) for n, (lo, hi) in zip(pr.names, pr.bounds, strict=True)}
     names = run_names()
-    f = facts(pool, names, ev)
-    weights = pool.get("weight")
-    stage12 = condition(f, {n: pool[f"param.{n}"] for n in pr.names}, bounds, ev,
-                        weights=weights)  # fmt: skip
     sampler: dict[str, Any] | None = None
     c_ess: dict[str, float] | None = None
-    if chains is not None and stage12.map_index >= 0:
+    if mixture is not None:
+        w12 = pool.pop("weight12")
+        s12 = table["sample"].to_numpy() < STAGE4_OFFSET
+        p12 = {k: v[s12] for k, v in pool.items()}
+        stage12 = condition(facts(p12, names, ev), {n: p12[f"param.{n}"] for n in pr.names},
+                            bounds, ev, weights=w12[s12])  # fmt: skip
+        cols = pool
+        post = condition(facts(pool, names, ev), {n: pool[f"param.{n}"] for n in pr.names},
+                         bounds, ev, weights=pool["weight"], used=mixture.used,
+                         conflicts=mixture.conflicts)  # fmt: skip
+        accepted, post_w, map_index = post.accepted, post.weights, post.map_index
+        verdicts = claim_rows(cols)
+        sampler = _mixture_record(mixture, post, table["sample"].to_numpy(), pool, ev)
+        summary = post.summary()
+        summary.update(sampler=sampler, stage12=stage12.summary())
+        if chains is not None:
+            summary["stage3"] = _chain_diagnostics(chains, {}, tuple(pr.names))[0]
+    else:
+        f = facts(pool, names, ev)
+        stage12 = condition(f, {n: pool[f"param.{n}"] for n in pr.names}, bounds, ev,
+                            weights=pool.get("weight"))  # fmt: skip
+    if mixture is None and chains is not None and stage12.map_index >= 0:
         chain = _chain_cols(chains, tuple(pr.names))
         post = condition(facts(chain, names, ev), {n: chain[f"param.{n}"] for n in pr.names},
                          bounds, ev, used=stage12.used, conflicts=stage12.conflicts)  # fmt: skip
@@ -217,7 +314,7 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None,
         summary.update(n_prior=int(len(table)), size=n_ch, map_index=stage12.map_index,
                        effective_size=sampler["ess_min"], sampler=sampler,
                        stage12=stage12.summary())  # fmt: skip
-    else:
+    elif mixture is None:
         cols, post = pool, stage12
         accepted, post_w, map_index = post.accepted, post.weights, post.map_index
         summary = post.summary()
@@ -274,9 +371,11 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None,
         "numbers": numbers,
         "evaluated": int(len(table)),
     }
-    if chains is not None and sampler is not None:
+    if mixture is not None:
+        doc["members"] = _resampled(params, post_w, accepted, mixture.plan.seed)
+    elif chains is not None and sampler is not None:
         doc["members"] = _members(chains, tuple(pr.names))
-    return BookCalibration(doc, twin, stage12.accepted)
+    return BookCalibration(doc, twin, accepted if mixture is not None else stage12.accepted)
 
 
 def calibrate_book(
@@ -292,6 +391,8 @@ def calibrate_book(
     proposal_draws: int | None = None,
     chains: Any = True,
     chain_steps: int | None = None,
+    mixture: Any = True,
+    mixture_draws: int | None = None,
     note: Callable[[str], None] | None = None,
 ) -> BookCalibration:
     """Run (or resume) the book calibration into ``out``; returns the result and writes
@@ -301,8 +402,10 @@ def calibrate_book(
     box sample (:class:`mwip.calibration.proposal.BoxProposal`; ``True``: the declaration's,
     ``None``: none), ``proposal_draws`` its size (a smoke test); ``chains``: stage 3's plan
     (:class:`mwip.calibration.chains.ChainPlan`; ``True``: the declaration's, ``None``: none),
-    ``chain_steps`` its generations with the burn-in scaled alike (a smoke test); ``note``
-    receives one line per stage-2 block and per stage-3 generation."""
+    ``chain_steps`` its generations with the burn-in scaled alike (a smoke test);
+    ``mixture``: stage 4's plan (:class:`mwip.calibration.mixture.MixturePlan`; ``True``: the
+    declaration's, ``None``: none), ``mixture_draws`` its size (a smoke test); ``note``
+    receives one line per stage-2 or stage-4 block and per stage-3 generation."""
     import pandas as pd
 
     from mwip.calibration.sample import calibration_campaign
@@ -332,7 +435,14 @@ def calibrate_book(
         plan = replace(plan, steps=max(int(chain_steps), burn + 4), burn=burn)
     ch = (chain_stage(pop, ev, plan, out / "chains", duration=duration, note=note)
           if plan is not None else None)  # fmt: skip
-    res = analyse(pop, ev, prior_draws=table, chains=ch)
+    mplan = (ev.mixture if mixture is True else mixture) if mixture is not None else None
+    if mplan is not None and mixture_draws is not None:
+        mplan = replace(mplan, draws=int(mixture_draws))
+    mix = (mixture_stage(pop, ch, ev, mplan, out / "mixture", duration=duration, note=note)
+           if mplan is not None else None)  # fmt: skip
+    if mix is not None:
+        pop = mixture_pool(table, pop, box, mix)
+    res = analyse(pop, ev, prior_draws=table, chains=ch, mixture=mix)
     res.doc["samples"] = camp.samples
     res.doc["seed"] = camp.seed
     res.doc["duration_cap"] = duration or None
@@ -344,7 +454,7 @@ def calibrate_book(
         write_text_atomic(out / "twin.toml", provenance(res.doc) + twin_to_toml(
             res.twin, identified="most probable twin of the book calibration (above)"))
     names = res.doc["prior"]["names"]
-    if ch is not None and "sampler" in res.doc["posterior"]:
+    if mix is None and ch is not None and "sampler" in res.doc["posterior"]:
         post = {n: ch.x[:, :, j].reshape(-1) for j, n in enumerate(names)}
         wk = np.ones(ch.x.shape[0] * ch.x.shape[1])
     else:
@@ -419,6 +529,91 @@ def chain_stage(pool: Any, ev: Evidence, plan: Any, store: Path, *, duration: fl
                       note=note)  # fmt: skip
 
 
+def _evaluated(pool: Any, chains: Any) -> Any:
+    """Every twin stages 1-3 evaluated, as one DataFrame (``param.<name>`` and the runs'
+    columns): the pool and the chains' proposals inside the box."""
+    import pandas as pd
+
+    parts = [pool.drop(columns=[c for c in ("weight", "weight12") if c in pool.columns])]
+    if chains is not None and chains.proposals is not None and len(chains.proposals):
+        parts.append(chains.proposals.drop(columns=["chain", "generation", "inside", "moved"]))
+    return pd.concat(parts, ignore_index=True)
+
+
+def mixture_stage(pool: Any, chains: Any, ev: Evidence, plan: Any, store: Path, *,
+                  duration: float = 0.0,
+                  note: Callable[[str], None] | None = None) -> MixtureResult | None:  # fmt: skip
+    """Stage 4 (:mod:`mwip.calibration.mixture`, revision 3): the facts to condition on (the
+    largest consistent subset over every twin stages 1-3 evaluated), the seed set meeting
+    them, the mixture fitted to it and its ``plan.draws`` draws, evaluated in blocks stored in
+    ``store`` (``block-NNN.parquet``, replayed by a rerun; ``plan.json`` guards the folder
+    against another plan or seed set). ``None`` when nothing was evaluated before."""
+    from dataclasses import asdict
+
+    from mwip.calibration.mixture import KernelMixture
+    from mwip.calibration.posterior import consistent_subset, facts
+    from mwip.calibration.proposal import sample_blocks
+    from mwip.calibration.runs import run_names
+    from mwip.calibration.sample import evaluate
+    from mwip.calibration.stored import claim_folder
+    from mwip.hardware.prior import PRIOR
+
+    names = list(PRIOR.names)
+    bounds = np.asarray(PRIOR.bounds, dtype=float)
+    allt = _evaluated(pool, chains)
+    if len(allt) == 0:
+        return None
+    f = facts(_cols(allt), run_names(), ev)
+    mask, conflicts = consistent_subset(f)
+    used = tuple(n for n, m in zip(f.names, mask, strict=True) if m)
+    sel = np.all(f.S[:, mask], axis=1)
+    seeds = allt[[f"param.{n}" for n in names]].to_numpy(dtype=float)[sel]
+    q = KernelMixture.fit(seeds, bounds, plan.factors)
+    claim_folder(store, {"plan": asdict(plan), "used": list(used), "names": names,
+                         "seeds_sha256": hashlib.sha256(seeds.tobytes()).hexdigest()},
+                 "draws of another mixture plan or seed set")  # fmt: skip
+
+    def run(values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return evaluate(values, jobs=1, block=10**6, duration=duration)
+
+    table = sample_blocks(lambda idx: q.draw(plan.seed, idx), plan.draws, names, run,
+                          block=ev.block, store=store, note=note, offset=STAGE4_OFFSET,
+                          label="mixture")  # fmt: skip
+    return MixtureResult(plan=plan, used=used, conflicts=tuple(tuple(c) for c in conflicts),
+                         seeds=int(sel.sum()), evaluated=int(len(allt)), mixture=q,
+                         table=table)  # fmt: skip
+
+
+def mixture_pool(prior_draws: Any, pool: Any, box: Any, mix: MixtureResult) -> Any:
+    """Stages 1, 2 and 4 pooled under the balance heuristic (:func:`mixture.balance_weights`:
+    the prior, stage 2's box density and the mixture's, each with its number of draws):
+    column ``weight``; stages 1-2's own weights stay in ``weight12`` (``nan`` for stage 4)."""
+    import pandas as pd
+
+    from mwip.calibration.mixture import balance_weights, prior_density
+    from mwip.calibration.proposal import inside
+    from mwip.hardware.prior import PRIOR
+
+    names = list(PRIOR.names)
+    bounds = np.asarray(PRIOR.bounds, dtype=float)
+    old = pool["weight"] if "weight" in pool.columns else pd.Series(np.ones(len(pool)))
+    base = pool.drop(columns=[c for c in ("weight",) if c in pool.columns]).assign(
+        weight12=old.to_numpy(dtype=float))
+    out = pd.concat([base, mix.table.assign(weight12=np.nan)], ignore_index=True)
+    x = out[[f"param.{n}" for n in names]].to_numpy(dtype=float)
+    p = np.full(len(out), prior_density(bounds))
+    n1, n4 = len(prior_draws), len(mix.table)
+    n2 = len(pool) - n1
+    dens, counts = [p], [n1]
+    if box is not None and n2 > 0:
+        dens.append(inside(x, box.ranges(names, bounds)) * p / box.fraction(names, bounds))
+        counts.append(n2)
+    dens.append(mix.mixture.density(x))
+    counts.append(n4)
+    out["weight"] = balance_weights(p, counts, dens)
+    return out
+
+
 def provenance(doc: dict[str, Any]) -> str:
     """The comment block a calibrated twin file starts with."""
     p = doc["posterior"]
@@ -433,7 +628,15 @@ def provenance(doc: dict[str, Any]) -> str:
         + (f", dropped {len(p['dropped'])}: {', '.join(p['dropped'])}" if p["dropped"] else "")
         + ".",
     ]
-    s3 = p.get("sampler")
+    smp = p.get("sampler") or {}
+    if smp.get("kind") == "mixture":
+        lines.append(f"# Stage 4 (revision 3): {smp['draws']} draws from a mixture of "
+                     f"{smp['components']} box kernels on {smp['seeds']} seed twins, "
+                     f"{smp['hits']['mixture']} consistent; pooled with stages 1-2, effective "
+                     f"size {p['effective_size']:.0f} ("
+                     + ("precise" if smp["precise"] else "NOT precise") + f": declared "
+                     f">= {smp['effective_needed']:g}).")  # fmt: skip
+    s3 = p.get("stage3") or (smp if smp and smp.get("kind") != "mixture" else None)
     if s3:
         lines.append(f"# Stage 3: {s3['chains']} Metropolis chains x {s3['kept']} kept "
                      f"generations ({s3['evaluations']} twins evaluated), acceptance "
@@ -456,8 +659,49 @@ def report_text(doc: dict[str, Any]) -> str:
            f"(docs/twin_fit.md): {p['n_prior']}; consistent with the calibration evidence: "
            f"**{p['size']}** (effective size {p.get('effective_size', p['size']):.0f})."]
     # fmt: skip
-    s3 = p.get("sampler")
-    if s3:
+    smp: dict[str, Any] = p.get("sampler") or {}
+    s4: dict[str, Any] | None = smp if smp.get("kind") == "mixture" else None
+    s3: dict[str, Any] | None = p.get("stage3") if s4 else (smp or None)
+    if s4:
+        s12 = p["stage12"]
+        sh = s4["weight_share"]
+        out += ["", "## Stage 4: independent draws from a mixture (revision 3, of record)", "",
+                f"Conditioned on the largest consistent subset over the "
+                f"{s4['evaluated_before']} twins stages 1-3 evaluated ({len(p['used'])} "
+                f"facts). {s4['seeds']} of them meet it (the seed set); stage 4 drew "
+                f"{s4['draws']} twins from an equal-share mixture of {s4['components']} box "
+                f"kernels on them (half-widths {', '.join(f'{x:g}' for x in s4['factors'])} "
+                "x the seed set's standard deviation; mwip/calibration/mixture.py) and "
+                "pooled them with stages 1-2 by the balance heuristic. "
+                f"{s4['hits']['mixture']} of its draws meet the facts (hit rate "
+                f"{s4['hit_rate']:.3f}); with stages 1-2 ({s4['hits']['prior']} prior, "
+                f"{s4['hits']['box']} box draws) the posterior has {p['size']} weighted "
+                f"members, Kish effective size **{p['effective_size']:.0f}** ("
+                + (f"precise: at least the declared {s4['effective_needed']:g})" if s4["precise"]
+                   else f"**not precise**: under the declared {s4['effective_needed']:g}; the "
+                   "intervals below are wide for it") + ". Share of the posterior weight: "
+                f"prior draws {_pct(sh['prior'])}, box draws {_pct(sh['box'])}, mixture draws "
+                f"{_pct(sh['mixture'])}; the largest single weight carries "
+                f"{_pct(s4['largest_weight_share'])}. Stages 1-2 alone met these facts with "
+                f"{s12['size'] if s12['used'] == p['used'] else 'a different set of'} "
+                "twin(s). The weights are exact, so the estimate is unbiased; a region of "
+                "the posterior the seed set missed is represented by the prior and box draws "
+                "alone, which is what their weight share measures."]  # fmt: skip
+        b = s4["beyond"]
+        out += ["", (f"A stage-4 twin met more facts than those conditioned on: "
+                     f"{', '.join(b['extra'])} ({b['count']} draws). Not conditioned on "
+                     "(revision 3 fixed the facts before its draws)." if b["extra"] else
+                     "No stage-4 twin met a fact beyond those conditioned on.")]  # fmt: skip
+    if s3 and s4:
+        out += ["", "## Stage 3: Markov chains (revision 2; their record)", "",
+                f"{s3['chains']} random-walk Metropolis chains, {s3['burn']} generations of "
+                f"burn-in and {s3['kept']} kept, {s3['evaluations']} twins evaluated; "
+                f"acceptance {s3['acceptance']:.3f}; smallest ESS {s3['ess_min']:.0f}, "
+                f"largest split R-hat {s3['rhat_max']:.3f}: "
+                + ("converged." if s3["converged"] else "not converged.") + " Revision 3 "
+                "uses their evaluated twins only to find stage 4's seed set; their states are "
+                "not pooled (they are not independent draws from a known density)."]
+    elif s3:
         s12 = p["stage12"]
         out += ["", "## Stage 3: Markov chains in the conditioned set", "",
                 f"Stages 1-2 left {s12['size']} consistent twin(s) (effective size "
@@ -511,13 +755,14 @@ def report_text(doc: dict[str, Any]) -> str:
     out += [f"| {r} | {_pct(v)} |" for r, v in doc["standing_in_prior"].items()]
     out += ["", "## Marginals", "",
             "| unknown | prior | posterior 5-50-95 % | identified |", "|---|---|---|---|"]
-    unsure = bool(s3) and not s3["converged"]
+    unsure = (not s4["precise"]) if s4 else bool(s3 and not s3["converged"])
     for name, m in p["marginals"].items():
         post = (f"{m['q05']:.4g} - {m['median']:.4g} - {m['q95']:.4g}" if "median" in m
                 else "n/a")  # fmt: skip
         ident = "yes" if m["identified"] else "no"
         if unsure and m["identified"]:
-            ident = "yes, provisional (chains not converged)"
+            ident = ("yes, provisional (effective size under the declared)" if s4 else
+                     "yes, provisional (chains not converged)")
         out.append(f"| {name} | {m['prior'][0]:g} .. {m['prior'][1]:g} | {post} | {ident} |")
     c = doc["claim_counts"]
     out += ["", "## Held-out claims", "",

@@ -151,21 +151,13 @@ def _claim(store: Path, plan: ChainPlan, names: Sequence[str], bounds: NDArray[n
            start: NDArray[np.float64]) -> None:  # fmt: skip
     """Record what the stored generations belong to (``store/plan.json``); a folder holding
     another plan's generations is a ``ValueError`` (they would be replayed as this one's)."""
-    import json
     from dataclasses import asdict
 
-    from mwip.io import write_json_atomic
+    from mwip.calibration.stored import claim_folder
 
-    ident = {"plan": asdict(plan), "names": list(names), "bounds": bounds.tolist(),
-             "start": np.asarray(start, dtype=float).tolist()}  # fmt: skip
-    path = store / "plan.json"
-    if path.exists():
-        if json.loads(path.read_text(encoding="utf-8")) != json.loads(json.dumps(ident)):
-            raise ValueError(f"{store}: holds the generations of another chain plan or start; "
-                             "remove the folder to start again")  # fmt: skip
-        return
-    store.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(path, ident)
+    claim_folder(store, {"plan": asdict(plan), "names": list(names), "bounds": bounds.tolist(),
+                         "start": np.asarray(start, dtype=float).tolist()},
+                 "generations of another chain plan or start")  # fmt: skip
 
 
 def run_chains(

@@ -3,7 +3,8 @@
 The file was written before any fit and is read, never computed: the calibration facts
 (every Chapter 6 run stands; Table 6.4's Case 1 SMC numbers), the acceptance tolerance, the
 verdict thresholds across the posterior and the prior sample (size, seed, block); then its
-dated revisions: stage 2's box proposal and stage 3's Markov chains.
+dated revisions: stage 2's box proposal, stage 3's Markov chains, stage 4's mixture
+draws and stage 5's envelope draws.
 """
 
 from __future__ import annotations
@@ -45,6 +46,8 @@ class Evidence:
     source: dict[str, Any]
     proposal: Any = None  # mwip.calibration.proposal.BoxProposal, or None
     chains: Any = None  # mwip.calibration.chains.ChainPlan, or None
+    mixture: Any = None  # mwip.calibration.mixture.MixturePlan, or None
+    envelope: Any = None  # mwip.calibration.mixture.EnvelopePlan, or None
 
     @property
     def log_tolerance(self) -> float:
@@ -78,6 +81,24 @@ def _chains(entry: Any) -> Any:
                      converged=float(entry["converged"]))  # fmt: skip
 
 
+def _mixture(entry: Any) -> Any:
+    from mwip.calibration.mixture import MixturePlan
+
+    if entry is None:
+        return None
+    return MixturePlan(draws=int(entry["draws"]), seed=int(entry["seed"]),
+                       factors=tuple(float(f) for f in entry["factors"]),
+                       effective=float(entry["effective"]))  # fmt: skip
+
+
+def _envelope(entry: Any) -> Any:
+    from mwip.calibration.mixture import EnvelopePlan
+
+    if entry is None:
+        return None
+    return EnvelopePlan(draws=int(entry["draws"]), seed=int(entry["seed"]))
+
+
 def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
     """Read the declaration (``ValueError`` naming the key if it is malformed)."""
     from mwip.io import read_toml
@@ -103,6 +124,8 @@ def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
             source=data,
             proposal=_proposal(data.get("proposal")),
             chains=_chains(data.get("chains")),
+            mixture=_mixture(data.get("mixture")),
+            envelope=_envelope(data.get("envelope")),
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"evidence file {str(path)!r}: missing or bad entry {exc}") from None

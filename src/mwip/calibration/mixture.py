@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["KernelMixture", "MixturePlan", "balance_weights", "prior_density"]
+__all__ = ["EnvelopePlan", "KernelMixture", "MixturePlan", "balance_weights", "prior_density"]
 
 F64 = NDArray[np.float64]
 
@@ -69,6 +69,23 @@ class MixturePlan:
             raise ValueError(f"mixture.effective must be in [1, 1e9], got {self.effective!r}")
 
 
+@dataclass(frozen=True)
+class EnvelopePlan:
+    """Stage 5 as declared (revision 4): ``draws`` twins uniform on the envelope (the
+    bounding box of every twin stages 1-4 found meeting the facts), numbers from ``seed``."""
+
+    draws: int
+    seed: int
+
+    def __post_init__(self) -> None:
+        if isinstance(self.draws, bool) or not isinstance(self.draws, int) or not (
+                0 <= self.draws <= 1_000_000):
+            raise ValueError(f"envelope.draws must be an integer in [0, 1000000], "
+                             f"got {self.draws!r}")  # fmt: skip
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ValueError(f"envelope.seed must be an integer >= 0, got {self.seed!r}")
+
+
 def prior_density(bounds: F64) -> float:
     """``p = 1 / V_prior`` of the uniform prior on ``bounds`` (D, 2), over the free unknowns."""
     w = bounds[:, 1] - bounds[:, 0]
@@ -86,11 +103,12 @@ class KernelMixture:
     free: NDArray[np.bool_]
 
     @classmethod
-    def fit(cls, seeds: F64, bounds: F64, factors: Sequence[float]) -> KernelMixture:
+    def fit(cls, seeds: F64, bounds: F64, factors: Sequence[float],
+            sd: F64 | None = None) -> KernelMixture:  # fmt: skip
         """One family per ``factor``, equal shares: a component per seed twin (``seeds``
-        (M, D) inside ``bounds`` (D, 2)), half-widths ``factor`` x the seeds' standard
-        deviation per free unknown (at least 1e-3 of its prior width, so that a box exists
-        where every seed agrees)."""
+        (M, D) inside ``bounds`` (D, 2)), half-widths ``factor`` x ``sd`` (default: the seeds'
+        standard deviation) per free unknown, at least 1e-3 of its prior width (so that a box
+        exists where every seed agrees)."""
         x = np.atleast_2d(np.asarray(seeds, dtype=float))
         b = np.asarray(bounds, dtype=float)
         if x.shape[0] < 1 or x.shape[1] != b.shape[0]:
@@ -99,7 +117,7 @@ class KernelMixture:
             raise ValueError("a seed twin lies outside the prior box")
         w = b[:, 1] - b[:, 0]
         free = w > 0
-        sd = np.maximum(x.std(axis=0), 1e-3 * w)
+        sd = np.maximum(x.std(axis=0) if sd is None else np.asarray(sd, dtype=float), 1e-3 * w)
         los, his = [], []
         for f in factors:
             h = np.where(free, float(f) * sd, 0.0)
@@ -109,6 +127,25 @@ class KernelMixture:
         lo[:, ~free], hi[:, ~free] = b[~free, 0], b[~free, 0]
         m = lo.shape[0]
         return cls(lo=lo, hi=hi, pi=np.full(m, 1.0 / m), free=free)
+
+    @classmethod
+    def envelope(cls, points: F64, bounds: F64) -> KernelMixture:
+        """One component: the bounding box of ``points`` (M, D) inside ``bounds`` (D, 2)
+        (a free unknown on which every point agrees gets 1e-3 of its prior width about
+        them, so that the box has a volume)."""
+        x = np.atleast_2d(np.asarray(points, dtype=float))
+        b = np.asarray(bounds, dtype=float)
+        if x.shape[0] < 1 or x.shape[1] != b.shape[0]:
+            raise ValueError(f"points must be (M >= 1, {b.shape[0]}), got {x.shape}")
+        w = b[:, 1] - b[:, 0]
+        free = w > 0
+        lo, hi = x.min(axis=0), x.max(axis=0)
+        thin = free & (hi - lo < 1e-3 * w)
+        mid = 0.5 * (lo + hi)
+        lo = np.where(thin, np.maximum(mid - 5e-4 * w, b[:, 0]), lo)
+        hi = np.where(thin, np.minimum(mid + 5e-4 * w, b[:, 1]), hi)
+        lo[~free], hi[~free] = b[~free, 0], b[~free, 0]
+        return cls(lo=lo[None, :], hi=hi[None, :], pi=np.ones(1), free=free)
 
     @property
     def volumes(self) -> F64:

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["BoxProposal", "inside", "mis_weights", "sample_box"]
+__all__ = ["BoxProposal", "inside", "mis_weights", "sample_blocks", "sample_box"]
 
 
 @dataclass(frozen=True)
@@ -102,30 +102,55 @@ def sample_box(
     """Evaluate the proposal's draws in blocks (resumable in ``store``); returns a DataFrame
     with ``sample`` (offset 10^9: never a stage-1 index), ``param.<name>`` and the runs'
     columns."""
-    import pandas as pd
-
     from mwip.campaign.sampling import sample_rng
-    from mwip.io import write_parquet_atomic
 
     r = proposal.ranges(names, bounds)
+
+    def draw(idx: Sequence[int]) -> NDArray[np.float64]:
+        u = np.array([sample_rng(proposal.seed, int(i)).random(len(names)) for i in idx])
+        return np.asarray(r[:, 0] + u * (r[:, 1] - r[:, 0]), dtype=float)
+
+    return sample_blocks(draw, proposal.draws, names, evaluate, block=block, store=store,
+                         note=note, offset=10**9, label="proposal")  # fmt: skip
+
+
+def sample_blocks(
+    draw: Callable[[Sequence[int]], NDArray[np.float64]],
+    draws: int,
+    names: Sequence[str],
+    evaluate: Callable[[dict[str, NDArray[np.float64]]], dict[str, NDArray[np.float64]]],
+    *,
+    block: int = 250,
+    store: Path | None = None,
+    note: Callable[[str], None] | None = None,
+    offset: int = 10**9,
+    label: str = "proposal",
+) -> Any:
+    """Draws ``0 .. draws - 1`` of an independent sampler (``draw(indices)`` -> (n, D) over
+    ``names``), evaluated in blocks of ``block``, each stored as ``store/block-NNN.parquet``
+    and replayed by a rerun; a DataFrame with ``sample`` (``offset`` + the draw's index),
+    ``param.<name>`` and the runs' columns."""
+    import pandas as pd
+
+    from mwip.io import write_parquet_atomic
+
     parts = []
-    n_blocks = -(-proposal.draws // block) if proposal.draws else 0
+    n_blocks = -(-draws // block) if draws else 0
     for b in range(n_blocks):
-        idx = range(b * block, min((b + 1) * block, proposal.draws))
+        idx = range(b * block, min((b + 1) * block, draws))
         path = store / f"block-{b:03d}.parquet" if store is not None else None
         if path is not None and path.exists():
             parts.append(pd.read_parquet(path))
         else:
-            u = np.array([sample_rng(proposal.seed, int(i)).random(len(names)) for i in idx])
-            x = r[:, 0] + u * (r[:, 1] - r[:, 0])
+            x = draw(idx)
             values = {n: x[:, j].copy() for j, n in enumerate(names)}
             cols = evaluate(values)
-            df = pd.DataFrame({"evidence": "book", "sample": np.asarray(idx) + 10**9,
+            df = pd.DataFrame({"evidence": "book", "sample": np.asarray(idx) + offset,
                                **{f"param.{n}": v for n, v in values.items()}, **cols})  # fmt: skip
             if path is not None:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 write_parquet_atomic(path, df)
             parts.append(df)
         if note is not None:
-            note(f"proposal: block {b + 1}/{n_blocks} done ({len(idx)} twins)")
+            note(f"{label}: block {b + 1}/{n_blocks} done ({len(idx)} twins)")
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()

@@ -96,12 +96,15 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
               "declaration's, 1000; 0: none).")
 @click.option("--chain-steps", "chain_steps", type=click.IntRange(0, 100_000), default=None,
               help="--evidence: generations of stage 3's Markov chains, burn-in scaled alike "
-              "(default: the declaration's, 90; 0: no chains).")
+              "(default: the declaration's, 500; 0: no chains).")
+@click.option("--mixture-draws", "mixture_draws", type=click.IntRange(0, 1_000_000),
+              default=None, help="--evidence: twins of stage 4's mixture draws (default: the "
+              "declaration's, 6000; 0: no stage 4).")
 def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: str | None,
              fix: tuple[str, ...], validate: Path | None, segment: int,
              force: bool, evidence: str | None, samples: int | None, seed: int | None,
              jobs: int, duration: float, stage2: int | None,
-             chain_steps: int | None) -> None:  # fmt: skip
+             chain_steps: int | None, mixture_draws: int | None) -> None:  # fmt: skip
     """Identify the twin from robot logs (docs/twin_fit.md), or with --evidence book the
     book's robot from the book's evidence."""
     from mwip import outdir
@@ -109,7 +112,8 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
     if evidence is not None:
         if logs:
             raise click.UsageError("give LOG files or --evidence book, not both")
-        _fit_book(out, force, samples, seed, jobs, duration, stage2, chain_steps)
+        _fit_book(out, force, samples, seed, jobs, duration, stage2, chain_steps,
+                  mixture_draws)
         return
     if not logs:
         raise click.UsageError("missing LOG files (or --evidence book)")
@@ -154,7 +158,8 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
 
 def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, jobs: int,
               duration: float, stage2: int | None = None,
-              chain_steps: int | None = None) -> None:  # fmt: skip
+              chain_steps: int | None = None,
+              mixture_draws: int | None = None) -> None:  # fmt: skip
     """``twin fit --evidence book``: :func:`mwip.calibration.book.calibrate_book` into ``out``
     (a folder of mwip's own: a rerun resumes the prior draws)."""
     from mwip import outdir
@@ -165,12 +170,18 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
     res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration,
                          proposal_draws=stage2, chains=None if chain_steps == 0 else True,
                          chain_steps=chain_steps or None,
+                         mixture=None if mixture_draws == 0 else True,
+                         mixture_draws=mixture_draws or None,
                          note=lambda line: click.echo(line, err=True))
     # fmt: skip
     p, c = res.doc["posterior"], res.doc["claim_counts"]
-    s3 = p.get("sampler")
+    smp = p.get("sampler") or {}
+    s3 = p.get("stage3") or (smp if smp and smp.get("kind") != "mixture" else None)
     chains = (f"; stage 3: {s3['chains']} chains x {s3['kept']} kept generations, "
               f"{s3['evaluations']} twins evaluated" if s3 else "")
+    if smp.get("kind") == "mixture":
+        chains += (f"; stage 4: {smp['draws']} mixture draws, {smp['hits']['mixture']} "
+                   "consistent")
     click.echo(f"twins evaluated {res.doc['evaluated']} (prior draws and stage 2{chains}), "
                f"posterior {p['size']} (effective {p['effective_size']:.0f})"
                + (f" (conditioned on {len(p['used'])} facts; dropped: {len(p['dropped'])})"
