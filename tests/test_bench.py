@@ -239,7 +239,7 @@ def test_a_level_without_effects_repeats_the_nominal_runs(reference: tuple[Path,
 
 def test_the_posterior_level_draws_the_packaged_members(reference: tuple[Path, Path]) -> None:
     """The ``posterior`` level's twins are members of the identified twin's posterior
-    (``book-twin.json``: a thinned set of the book calibration's chain states), inside the
+    (``book-twin.json``: resampled from the book calibration's posterior), inside the
     prior's box, and not all the default twin: its runs differ from the nominal ones."""
     import json
 

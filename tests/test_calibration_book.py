@@ -13,13 +13,14 @@ from click.testing import CliRunner
 
 from mwip.calibration.book import calibrate_book
 from mwip.calibration.chains import ChainPlan
-from mwip.calibration.mixture import MixturePlan
+from mwip.calibration.mixture import EnvelopePlan, MixturePlan
 from mwip.calibration.runs import RUNS, run_batch
 from mwip.hardware.twin import Twin
 
 SMALL = {"samples": 4, "block": 2, "duration": 0.6, "jobs": 1, "progress": None,
          "proposal_draws": 3, "chains": ChainPlan(chains=4, steps=8, burn=2, seed=1),
-         "mixture": MixturePlan(draws=5, seed=1, factors=(0.5, 1.0), effective=2.0)}
+         "mixture": MixturePlan(draws=5, seed=1, factors=(0.5, 1.0), effective=2.0),
+         "envelope": EnvelopePlan(draws=3, seed=2)}
 
 
 def test_one_draw_at_the_default_values_is_the_studys_run():
@@ -42,7 +43,7 @@ def test_deterministic_and_resumable(tmp_path: Path):
     calibrate_book(tmp_path / "b", **SMALL)
     da = json.loads((tmp_path / "a" / "posterior.json").read_text())
     db = json.loads((tmp_path / "b" / "posterior.json").read_text())
-    assert da == db and a.doc["posterior"]["n_prior"] == 4 + 3 and a.doc["samples"] == 4
+    assert da == db and a.doc["posterior"]["n_prior"] == 4 + 3 + 5 + 3 and a.doc["samples"] == 4
     table = pd.read_parquet(tmp_path / "a" / "prior-draws" / "results.parquet")
     assert list(table["sample"]) == [0, 1, 2, 3]
     # resume: lose a chunk and the assembled table, run again -> the same table
@@ -57,15 +58,21 @@ def test_deterministic_and_resumable(tmp_path: Path):
     pd.testing.assert_frame_equal(table, again)
     assert json.loads((tmp_path / "b" / "posterior.json").read_text()) == da
     mix = sorted((tmp_path / "b" / "mixture").glob("block-*.parquet"))
-    assert len(mix) == 1
+    env = sorted((tmp_path / "b" / "envelope").glob("block-*.parquet"))
+    assert len(mix) == 1 and len(env) == 1
     mix[0].unlink()
+    env[0].unlink()
     calibrate_book(tmp_path / "b", **SMALL)
     assert json.loads((tmp_path / "b" / "posterior.json").read_text()) == da
     # stage 4 is the posterior of record: the pool of stages 1, 2 and 4 conditioned on the
     # largest consistent subset over every twin stages 1-3 evaluated; stage 3 is a record
     p = da["posterior"]
     s4, s3 = p["sampler"], p["stage3"]
-    assert s4["kind"] == "mixture" and s4["draws"] == 5 and p["n_prior"] == 4 + 3 + 5
+    assert s4["kind"] == "mixture" and s4["draws"] == 5 and p["n_prior"] == 4 + 3 + 5 + 3
+    env = s4["envelope"]
+    assert env["draws"] == 3 and all(lo <= hi for lo, hi in zip(env["low"], env["high"],
+                                                                  strict=True))  # fmt: skip
+    assert 0 < env["fraction_of_prior"] <= 1
     assert s4["evaluated_before"] == 4 + 3 + s3["evaluations"] and s4["seeds"] >= 1
     assert s3["kept"] == 6 and s4["components"] == 2 * s4["seeds"]
     assert sum(s4["hits"].values()) == p["size"] and 0 < p["effective_size"] <= p["size"]
@@ -102,10 +109,11 @@ def test_cli_evidence_book(tmp_path: Path):
     out = tmp_path / "cal"
     r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out", str(out),
                                  "--samples", "2", "--duration", "0.4", "--stage2-draws", "1",
-                                 "--chain-steps", "0", "--mixture-draws", "2"])
+                                 "--chain-steps", "0", "--mixture-draws", "2",
+                                 "--envelope-draws", "1"])
     assert r.exit_code == 0, r.output
-    assert "twins evaluated 5 " in r.output and (out / "posterior.json").is_file()
-    assert "stage 4: 2 mixture draws" in r.output
+    assert "twins evaluated 6 " in r.output and (out / "posterior.json").is_file()
+    assert "stage 4: 2 mixture draws" in r.output and "stage 5: 1 envelope draws" in r.output
     r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out",
                                  str(tmp_path / "x"), "somelog.csv"])
     assert r.exit_code == 2 and not (tmp_path / "x").exists()

@@ -60,7 +60,10 @@ def test_twin_show_prints_the_identified_twin_with_its_provenance(capsys) -> Non
 def test_status_says_which_twin_ran() -> None:
     st = status()
     size = DOC["posterior"]["size"]
-    if "sampler" in DOC["posterior"]:  # stage 3's chains: every state ties for most probable
+    kind = (DOC["posterior"].get("sampler") or {}).get("kind")
+    if kind == "mixture":  # stages 4-5: a weighted pool with a most probable member
+        which = f"the most probable of {size} weighted twins consistent"
+    elif "sampler" in DOC["posterior"]:  # stage 3's chains: every state ties for most probable
         which = ("the first twin found consistent with the book's calibration evidence, of a "
                  f"posterior of {size} Markov chain states")
     else:

@@ -38,7 +38,8 @@ def notes(work: BenchRun) -> list[str]:
             "twin itself: the twin axis's 'posterior' level therefore repeats the nominal runs, "
             "and the plausible ranges come from the declared prior (mwip.hardware.prior)"
             if m == 1 else f"the identified twin's 'posterior' level draws {m} members of the book "
-            "calibration's posterior (a thinned set of its Markov chain states, book-twin.json)")
+            "calibration's posterior (book-twin.json: resampled from its weighted members, or a "
+            "thinned set of its Markov chain states where the chains are its sampler)")
     # fmt: skip
     origins = sorted({f"{e.label}: {e.origin}" for e in work.entrants if e.origin != "registry"})
     out = ["Every entrant runs on the identified default twin (mwip twin show), designed on "

@@ -126,7 +126,8 @@ def _controllers(work: BenchRun) -> dict[str, Any]:
 
 def posterior_members() -> list[dict[str, float]]:
     """The identified twin's posterior members as unknown values: ``members`` of
-    ``book-twin.json`` (a thinned set of the book calibration's Markov chain states), else (a
+    ``book-twin.json`` (resampled from the book calibration's weighted posterior, or a thinned
+    set of its Markov chain states where the chains were its sampler), else (a
     posterior of stages 1-2 alone lists none) the default twin's values alone."""
     from mwip.hardware.identified import STATUS_FILE, default_twin
 

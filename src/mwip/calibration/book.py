@@ -36,6 +36,8 @@ POSTERIOR_FILE = "posterior.json"
 
 #: ``sample`` of stage 4's draw ``s`` is ``STAGE4_OFFSET + s`` (stage 2's: 10^9 + s; stage 1's: s).
 STAGE4_OFFSET = 2 * 10**9
+#: ... and of stage 5's, ``STAGE5_OFFSET + s``.
+STAGE5_OFFSET = 3 * 10**9
 
 #: Posterior members written to ``posterior.json`` by stage 4 (systematic resampling).
 MEMBERS = 256
@@ -63,6 +65,16 @@ class MixtureResult:
     evaluated: int
     mixture: Any  # mwip.calibration.mixture.KernelMixture
     table: Any
+    envelope_plan: Any = None  # stage 5 (revision 4): mwip.calibration.mixture.EnvelopePlan
+    envelope: Any = None  # its one-box KernelMixture
+    envelope_table: Any = None  # its draws
+
+    def stages(self) -> list[tuple[str, Any, Any]]:
+        """``(name, density, draws)`` of stage 4 and (if run) stage 5."""
+        out = [("mixture", self.mixture, self.table)]
+        if self.envelope is not None:
+            out.append(("envelope", self.envelope, self.envelope_table))
+        return out
 
 
 def _evidence_hash() -> str:
@@ -207,14 +219,15 @@ def _mixture_record(mix: MixtureResult, post: Any, sample: np.ndarray,
     effective size against the declared threshold, each stage's share of the posterior
     weight, the largest single weight's share, and whether a stage-4 draw met more facts."""
     acc, w = post.accepted, post.weights
-    st = np.where(sample >= STAGE4_OFFSET, 2, np.where(sample >= 10**9, 1, 0))
+    st = np.select([sample >= STAGE5_OFFSET, sample >= STAGE4_OFFSET, sample >= 10**9],
+                   [3, 2, 1], 0)  # fmt: skip
+    labels = ("prior", "box", "mixture", "envelope")
     total = float(w[acc].sum()) if acc.any() else 0.0
     share = {name: (float(w[acc & (st == k)].sum()) / total if total > 0 else 0.0)
-             for k, name in enumerate(("prior", "box", "mixture"))}  # fmt: skip
-    hits = {name: int((acc & (st == k)).sum())
-            for k, name in enumerate(("prior", "box", "mixture"))}  # fmt: skip
+             for k, name in enumerate(labels)}  # fmt: skip
+    hits = {name: int((acc & (st == k)).sum()) for k, name in enumerate(labels)}
     four = st == 2
-    return {
+    rec = {
         "kind": "mixture", "draws": mix.plan.draws, "seed": mix.plan.seed,
         "factors": list(mix.plan.factors), "components": int(len(mix.mixture.pi)),
         "seeds": mix.seeds, "evaluated_before": mix.evaluated, "hits": hits,
@@ -223,8 +236,21 @@ def _mixture_record(mix: MixtureResult, post: Any, sample: np.ndarray,
         "precise": bool(post.ess >= mix.plan.effective),
         "largest_weight_share": float(w[acc].max() / total) if total > 0 else None,
         "weight_share": share,
-        "beyond": _beyond_cols({k: v[four] for k, v in pool.items()}, ev, mix.used),
+        "beyond": _beyond_cols({k: v[st >= 2] for k, v in pool.items()}, ev, mix.used),
+        "envelope": None,
     }  # fmt: skip
+    if mix.envelope is not None:
+        from mwip.calibration.mixture import prior_density
+        from mwip.hardware.prior import PRIOR
+
+        e = mix.envelope
+        rec["envelope"] = {
+            "draws": mix.envelope_plan.draws, "seed": mix.envelope_plan.seed,
+            "low": e.lo[0].tolist(), "high": e.hi[0].tolist(),
+            "fraction_of_prior": float(e.volumes[0] * prior_density(np.asarray(PRIOR.bounds))),
+            "hit_rate": hits["envelope"] / max(int((st == 3).sum()), 1),
+        }  # fmt: skip
+    return rec
 
 
 def _resampled(params: dict[str, np.ndarray], w: np.ndarray, accepted: np.ndarray,
@@ -273,7 +299,7 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None, prior_draws: Any = N
     c_ess: dict[str, float] | None = None
     if mixture is not None:
         w12 = pool.pop("weight12")
-        s12 = table["sample"].to_numpy() < STAGE4_OFFSET
+        s12 = table["sample"].to_numpy() < STAGE4_OFFSET  # stages 1-2
         p12 = {k: v[s12] for k, v in pool.items()}
         stage12 = condition(facts(p12, names, ev), {n: p12[f"param.{n}"] for n in pr.names},
                             bounds, ev, weights=w12[s12])  # fmt: skip
@@ -393,6 +419,8 @@ def calibrate_book(
     chain_steps: int | None = None,
     mixture: Any = True,
     mixture_draws: int | None = None,
+    envelope: Any = True,
+    envelope_draws: int | None = None,
     note: Callable[[str], None] | None = None,
 ) -> BookCalibration:
     """Run (or resume) the book calibration into ``out``; returns the result and writes
@@ -404,7 +432,9 @@ def calibrate_book(
     (:class:`mwip.calibration.chains.ChainPlan`; ``True``: the declaration's, ``None``: none),
     ``chain_steps`` its generations with the burn-in scaled alike (a smoke test);
     ``mixture``: stage 4's plan (:class:`mwip.calibration.mixture.MixturePlan`; ``True``: the
-    declaration's, ``None``: none), ``mixture_draws`` its size (a smoke test); ``note``
+    declaration's, ``None``: none), ``mixture_draws`` its size (a smoke test); ``envelope``,
+    ``envelope_draws``: stage 5's alike (:class:`mwip.calibration.mixture.EnvelopePlan`; run
+    only with stage 4); ``note``
     receives one line per stage-2 or stage-4 block and per stage-3 generation."""
     import pandas as pd
 
@@ -438,7 +468,11 @@ def calibrate_book(
     mplan = (ev.mixture if mixture is True else mixture) if mixture is not None else None
     if mplan is not None and mixture_draws is not None:
         mplan = replace(mplan, draws=int(mixture_draws))
-    mix = (mixture_stage(pop, ch, ev, mplan, out / "mixture", duration=duration, note=note)
+    eplan = (ev.envelope if envelope is True else envelope) if envelope is not None else None
+    if eplan is not None and envelope_draws is not None:
+        eplan = replace(eplan, draws=int(envelope_draws))
+    mix = (mixture_stage(pop, ch, ev, mplan, out / "mixture", duration=duration,
+                         envelope=eplan, envelope_store=out / "envelope", note=note)
            if mplan is not None else None)  # fmt: skip
     if mix is not None:
         pop = mixture_pool(table, pop, box, mix)
@@ -541,13 +575,17 @@ def _evaluated(pool: Any, chains: Any) -> Any:
 
 
 def mixture_stage(pool: Any, chains: Any, ev: Evidence, plan: Any, store: Path, *,
-                  duration: float = 0.0,
+                  duration: float = 0.0, envelope: Any = None, envelope_store: Path | None = None,
                   note: Callable[[str], None] | None = None) -> MixtureResult | None:  # fmt: skip
     """Stage 4 (:mod:`mwip.calibration.mixture`, revision 3): the facts to condition on (the
     largest consistent subset over every twin stages 1-3 evaluated), the seed set meeting
     them, the mixture fitted to it and its ``plan.draws`` draws, evaluated in blocks stored in
     ``store`` (``block-NNN.parquet``, replayed by a rerun; ``plan.json`` guards the folder
-    against another plan or seed set). ``None`` when nothing was evaluated before."""
+    against another plan or seed set). ``None`` when nothing was evaluated before.
+
+    ``envelope`` (:class:`mwip.calibration.mixture.EnvelopePlan`, revision 4): then stage 5
+    too, ``envelope.draws`` twins uniform on the bounding box of the seed set and stage 4's
+    draws meeting the same facts, stored in ``envelope_store``."""
     from dataclasses import asdict
 
     from mwip.calibration.mixture import KernelMixture
@@ -579,14 +617,28 @@ def mixture_stage(pool: Any, chains: Any, ev: Evidence, plan: Any, store: Path, 
     table = sample_blocks(lambda idx: q.draw(plan.seed, idx), plan.draws, names, run,
                           block=ev.block, store=store, note=note, offset=STAGE4_OFFSET,
                           label="mixture")  # fmt: skip
-    return MixtureResult(plan=plan, used=used, conflicts=tuple(tuple(c) for c in conflicts),
-                         seeds=int(sel.sum()), evaluated=int(len(allt)), mixture=q,
-                         table=table)  # fmt: skip
+    res = MixtureResult(plan=plan, used=used, conflicts=tuple(tuple(c) for c in conflicts),
+                        seeds=int(sel.sum()), evaluated=int(len(allt)), mixture=q,
+                        table=table)  # fmt: skip
+    if envelope is None or envelope_store is None:
+        return res
+    f4 = facts(_cols(table), run_names(), ev) if len(table) else None
+    hits4 = (table[[f"param.{n}" for n in names]].to_numpy(dtype=float)[
+        np.all(f4.S[:, mask], axis=1)] if f4 is not None else np.zeros((0, len(names))))
+    env = KernelMixture.envelope(np.vstack([seeds, hits4]), bounds)
+    claim_folder(envelope_store, {"plan": asdict(envelope), "used": list(used), "names": names,
+                                  "low": env.lo[0].tolist(), "high": env.hi[0].tolist()},
+                 "draws of another envelope plan or envelope")  # fmt: skip
+    etable = sample_blocks(lambda idx: env.draw(envelope.seed, idx), envelope.draws, names,
+                           run, block=ev.block, store=envelope_store, note=note,
+                           offset=STAGE5_OFFSET, label="envelope")  # fmt: skip
+    return replace(res, envelope_plan=envelope, envelope=env, envelope_table=etable)
 
 
 def mixture_pool(prior_draws: Any, pool: Any, box: Any, mix: MixtureResult) -> Any:
-    """Stages 1, 2 and 4 pooled under the balance heuristic (:func:`mixture.balance_weights`:
-    the prior, stage 2's box density and the mixture's, each with its number of draws):
+    """Stages 1, 2, 4 and 5 pooled under the balance heuristic
+    (:func:`mixture.balance_weights`: the prior, stage 2's box density, the mixture's and the
+    envelope's, each with its number of draws):
     column ``weight``; stages 1-2's own weights stay in ``weight12`` (``nan`` for stage 4)."""
     import pandas as pd
 
@@ -599,17 +651,19 @@ def mixture_pool(prior_draws: Any, pool: Any, box: Any, mix: MixtureResult) -> A
     old = pool["weight"] if "weight" in pool.columns else pd.Series(np.ones(len(pool)))
     base = pool.drop(columns=[c for c in ("weight",) if c in pool.columns]).assign(
         weight12=old.to_numpy(dtype=float))
-    out = pd.concat([base, mix.table.assign(weight12=np.nan)], ignore_index=True)
+    out = pd.concat([base] + [t.assign(weight12=np.nan) for _, _, t in mix.stages()],
+                    ignore_index=True)  # fmt: skip
     x = out[[f"param.{n}" for n in names]].to_numpy(dtype=float)
     p = np.full(len(out), prior_density(bounds))
-    n1, n4 = len(prior_draws), len(mix.table)
+    n1 = len(prior_draws)
     n2 = len(pool) - n1
     dens, counts = [p], [n1]
     if box is not None and n2 > 0:
         dens.append(inside(x, box.ranges(names, bounds)) * p / box.fraction(names, bounds))
         counts.append(n2)
-    dens.append(mix.mixture.density(x))
-    counts.append(n4)
+    for _, q, t in mix.stages():
+        dens.append(q.density(x))
+        counts.append(len(t))
     out["weight"] = balance_weights(p, counts, dens)
     return out
 
@@ -622,7 +676,9 @@ def provenance(doc: dict[str, Any]) -> str:
         "# evidence (`mwip twin fit --evidence book`; mwip/calibration/book-evidence.toml,",
         f"# sha256 {doc['evidence_sha256'][:16]}).",
         f"# Prior draws {doc.get('samples', p['n_prior'])} (seed {doc.get('seed')}), twins "
-        f"evaluated with stage 2 {p['n_prior']}, consistent {p['size']} "
+        + ("pooled (stages 1, 2, 4, 5)" if (p.get("sampler") or {}).get("kind") == "mixture"
+           else "evaluated with stage 2")
+        + f" {p['n_prior']}, consistent {p['size']} "
         f"(effective {p.get('effective_size', p['size']):.0f}); "
         f"conditioned on {len(p['used'])} facts"
         + (f", dropped {len(p['dropped'])}: {', '.join(p['dropped'])}" if p["dropped"] else "")
@@ -632,8 +688,11 @@ def provenance(doc: dict[str, Any]) -> str:
     if smp.get("kind") == "mixture":
         lines.append(f"# Stage 4 (revision 3): {smp['draws']} draws from a mixture of "
                      f"{smp['components']} box kernels on {smp['seeds']} seed twins, "
-                     f"{smp['hits']['mixture']} consistent; pooled with stages 1-2, effective "
-                     f"size {p['effective_size']:.0f} ("
+                     f"{smp['hits']['mixture']} consistent"
+                     + (f"; stage 5 (revision 4): {smp['envelope']['draws']} draws uniform on "
+                        f"the envelope, {smp['hits']['envelope']} consistent"
+                        if smp.get("envelope") else "")
+                     + f"; pooled with stages 1-2, effective size {p['effective_size']:.0f} ("
                      + ("precise" if smp["precise"] else "NOT precise") + f": declared "
                      f">= {smp['effective_needed']:g}).")  # fmt: skip
     s3 = p.get("stage3") or (smp if smp and smp.get("kind") != "mixture" else None)
@@ -655,8 +714,11 @@ def report_text(doc: dict[str, Any]) -> str:
     p = doc["posterior"]
     out = [f"# {doc['title']}", "", f"Signals: {doc['signals']}.", "",
            f"Acceptance: {doc['acceptance']['rule']}.", "",
-           f"Prior draws: {doc.get('samples', p['n_prior'])}; twins evaluated with stage 2 "
-           f"(docs/twin_fit.md): {p['n_prior']}; consistent with the calibration evidence: "
+           f"Prior draws: {doc.get('samples', p['n_prior'])}; twins "
+           + ("pooled (stages 1, 2, 4, 5; docs/twin_fit.md)"
+              if (p.get("sampler") or {}).get("kind") == "mixture"
+              else "evaluated with stage 2 (docs/twin_fit.md)")
+           + f": {p['n_prior']}; consistent with the calibration evidence: "
            f"**{p['size']}** (effective size {p.get('effective_size', p['size']):.0f})."]
     # fmt: skip
     smp: dict[str, Any] = p.get("sampler") or {}
@@ -665,7 +727,9 @@ def report_text(doc: dict[str, Any]) -> str:
     if s4:
         s12 = p["stage12"]
         sh = s4["weight_share"]
-        out += ["", "## Stage 4: independent draws from a mixture (revision 3, of record)", "",
+        env = s4.get("envelope")
+        out += ["", "## Stages 4-5: independent draws (revisions 3-4, the posterior of record)",
+                "",
                 f"Conditioned on the largest consistent subset over the "
                 f"{s4['evaluated_before']} twins stages 1-3 evaluated ({len(p['used'])} "
                 f"facts). {s4['seeds']} of them meet it (the seed set); stage 4 drew "
@@ -675,23 +739,35 @@ def report_text(doc: dict[str, Any]) -> str:
                 "pooled them with stages 1-2 by the balance heuristic. "
                 f"{s4['hits']['mixture']} of its draws meet the facts (hit rate "
                 f"{s4['hit_rate']:.3f}); with stages 1-2 ({s4['hits']['prior']} prior, "
-                f"{s4['hits']['box']} box draws) the posterior has {p['size']} weighted "
+                f"{s4['hits']['box']} box draws) and stage 5 ({s4['hits']['envelope']} "
+                f"envelope draws, below) the posterior has {p['size']} weighted "
                 f"members, Kish effective size **{p['effective_size']:.0f}** ("
                 + (f"precise: at least the declared {s4['effective_needed']:g})" if s4["precise"]
                    else f"**not precise**: under the declared {s4['effective_needed']:g}; the "
                    "intervals below are wide for it") + ". Share of the posterior weight: "
                 f"prior draws {_pct(sh['prior'])}, box draws {_pct(sh['box'])}, mixture draws "
-                f"{_pct(sh['mixture'])}; the largest single weight carries "
+                f"{_pct(sh['mixture'])}, envelope draws {_pct(sh['envelope'])}; the largest single "
+                f"weight carries "
                 f"{_pct(s4['largest_weight_share'])}. Stages 1-2 alone met these facts with "
-                f"{s12['size'] if s12['used'] == p['used'] else 'a different set of'} "
-                "twin(s). The weights are exact, so the estimate is unbiased; a region of "
-                "the posterior the seed set missed is represented by the prior and box draws "
-                "alone, which is what their weight share measures."]  # fmt: skip
+                f"{s4['hits']['prior'] + s4['hits']['box']} twin(s) (they conditioned on "
+                f"{len(s12['used'])} facts). The weights are exact, so the estimate is "
+                "unbiased; a region of the posterior the seed set missed is represented by "
+                "the prior, box and envelope draws alone, which is what their weight share "
+                "measures."]  # fmt: skip
+        if env:
+            out += ["", f"Stage 5 (revision 4): {env['draws']} twins uniform on the envelope, "
+                    "the bounding box of every twin stages 1-4 found meeting the facts "
+                    f"({env['fraction_of_prior']:.3g} of the prior's volume); "
+                    f"{s4['hits']['envelope']} meet them (hit rate {env['hit_rate']:.4f}), "
+                    f"carrying {_pct(sh['envelope'])} of the posterior weight. Pooled with "
+                    "stages 1, 2 and 4 by the same balance heuristic: the effective size "
+                    "above is of the whole pool."]  # fmt: skip
         b = s4["beyond"]
-        out += ["", (f"A stage-4 twin met more facts than those conditioned on: "
+        out += ["", (f"A stage-4 or stage-5 twin met more facts than those conditioned on: "
                      f"{', '.join(b['extra'])} ({b['count']} draws). Not conditioned on "
                      "(revision 3 fixed the facts before its draws)." if b["extra"] else
-                     "No stage-4 twin met a fact beyond those conditioned on.")]  # fmt: skip
+                     "No stage-4 or stage-5 twin met a fact beyond those conditioned on.")]
+        # fmt: skip
     if s3 and s4:
         out += ["", "## Stage 3: Markov chains (revision 2; their record)", "",
                 f"{s3['chains']} random-walk Metropolis chains, {s3['burn']} generations of "
@@ -745,8 +821,10 @@ def report_text(doc: dict[str, Any]) -> str:
             out += [f"| {c['claim']} | {_pct(c['fraction'])} | {c['verdict']} |"
                     for c in wd["claims"]]
     if p["conflicts"]:
-        out += ["", "The calibration facts conflict: no draw of stages 1-2 satisfies them all. "
-                "Smallest conflicting sets (over stages 1-2; stage 3 above may have met some):"]
+        over = ("the twins stages 1-3 evaluated" if s4 else "stages 1-2")
+        out += ["", f"The calibration facts conflict: no twin of {over} satisfies them all. "
+                f"Smallest conflicting sets (over {over}"
+                + ("" if s4 else "; stage 3 above may have met some") + "):"]
         out += [f"- {{{', '.join(c)}}}" for c in p["conflicts"]]
         out += ["", f"Conditioned on the largest consistent subset ({len(p['used'])} facts); "
                 f"not used: {', '.join(p['dropped'])}."]
@@ -823,7 +901,7 @@ def _figure(table: Any, doc: dict[str, Any], post: dict[str, np.ndarray], weight
     axes[0].legend(fontsize=7)
     what = "the book's calibration evidence" if not pd_["dropped"] else (
         f"the largest consistent subset of it ({len(pd_['used'])} facts)")
-    fig.suptitle(f"Twin unknowns: prior ({pd_['n_prior']} draws) and the "
+    fig.suptitle(f"Twin unknowns: prior ({len(table)} draws) and the "
                  f"{pd_['size']} twins consistent with {what}",
                  fontsize=10)  # fmt: skip
     write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=90))

@@ -99,12 +99,16 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
               "(default: the declaration's, 500; 0: no chains).")
 @click.option("--mixture-draws", "mixture_draws", type=click.IntRange(0, 1_000_000),
               default=None, help="--evidence: twins of stage 4's mixture draws (default: the "
-              "declaration's, 6000; 0: no stage 4).")
+              "declaration's, 6000; 0: no stages 4-5).")
+@click.option("--envelope-draws", "envelope_draws", type=click.IntRange(0, 1_000_000),
+              default=None, help="--evidence: twins of stage 5's envelope draws (default: the "
+              "declaration's, 20000; 0: no stage 5).")
 def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: str | None,
              fix: tuple[str, ...], validate: Path | None, segment: int,
              force: bool, evidence: str | None, samples: int | None, seed: int | None,
              jobs: int, duration: float, stage2: int | None,
-             chain_steps: int | None, mixture_draws: int | None) -> None:  # fmt: skip
+             chain_steps: int | None, mixture_draws: int | None,
+             envelope_draws: int | None) -> None:  # fmt: skip
     """Identify the twin from robot logs (docs/twin_fit.md), or with --evidence book the
     book's robot from the book's evidence."""
     from mwip import outdir
@@ -113,7 +117,7 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
         if logs:
             raise click.UsageError("give LOG files or --evidence book, not both")
         _fit_book(out, force, samples, seed, jobs, duration, stage2, chain_steps,
-                  mixture_draws)
+                  mixture_draws, envelope_draws)
         return
     if not logs:
         raise click.UsageError("missing LOG files (or --evidence book)")
@@ -159,7 +163,8 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
 def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, jobs: int,
               duration: float, stage2: int | None = None,
               chain_steps: int | None = None,
-              mixture_draws: int | None = None) -> None:  # fmt: skip
+              mixture_draws: int | None = None,
+              envelope_draws: int | None = None) -> None:  # fmt: skip
     """``twin fit --evidence book``: :func:`mwip.calibration.book.calibrate_book` into ``out``
     (a folder of mwip's own: a rerun resumes the prior draws)."""
     from mwip import outdir
@@ -172,6 +177,8 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
                          chain_steps=chain_steps or None,
                          mixture=None if mixture_draws == 0 else True,
                          mixture_draws=mixture_draws or None,
+                         envelope=None if envelope_draws == 0 else True,
+                         envelope_draws=envelope_draws or None,
                          note=lambda line: click.echo(line, err=True))
     # fmt: skip
     p, c = res.doc["posterior"], res.doc["claim_counts"]
@@ -182,6 +189,9 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
     if smp.get("kind") == "mixture":
         chains += (f"; stage 4: {smp['draws']} mixture draws, {smp['hits']['mixture']} "
                    "consistent")
+        if smp.get("envelope"):
+            chains += (f"; stage 5: {smp['envelope']['draws']} envelope draws, "
+                       f"{smp['hits']['envelope']} consistent")
     click.echo(f"twins evaluated {res.doc['evaluated']} (prior draws and stage 2{chains}), "
                f"posterior {p['size']} (effective {p['effective_size']:.0f})"
                + (f" (conditioned on {len(p['used'])} facts; dropped: {len(p['dropped'])})"
