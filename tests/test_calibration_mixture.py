@@ -94,3 +94,26 @@ def test_plan_validation_names_the_field(kw, field):
 def test_seeds_outside_the_prior_are_refused():
     with pytest.raises(ValueError, match="outside the prior box"):
         KernelMixture.fit(np.array([[1.5, 0.5, 0.5]]), UNIT3, [1.0])
+
+
+@pytest.mark.parametrize("kw, field", [
+    ({"draws": -1}, "envelope.draws"), ({"draws": 2.5}, "envelope.draws"),
+    ({"seed": -1}, "envelope.seed"),
+])  # fmt: skip
+def test_envelope_plan_validation_names_the_field(kw, field):
+    from mwip.calibration.mixture import EnvelopePlan
+
+    with pytest.raises(ValueError, match=field):
+        EnvelopePlan(**{"draws": 10, "seed": 1, **kw})
+
+
+def test_the_envelope_is_the_bounding_box_and_its_draws_are_uniform():
+    pts = np.array([[0.2, 0.5, 0.1], [0.4, 0.5, 0.3], [0.3, 0.5, 0.2]])
+    e = KernelMixture.envelope(pts, UNIT3)
+    np.testing.assert_allclose(e.lo[0], [0.2, 0.4995, 0.1])  # agreeing unknown: 1e-3 wide
+    np.testing.assert_allclose(e.hi[0], [0.4, 0.5005, 0.3])
+    assert e.volumes[0] == pytest.approx(0.2 * 1e-3 * 0.2)
+    x = e.draw(4, range(2000))
+    assert np.all((x >= e.lo[0]) & (x <= e.hi[0]))
+    np.testing.assert_allclose(e.density(x), 1.0 / e.volumes[0])
+    assert abs(np.mean(x[:, 0]) - 0.3) < 4 * 0.2 / np.sqrt(12 * 2000)

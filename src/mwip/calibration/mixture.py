@@ -43,6 +43,14 @@ __all__ = ["EnvelopePlan", "KernelMixture", "MixturePlan", "balance_weights", "p
 F64 = NDArray[np.float64]
 
 
+def _draws_and_seed(section: str, draws: object, seed: object) -> None:
+    """A ``ValueError`` naming ``section.draws`` / ``section.seed`` when out of range."""
+    if isinstance(draws, bool) or not isinstance(draws, int) or not 0 <= draws <= 1_000_000:
+        raise ValueError(f"{section}.draws must be an integer in [0, 1000000], got {draws!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"{section}.seed must be an integer >= 0, got {seed!r}")
+
+
 @dataclass(frozen=True)
 class MixturePlan:
     """Stage 4 as declared: ``draws`` twins, numbers from ``seed``, one equal-share kernel
@@ -56,12 +64,7 @@ class MixturePlan:
     effective: float = 100.0
 
     def __post_init__(self) -> None:
-        if isinstance(self.draws, bool) or not isinstance(self.draws, int) or not (
-                0 <= self.draws <= 1_000_000):
-            raise ValueError(f"mixture.draws must be an integer in [0, 1000000], "
-                             f"got {self.draws!r}")  # fmt: skip
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(f"mixture.seed must be an integer >= 0, got {self.seed!r}")
+        _draws_and_seed("mixture", self.draws, self.seed)
         if not self.factors or not all(0.0 < float(f) <= 10.0 for f in self.factors):
             raise ValueError(f"mixture.factors must be a non-empty list of numbers in (0, 10], "
                              f"got {list(self.factors)!r}")  # fmt: skip
@@ -78,12 +81,7 @@ class EnvelopePlan:
     seed: int
 
     def __post_init__(self) -> None:
-        if isinstance(self.draws, bool) or not isinstance(self.draws, int) or not (
-                0 <= self.draws <= 1_000_000):
-            raise ValueError(f"envelope.draws must be an integer in [0, 1000000], "
-                             f"got {self.draws!r}")  # fmt: skip
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(f"envelope.seed must be an integer >= 0, got {self.seed!r}")
+        _draws_and_seed("envelope", self.draws, self.seed)
 
 
 def prior_density(bounds: F64) -> float:
