@@ -90,7 +90,7 @@ def status(twin: Any = None) -> dict[str, Any]:
     s3 = p.get("sampler")
     if s3 and s3.get("kind") == "mixture":  # stage 4: a weighted pool, the most probable
         which = (f"the most probable of {size} weighted twins consistent with the book's "
-                 f"calibration evidence (stage 4's mixture draws pooled with stages 1-2, "
+                 f"calibration evidence (stages 4-5's draws pooled with stages 1-2, "
                  f"effective {p.get('effective_size', 0):.0f}, "
                  + ("precise" if s3.get("precise") else "not precise") + ";")
         s3 = None
@@ -105,7 +105,7 @@ def status(twin: Any = None) -> dict[str, Any]:
                   f"{p.get('effective_size', 0):.0f};")  # fmt: skip
     text = (f"the default twin is {which} "
             f"{len(p.get('used', []))} facts conditioned on, {len(p.get('dropped', []))} met "
-            f"by no twin of {'stages 1-2' if s3 else 'the twins evaluated'}); {n_up} of {n_runs} "
+            f"with them by no twin {'of stages 1-2' if s3 else 'evaluated'}); {n_up} of {n_runs} "
             "Chapter 6 runs stand on it")  # fmt: skip
     return {"identified": True, "text": text, "provenance": provenance(),
             "size": p.get("size"), "effective_size": p.get("effective_size"),
