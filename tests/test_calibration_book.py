@@ -92,6 +92,24 @@ def test_deterministic_and_resumable(tmp_path: Path):
         assert np.all((x >= lo) & (x <= hi))
 
 
+def test_the_envelope_extension_extends_the_same_sample(tmp_path: Path):
+    """Revision 5: stage 5 going on past its declared draws (here until its maximum: the
+    effective size asked for is out of reach) draws what a larger declared stage 5 would."""
+    whole = calibrate_book(tmp_path / "w", **{**SMALL, "envelope": EnvelopePlan(6, 2)}).doc
+    ext = calibrate_book(tmp_path / "e", **{**SMALL, "envelope": EnvelopePlan(
+        2, 2, max_draws=6, effective=1e9)}).doc  # fmt: skip
+    a = pd.read_parquet(tmp_path / "w" / "envelope" / "block-000.parquet")
+    b = pd.concat([pd.read_parquet(tmp_path / "e" / "envelope" / "block-000.parquet"),
+                   pd.read_parquet(tmp_path / "e" / "envelope" / "extension" /
+                                   "block-000.parquet")], ignore_index=True)  # fmt: skip
+    pd.testing.assert_frame_equal(a, b)
+    env = ext["posterior"]["sampler"]["envelope"]
+    assert env["draws"] == 6 and env["declared"] == 2 and len(env["ess_by_block"]) == 1
+    assert ext["posterior"]["effective_size"] == pytest.approx(env["ess_by_block"][-1])
+    assert ext["posterior"]["effective_size"] == whole["posterior"]["effective_size"]
+    assert ext["claims"] == whole["claims"] and ext["map_values"] == whole["map_values"]
+
+
 def test_chains_alone_sample_the_posterior_of_stages_1_2(tmp_path: Path):
     """Without stage 4 (revision 2's record): the chains sample the posterior stages 1-2
     conditioned, the same facts, every member meets them, intervals at their ESS."""

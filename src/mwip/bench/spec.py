@@ -32,9 +32,10 @@ A level's effects (any combination; an unset one stays at the identified twin's 
 - ``params = { mb = 0.2, ... }``: each listed field of the real robot (Table 6.1) drawn
   uniformly in ``centre (1 +- a)``, independently per run;
 - ``twin = "posterior"``: each run takes a member of the identified twin's posterior
-  (``book-twin.json``'s ``members``: the book calibration's posterior, resampled); ``twin = "prior"``: every
-  unknown of the declared prior (:mod:`mwip.hardware.prior`) that acts on the robot drawn
-  uniformly over its range; ``twin = ["drive.gear_ratio", ...]``: those unknowns only;
+  (``book-twin.json``'s ``members``: the book calibration's posterior, resampled);
+  ``twin = "prior"``: every unknown of the declared prior (:mod:`mwip.hardware.prior`) that
+  acts on the robot drawn uniformly over its range; ``twin = ["drive.gear_ratio", ...]``:
+  those unknowns only;
 - ``noise = s``: the IMU's white noise (accelerometer and gyro sigmas) ``s`` times the twin's;
 - ``torque_noise = sigma``: white noise (N m) added to each commanded wheel torque per sample;
 - ``deadband = d``: the drive's dead-band (duty, ``drive.deadband``);

@@ -68,6 +68,7 @@ class MixtureResult:
     envelope_plan: Any = None  # stage 5 (revision 4): mwip.calibration.mixture.EnvelopePlan
     envelope: Any = None  # its one-box KernelMixture
     envelope_table: Any = None  # its draws
+    envelope_ess: tuple[float, ...] = ()  # revision 5: the pooled effective size per block
 
     def stages(self) -> list[tuple[str, Any, Any]]:
         """``(name, density, draws)`` of stage 4 and (if run) stage 5."""
@@ -245,7 +246,9 @@ def _mixture_record(mix: MixtureResult, post: Any, sample: np.ndarray,
 
         e = mix.envelope
         rec["envelope"] = {
-            "draws": mix.envelope_plan.draws, "seed": mix.envelope_plan.seed,
+            "draws": int(len(mix.envelope_table)), "declared": mix.envelope_plan.draws,
+            "max_draws": mix.envelope_plan.max_draws, "seed": mix.envelope_plan.seed,
+            "ess_by_block": [float(v) for v in mix.envelope_ess],
             "low": e.lo[0].tolist(), "high": e.hi[0].tolist(),
             "fraction_of_prior": float(e.volumes[0] * prior_density(np.asarray(PRIOR.bounds))),
             "hit_rate": hits["envelope"] / max(int((st == 3).sum()), 1),
@@ -434,7 +437,7 @@ def calibrate_book(
     ``mixture``: stage 4's plan (:class:`mwip.calibration.mixture.MixturePlan`; ``True``: the
     declaration's, ``None``: none), ``mixture_draws`` its size (a smoke test); ``envelope``,
     ``envelope_draws``: stage 5's alike (:class:`mwip.calibration.mixture.EnvelopePlan`; run
-    only with stage 4); ``note``
+    only with stage 4; ``envelope_draws`` also turns revision 5's extension off); ``note``
     receives one line per stage-2 or stage-4 block and per stage-3 generation."""
     import pandas as pd
 
@@ -469,10 +472,10 @@ def calibrate_book(
     if mplan is not None and mixture_draws is not None:
         mplan = replace(mplan, draws=int(mixture_draws))
     eplan = (ev.envelope if envelope is True else envelope) if envelope is not None else None
-    if eplan is not None and envelope_draws is not None:
-        eplan = replace(eplan, draws=int(envelope_draws))
+    if eplan is not None and envelope_draws is not None:  # a smoke test: no extension
+        eplan = replace(eplan, draws=int(envelope_draws), max_draws=None, effective=None)
     mix = (mixture_stage(pop, ch, ev, mplan, out / "mixture", duration=duration,
-                         envelope=eplan, envelope_store=out / "envelope", note=note)
+                         envelope=eplan, envelope_store=out / "envelope", box=box, note=note)
            if mplan is not None else None)  # fmt: skip
     if mix is not None:
         pop = mixture_pool(table, pop, box, mix)
@@ -576,6 +579,7 @@ def _evaluated(pool: Any, chains: Any) -> Any:
 
 def mixture_stage(pool: Any, chains: Any, ev: Evidence, plan: Any, store: Path, *,
                   duration: float = 0.0, envelope: Any = None, envelope_store: Path | None = None,
+                  box: Any = None,
                   note: Callable[[str], None] | None = None) -> MixtureResult | None:  # fmt: skip
     """Stage 4 (:mod:`mwip.calibration.mixture`, revision 3): the facts to condition on (the
     largest consistent subset over every twin stages 1-3 evaluated), the seed set meeting
@@ -585,7 +589,10 @@ def mixture_stage(pool: Any, chains: Any, ev: Evidence, plan: Any, store: Path, 
 
     ``envelope`` (:class:`mwip.calibration.mixture.EnvelopePlan`, revision 4): then stage 5
     too, ``envelope.draws`` twins uniform on the bounding box of the seed set and stage 4's
-    draws meeting the same facts, stored in ``envelope_store``."""
+    draws meeting the same facts, stored in ``envelope_store``; with ``envelope.max_draws``
+    (revision 5) it goes on in blocks (``envelope_store/extension``) until the effective size
+    of the pool (stages 1-2, whose box ``box`` is stage 2's, 4 and 5) reaches
+    ``envelope.effective``."""
     from dataclasses import asdict
 
     from mwip.calibration.mixture import KernelMixture
@@ -626,13 +633,92 @@ def mixture_stage(pool: Any, chains: Any, ev: Evidence, plan: Any, store: Path, 
     hits4 = (table[[f"param.{n}" for n in names]].to_numpy(dtype=float)[
         np.all(f4.S[:, mask], axis=1)] if f4 is not None else np.zeros((0, len(names))))
     env = KernelMixture.envelope(np.vstack([seeds, hits4]), bounds)
-    claim_folder(envelope_store, {"plan": asdict(envelope), "used": list(used), "names": names,
+    # the identity of the sample, not of where it stops (revision 5 extends the same draws)
+    ident = {"draws": envelope.draws, "seed": envelope.seed}
+    claim_folder(envelope_store, {"plan": ident, "used": list(used), "names": names,
                                   "low": env.lo[0].tolist(), "high": env.hi[0].tolist()},
                  "draws of another envelope plan or envelope")  # fmt: skip
     etable = sample_blocks(lambda idx: env.draw(envelope.seed, idx), envelope.draws, names,
                            run, block=ev.block, store=envelope_store, note=note,
                            offset=STAGE5_OFFSET, label="envelope")  # fmt: skip
-    return replace(res, envelope_plan=envelope, envelope=env, envelope_table=etable)
+    res = replace(res, envelope_plan=envelope, envelope=env, envelope_table=etable)
+    if envelope.max_draws is None or envelope.max_draws <= envelope.draws:
+        return res
+    # revision 5: block by block until the pooled effective size is the declared one
+    import pandas as pd
+
+    n0, parts, trail = envelope.draws, [etable], []
+    ess = _pooled_ess(pool, box, res, mask, ev)
+    if note is not None:
+        note(f"envelope: {n0} draws, pooled effective size {ess:.1f}")
+    k = 0
+    while ess < float(envelope.effective) and n0 + k * ev.block < envelope.max_draws:
+        size = min(ev.block, envelope.max_draws - n0 - k * ev.block)
+
+        def draw(idx: Any) -> np.ndarray:  # extension draw i is stage 5's draw n0 + i
+            return np.asarray(env.draw(envelope.seed, [n0 + i for i in idx]))
+
+        new = sample_blocks(draw, k * ev.block + size, names, run, block=ev.block,
+                            store=envelope_store / "extension", note=note,
+                            offset=STAGE5_OFFSET + n0, label="envelope (extension)",
+                            first=k)  # fmt: skip
+        parts.append(new)
+        res = replace(res, envelope_table=pd.concat(parts, ignore_index=True))
+        ess = _pooled_ess(pool, box, res, mask, ev)
+        trail.append(ess)
+        k += 1
+        if note is not None:
+            note(f"envelope: {n0 + k * ev.block} draws, pooled effective size {ess:.1f} "
+                 f"(stops at {float(envelope.effective):g})")
+    return replace(res, envelope_ess=tuple(trail))
+
+
+def _pooled_ess(pool: Any, box: Any, mix: MixtureResult, mask: np.ndarray,
+                ev: Evidence) -> float:  # fmt: skip
+    """Kish's effective size of the posterior that stages 1, 2, 4 and 5 pool (the facts
+    ``mask``): the weights of its consistent twins only, as :func:`mixture_pool` gives them."""
+    from mwip.calibration.mixture import balance_weights
+    from mwip.calibration.posterior import facts
+    from mwip.calibration.runs import run_names
+    from mwip.hardware.prior import PRIOR
+
+    names = [f"param.{n}" for n in PRIOR.names]
+    tables = [pool.drop(columns=[c for c in ("weight", "weight12") if c in pool.columns])]
+    tables += [t for _, _, t in mix.stages()]
+    xs = []
+    for t in tables:
+        if len(t):
+            ok = np.all(facts(_cols(t), run_names(), ev).S[:, mask], axis=1)
+            xs.append(t[names].to_numpy(dtype=float)[ok])
+    x = np.vstack(xs) if xs else np.zeros((0, len(names)))
+    if x.shape[0] == 0:
+        return 0.0
+    n1 = int((pool["sample"].to_numpy() < 10**9).sum())
+    p, counts, dens = _stage_densities(x, n1, len(pool) - n1, box, mix)
+    w = balance_weights(p, counts, dens)
+    return float(w.sum() ** 2 / np.sum(w * w))
+
+
+def _stage_densities(x: np.ndarray, n1: int, n2: int, box: Any, mix: MixtureResult
+                     ) -> tuple[np.ndarray, list[int], list[np.ndarray]]:  # fmt: skip
+    """The prior density at ``x`` (N, D) and every pooled stage's draws and density there:
+    the prior (``n1``), stage 2's box (``n2``, if any), stage 4's mixture, stage 5's
+    envelope."""
+    from mwip.calibration.mixture import prior_density
+    from mwip.calibration.proposal import inside
+    from mwip.hardware.prior import PRIOR
+
+    names = list(PRIOR.names)
+    bounds = np.asarray(PRIOR.bounds, dtype=float)
+    p = np.full(x.shape[0], prior_density(bounds))
+    dens, counts = [p], [n1]
+    if box is not None and n2 > 0:
+        dens.append(inside(x, box.ranges(names, bounds)) * p / box.fraction(names, bounds))
+        counts.append(n2)
+    for _, q, t in mix.stages():
+        dens.append(q.density(x))
+        counts.append(len(t))
+    return p, counts, dens
 
 
 def mixture_pool(prior_draws: Any, pool: Any, box: Any, mix: MixtureResult) -> Any:
@@ -642,28 +728,18 @@ def mixture_pool(prior_draws: Any, pool: Any, box: Any, mix: MixtureResult) -> A
     column ``weight``; stages 1-2's own weights stay in ``weight12`` (``nan`` for stage 4)."""
     import pandas as pd
 
-    from mwip.calibration.mixture import balance_weights, prior_density
-    from mwip.calibration.proposal import inside
+    from mwip.calibration.mixture import balance_weights
     from mwip.hardware.prior import PRIOR
 
     names = list(PRIOR.names)
-    bounds = np.asarray(PRIOR.bounds, dtype=float)
     old = pool["weight"] if "weight" in pool.columns else pd.Series(np.ones(len(pool)))
     base = pool.drop(columns=[c for c in ("weight",) if c in pool.columns]).assign(
         weight12=old.to_numpy(dtype=float))
     out = pd.concat([base] + [t.assign(weight12=np.nan) for _, _, t in mix.stages()],
                     ignore_index=True)  # fmt: skip
     x = out[[f"param.{n}" for n in names]].to_numpy(dtype=float)
-    p = np.full(len(out), prior_density(bounds))
     n1 = len(prior_draws)
-    n2 = len(pool) - n1
-    dens, counts = [p], [n1]
-    if box is not None and n2 > 0:
-        dens.append(inside(x, box.ranges(names, bounds)) * p / box.fraction(names, bounds))
-        counts.append(n2)
-    for _, q, t in mix.stages():
-        dens.append(q.density(x))
-        counts.append(len(t))
+    p, counts, dens = _stage_densities(x, n1, len(pool) - n1, box, mix)
     out["weight"] = balance_weights(p, counts, dens)
     return out
 
@@ -728,7 +804,7 @@ def report_text(doc: dict[str, Any]) -> str:
         s12 = p["stage12"]
         sh = s4["weight_share"]
         env = s4.get("envelope")
-        out += ["", "## Stages 4-5: independent draws (revisions 3-4, the posterior of record)",
+        out += ["", "## Stages 4-5: independent draws (revisions 3-5, the posterior of record)",
                 "",
                 f"Conditioned on the largest consistent subset over the "
                 f"{s4['evaluated_before']} twins stages 1-3 evaluated ({len(p['used'])} "
@@ -755,7 +831,11 @@ def report_text(doc: dict[str, Any]) -> str:
                 "the prior, box and envelope draws alone, which is what their weight share "
                 "measures."]  # fmt: skip
         if env:
-            out += ["", f"Stage 5 (revision 4): {env['draws']} twins uniform on the envelope, "
+            ext = ("" if not env.get("max_draws") else
+                   f" (revision 4 declared {env['declared']}; revision 5 went on in blocks until "
+                   f"the pooled effective size reached the declared {s4['effective_needed']:g}"
+                   f", at most {env['max_draws']})")  # fmt: skip
+            out += ["", f"Stage 5: {env['draws']} twins{ext} uniform on the envelope, "
                     "the bounding box of every twin stages 1-4 found meeting the facts "
                     f"({env['fraction_of_prior']:.3g} of the prior's volume); "
                     f"{s4['hits']['envelope']} meet them (hit rate {env['hit_rate']:.4f}), "

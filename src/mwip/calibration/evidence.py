@@ -91,12 +91,16 @@ def _mixture(entry: Any) -> Any:
                        effective=float(entry["effective"]))  # fmt: skip
 
 
-def _envelope(entry: Any) -> Any:
+def _envelope(entry: Any, extension: Any, mixture: Any) -> Any:
     from mwip.calibration.mixture import EnvelopePlan
 
     if entry is None:
         return None
-    return EnvelopePlan(draws=int(entry["draws"]), seed=int(entry["seed"]))
+    if extension is None:
+        return EnvelopePlan(draws=int(entry["draws"]), seed=int(entry["seed"]))
+    return EnvelopePlan(draws=int(entry["draws"]), seed=int(entry["seed"]),
+                        max_draws=int(extension["max_draws"]),
+                        effective=None if mixture is None else float(mixture.effective))
 
 
 def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
@@ -125,7 +129,8 @@ def load_evidence(path: Path = EVIDENCE_FILE) -> Evidence:
             proposal=_proposal(data.get("proposal")),
             chains=_chains(data.get("chains")),
             mixture=_mixture(data.get("mixture")),
-            envelope=_envelope(data.get("envelope")),
+            envelope=_envelope(data.get("envelope"), data.get("envelope_extension"),
+                               _mixture(data.get("mixture"))),
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"evidence file {str(path)!r}: missing or bad entry {exc}") from None

@@ -75,13 +75,26 @@ class MixturePlan:
 @dataclass(frozen=True)
 class EnvelopePlan:
     """Stage 5 as declared (revision 4): ``draws`` twins uniform on the envelope (the
-    bounding box of every twin stages 1-4 found meeting the facts), numbers from ``seed``."""
+    bounding box of every twin stages 1-4 found meeting the facts), numbers from ``seed``;
+    with ``max_draws`` (revision 5) it goes on block by block until the pooled posterior's
+    effective size reaches ``effective`` or ``max_draws`` are drawn."""
 
     draws: int
     seed: int
+    max_draws: int | None = None
+    effective: float | None = None
 
     def __post_init__(self) -> None:
         _draws_and_seed("envelope", self.draws, self.seed)
+        if self.max_draws is not None:
+            m = self.max_draws
+            if isinstance(m, bool) or not isinstance(m, int) or not (
+                    self.draws <= m <= 10_000_000):
+                raise ValueError(f"envelope_extension.max_draws must be an integer in "
+                                 f"[{self.draws}, 10000000], got {m!r}")  # fmt: skip
+            if self.effective is None or not float(self.effective) >= 1.0:
+                raise ValueError("envelope_extension needs the effective size to stop at "
+                                 f"(>= 1), got {self.effective!r}")  # fmt: skip
 
 
 def prior_density(bounds: F64) -> float:

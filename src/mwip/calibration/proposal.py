@@ -125,18 +125,20 @@ def sample_blocks(
     note: Callable[[str], None] | None = None,
     offset: int = 10**9,
     label: str = "proposal",
+    first: int = 0,
 ) -> Any:
     """Draws ``0 .. draws - 1`` of an independent sampler (``draw(indices)`` -> (n, D) over
     ``names``), evaluated in blocks of ``block``, each stored as ``store/block-NNN.parquet``
     and replayed by a rerun; a DataFrame with ``sample`` (``offset`` + the draw's index),
-    ``param.<name>`` and the runs' columns."""
+    ``param.<name>`` and the runs' columns; ``first``: start at that block (the earlier ones
+    are the caller's)."""
     import pandas as pd
 
     from mwip.io import write_parquet_atomic
 
     parts = []
     n_blocks = -(-draws // block) if draws else 0
-    for b in range(n_blocks):
+    for b in range(first, n_blocks):
         idx = range(b * block, min((b + 1) * block, draws))
         path = store / f"block-{b:03d}.parquet" if store is not None else None
         if path is not None and path.exists():

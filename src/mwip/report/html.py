@@ -367,7 +367,8 @@ def _identified_section(record: dict[str, Any]) -> str:
         "board's pitch estimate, the encoder speeds). A claim holds or fails when it does in "
         "at least 95 % of the consistent twins, else it is undecided (the parameter that "
         "decides it is named)."
-        + (f" Calibration facts no twin met together with the others (dropped): {_e(', '.join(dropped))}." if dropped
+        + (" Calibration facts no twin met together with the others (dropped): "
+           f"{_e(', '.join(dropped))}." if dropped
            else "")
         + "</p>"
         '<div class="scroll"><table><tr><th>study</th><th>claim</th><th>holds in (95 % CI)</th>'
