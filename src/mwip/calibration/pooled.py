@@ -52,11 +52,11 @@ class MixtureResult:
     envelope_table: Any = None  # its draws
     envelope_ess: tuple[float, ...] = ()  # revision 5: the pooled effective size per block
 
-    def stages(self) -> list[tuple[str, Any, Any]]:
-        """``(name, density, draws)`` of stage 4 and (if run) stage 5."""
-        out = [("mixture", self.mixture, self.table)]
+    def stages(self) -> list[tuple[Any, Any]]:
+        """``(density, draws)`` of stage 4 and (if run) stage 5."""
+        out = [(self.mixture, self.table)]
         if self.envelope is not None:
-            out.append(("envelope", self.envelope, self.envelope_table))
+            out.append((self.envelope, self.envelope_table))
         return out
 
 
@@ -223,8 +223,24 @@ def mixture_stage(pool: Any, chains: Any, ev: Evidence, plan: Any, store: Path, 
     # revision 5: block by block until the pooled effective size is the declared one
     import pandas as pd
 
+    from mwip.calibration.mixture import balance_weights
+
     n0, parts, trail = envelope.draws, [etable], []
-    ess = _pooled_ess(pool, box, res, mask, ev)
+    n1 = int((pool["sample"].to_numpy() < 10**9).sum())
+    base = pool.drop(columns=[c for c in ("weight", "weight12") if c in pool.columns])
+    # the consistent twins so far, each table's found once
+    found = [_consistent_x(t, mask, ev) for t in (base, table, etable)]
+
+    def pooled_ess(n_env: int) -> float:
+        x = np.vstack(found)
+        if x.shape[0] == 0:
+            return 0.0
+        p, counts, dens = _stage_densities(x, n1, len(pool) - n1, box,
+                                           [(q, len(table)), (env, n_env)])  # fmt: skip
+        w = balance_weights(p, counts, dens)
+        return float(w.sum() ** 2 / np.sum(w * w))
+
+    ess = pooled_ess(n0)
     if note is not None:
         note(f"envelope: {n0} draws, pooled effective size {ess:.1f}")
     k = 0
@@ -239,47 +255,36 @@ def mixture_stage(pool: Any, chains: Any, ev: Evidence, plan: Any, store: Path, 
                             offset=STAGE5_OFFSET + n0, label="envelope (extension)",
                             first=k)  # fmt: skip
         parts.append(new)
-        res = replace(res, envelope_table=pd.concat(parts, ignore_index=True))
-        ess = _pooled_ess(pool, box, res, mask, ev)
-        trail.append(ess)
+        found.append(_consistent_x(new, mask, ev))
         k += 1
+        ess = pooled_ess(n0 + sum(len(t) for t in parts[1:]))
+        trail.append(ess)
         if note is not None:
             note(f"envelope: {n0 + k * ev.block} draws, pooled effective size {ess:.1f} "
                  f"(stops at {float(envelope.effective):g})")
-    return replace(res, envelope_ess=tuple(trail))
+    return replace(res, envelope_table=pd.concat(parts, ignore_index=True),
+                   envelope_ess=tuple(trail))  # fmt: skip
 
 
-def _pooled_ess(pool: Any, box: Any, mix: MixtureResult, mask: np.ndarray,
-                ev: Evidence) -> float:  # fmt: skip
-    """Kish's effective size of the posterior that stages 1, 2, 4 and 5 pool (the facts
-    ``mask``): the weights of its consistent twins only, as :func:`mixture_pool` gives them."""
-    from mwip.calibration.mixture import balance_weights
+def _consistent_x(t: Any, mask: np.ndarray, ev: Evidence) -> np.ndarray:
+    """The unknowns (n, D) of the twins of table ``t`` that meet the facts ``mask``."""
     from mwip.calibration.posterior import facts
     from mwip.calibration.runs import run_names
     from mwip.hardware.prior import PRIOR
 
     names = [f"param.{n}" for n in PRIOR.names]
-    tables = [pool.drop(columns=[c for c in ("weight", "weight12") if c in pool.columns])]
-    tables += [t for _, _, t in mix.stages()]
-    xs = []
-    for t in tables:
-        if len(t):
-            ok = np.all(facts(table_cols(t), run_names(), ev).S[:, mask], axis=1)
-            xs.append(t[names].to_numpy(dtype=float)[ok])
-    x = np.vstack(xs) if xs else np.zeros((0, len(names)))
-    if x.shape[0] == 0:
-        return 0.0
-    n1 = int((pool["sample"].to_numpy() < 10**9).sum())
-    p, counts, dens = _stage_densities(x, n1, len(pool) - n1, box, mix)
-    w = balance_weights(p, counts, dens)
-    return float(w.sum() ** 2 / np.sum(w * w))
+    if len(t) == 0:
+        return np.zeros((0, len(names)))
+    ok = np.all(facts(table_cols(t), run_names(), ev).S[:, mask], axis=1)
+    return np.asarray(t[names].to_numpy(dtype=float)[ok])
 
 
-def _stage_densities(x: np.ndarray, n1: int, n2: int, box: Any, mix: MixtureResult
+def _stage_densities(x: np.ndarray, n1: int, n2: int, box: Any,
+                     stages: list[tuple[Any, int]]
                      ) -> tuple[np.ndarray, list[int], list[np.ndarray]]:  # fmt: skip
     """The prior density at ``x`` (N, D) and every pooled stage's draws and density there:
-    the prior (``n1``), stage 2's box (``n2``, if any), stage 4's mixture, stage 5's
-    envelope."""
+    the prior (``n1``), stage 2's box (``n2``, if any), then ``stages``' ``(density, draws)``
+    (stage 4's mixture, stage 5's envelope)."""
     from mwip.calibration.mixture import prior_density
     from mwip.calibration.proposal import inside
     from mwip.hardware.prior import PRIOR
@@ -291,9 +296,9 @@ def _stage_densities(x: np.ndarray, n1: int, n2: int, box: Any, mix: MixtureResu
     if box is not None and n2 > 0:
         dens.append(inside(x, box.ranges(names, bounds)) * p / box.fraction(names, bounds))
         counts.append(n2)
-    for _, q, t in mix.stages():
+    for q, n in stages:
         dens.append(q.density(x))
-        counts.append(len(t))
+        counts.append(n)
     return p, counts, dens
 
 
@@ -311,10 +316,11 @@ def mixture_pool(prior_draws: Any, pool: Any, box: Any, mix: MixtureResult) -> A
     old = pool["weight"] if "weight" in pool.columns else pd.Series(np.ones(len(pool)))
     base = pool.drop(columns=[c for c in ("weight",) if c in pool.columns]).assign(
         weight12=old.to_numpy(dtype=float))
-    out = pd.concat([base] + [t.assign(weight12=np.nan) for _, _, t in mix.stages()],
+    out = pd.concat([base] + [t.assign(weight12=np.nan) for _, t in mix.stages()],
                     ignore_index=True)  # fmt: skip
     x = out[[f"param.{n}" for n in names]].to_numpy(dtype=float)
     n1 = len(prior_draws)
-    p, counts, dens = _stage_densities(x, n1, len(pool) - n1, box, mix)
+    p, counts, dens = _stage_densities(x, n1, len(pool) - n1, box,
+                                       [(q, len(t)) for q, t in mix.stages()])  # fmt: skip
     out["weight"] = balance_weights(p, counts, dens)
     return out

@@ -101,8 +101,9 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
               default=None, help="--evidence: twins of stage 4's mixture draws (default: the "
               "declaration's, 6000; 0: no stages 4-5).")
 @click.option("--envelope-draws", "envelope_draws", type=click.IntRange(0, 1_000_000),
-              default=None, help="--evidence: twins of stage 5's envelope draws (default: the "
-              "declaration's, 20000; 0: no stage 5).")
+              default=None, help="--evidence: twins of stage 5's envelope draws, without "
+              "revision 5's extension (default: the declaration's 20000, extended until the "
+              "effective size is 100; 0: no stage 5).")
 def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: str | None,
              fix: tuple[str, ...], validate: Path | None, segment: int,
              force: bool, evidence: str | None, samples: int | None, seed: int | None,
