@@ -75,25 +75,49 @@ def export() -> None:
     "Python controller (software in the loop).",
 )
 @click.option(
+    "--pil",
+    is_flag=True,
+    help="Processor in the loop: cross-compile for the board's Cortex-M3 (GNU Arm toolchain, "
+    "soft float) and run the closed loop on an emulated processor (unicorn): its difference "
+    "from the host's build, the instructions per step and their time at 50 MHz; writes "
+    "OUT/pil.json, OUT/pil_steps.csv, OUT/twin-delay.toml and the images (docs/export.md).",
+)
+@click.option(
+    "--board",
+    "board",
+    is_flag=True,
+    help="With --pil: also run the firmware on QEMU's lm3s6965evb over its UART (the whole "
+    "board; qemu-system-arm) and compare it with the emulated processor.",
+)
+@click.option(
+    "--push",
+    type=float,
+    default=0.5,
+    show_default=True,
+    help="With --pil: a push on the pitch, N m for 0.1 s half-way through the run (0: none).",
+)
+@click.option(
     "--duration",
     type=float,
     default=10.0,
     show_default=True,
-    help="With --verify: simulated time in s.",
+    help="With --verify or --pil: simulated time in s.",
 )
 @click.option(
     "--theta0",
     type=float,
     default=0.1,
     show_default=True,
-    help="With --verify: initial pitch in rad.",
+    help="With --verify or --pil: initial pitch in rad.",
 )
-@click.option("--twin", is_flag=True, help="With --verify: run on the digital twin (Chapter 6).")
+@click.option(
+    "--twin", is_flag=True, help="With --verify or --pil: run on the digital twin (Chapter 6)."
+)
 def export_c(
     name: str, sets: tuple[str, ...], settings_file: str | None, params_file: str | None,
     nominal_file: str | None,
     Ts: float | None, single: bool, prefix: str | None, out: Path, force: bool, verify: bool,
-    duration: float, theta0: float, twin: bool,
+    pil: bool, board: bool, push: float, duration: float, theta0: float, twin: bool,
 ) -> None:  # fmt: skip
     """Write OUT/PREFIX.h and OUT/PREFIX.c: the controller's init and step functions with its
     gains and nominal model baked in (C99, math.h only, no dynamic memory).
@@ -101,6 +125,10 @@ def export_c(
     With --verify the code is compiled and run in the loop: the C controller's closed loop
     must equal the Python one's (double precision: within 1e-9 rad over the run; the float
     version's deviation is reported).
+
+    With --pil it is cross-compiled for the board's processor and run in the loop on an
+    emulated Cortex-M3 (processor in the loop): the report says how far it is from the host's
+    build and what each step costs on the board; nothing is written unless it succeeds.
     """
     import math
 
@@ -174,11 +202,19 @@ def export_c(
                           doc=f"{spec.title} ({spec.source})")  # fmt: skip
     except ExportError as exc:
         raise click.BadParameter(str(exc), param_hint="--controller/--set") from None
+    pil_run = None
+    if pil or board:
+        from mwip.cli._export_pil import run_pil_cli
+
+        pil_run = run_pil_cli(name, build, code, plant=plant, twin=twin, theta0=theta0,
+                              duration=duration, push=push, board=board, pil=pil)  # fmt: skip
     outdir.claim(out, "export c")
     for fname, text in code.files().items():
         write_text_atomic(out / fname, text)
     click.echo(f"wrote {out / (prefix + '.h')}, {out / (prefix + '.c')} "
                f"({precision}, Ts = {period:g} s)")  # fmt: skip
+    if pil_run is not None:
+        pil_run.write(out)
     if not verify:
         return
     from mwip.export.sil import CController, NoCompiler
@@ -190,7 +226,6 @@ def export_c(
         raise click.UsageError(f"--verify: {exc}") from None
     tw = None
     if twin:
-
         from mwip.hardware.identified import default_twin
 
         tw = default_twin()

@@ -1,0 +1,1 @@
+"""C sources and the linker script of the board images (:mod:`mwip.export.firmware`)."""
