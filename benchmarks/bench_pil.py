@@ -10,7 +10,8 @@ the emulated processor and through the host's build of the same C, and print
 - the closed-loop differences of the emulated processor from the host (state, torque), the
   step computation alone (the host fed the emulated run's measurements: the largest torque
   difference and the number of steps that differ), and for float the float build's own
-  deviation from the double Python controller on the same run;
+  deviation from the double Python controller on the same run; and the same closed loops
+  with sin/cos replaced by fixed polynomials in both builds (``without_libm``: identical);
 - instructions per step (first, median, maximum), the cycle bound of the largest step, its
   time at 50 MHz and its share of the 5 ms period, the image's flash/RAM/stack;
 - the wall time of the emulated 10 s run (instruction counts are repeatable whatever the
@@ -18,7 +19,9 @@ the emulated processor and through the host's build of the same C, and print
 
 ``--probe N``: newlib's ``sin``/``cos``/``sqrt`` (the board's) against glibc's (the host's) on
 N arguments in [-0.6, 0.6] (the pitch range of the runs; ``sqrt`` on [0, 2]): how many
-results differ and by how many units in the last place. ``--board NAME``: the whole-board
+results differ and by how many units in the last place; and libgcc's soft-float addition
+``2^k - y`` for ``y`` every number of binary orders ``d`` below (the one corner where it
+misrounds, docs/export.md). ``--board NAME``: the whole-board
 check, the same object code on QEMU's lm3s6965evb over its UART, against the in-process run.
 """
 
@@ -37,10 +40,11 @@ from mwip.export.pil import (
     CLOCK_HZ,
     CONTROL_SHARE,
     COST_RUN,
-    PROBED,
     PILController,
     math_probe,
     run_pil,
+    uses_libm,
+    without_libm,
 )
 from mwip.export.sil import CController
 from mwip.laws import registry
@@ -56,7 +60,7 @@ def _probe(n: int) -> None:
     print("|---|---|---|---|")
     for precision in ("double", "float"):
         dt = np.float32 if precision == "float" else np.float64
-        for fn in PROBED:
+        for fn in ("sin", "cos", "sqrt"):
             lo = 0.0 if fn == "sqrt" else -0.6
             hi = 2.0 if fn == "sqrt" else 0.6
             x = rng.uniform(lo, hi, (n, 8)).astype(dt).astype(float)
@@ -78,6 +82,31 @@ def _probe(n: int) -> None:
                 )
             )
             print(f"| {fn} | {precision} | {differ} of {2 * n} | {ulp} |")
+
+
+def _add_scan(n: int) -> None:
+    """libgcc's soft-float addition on the board against the host's: a power of two plus a
+    number of the other sign ``d`` binary orders smaller, for every ``d``."""
+    from mwip.core import Measurement
+
+    rng = np.random.default_rng(0)
+    print(f"\nsoft-float addition 2^k - y, y in 2^(k-d) [1, 2), {n} pairs per d (host: exact):")
+    for precision, dt, top in (("double", np.float64, 60), ("float", np.float32, 30)):
+        pil = PILController(math_probe("add", precision))
+        pil.reset(Measurement(0.0, np.zeros((1, 8))))
+        wrong = {}
+        for d in range(1, top):
+            a = 2.0 ** rng.integers(-4, 4, n)
+            b = -rng.uniform(1, 2, n) * a * 2.0**-d
+            a, b = a.astype(dt), b.astype(dt)
+            bad = 0
+            for k in range(0, n - 1, 2):
+                y = np.array([[a[k], b[k], a[k + 1], b[k + 1], 0, 0, 0, 0]], dtype=float)
+                u = pil(0.0, Measurement(0.0, y))[0].astype(dt)
+                bad += int(u[0] != a[k] + b[k]) + int(u[1] != a[k + 1] + b[k + 1])
+            if bad:
+                wrong[d] = bad
+        print(f"  {precision}: misrounded at d = {wrong or 'none'} (of {n} each)")
 
 
 def _board(name: str) -> None:
@@ -130,22 +159,28 @@ def main(names: list[str], probe: int, board: str | None) -> None:
             t0 = time.perf_counter()
             rep = run_pil(name, registry.build(name, NOMINAL), code, firmware=fw)
             wall = time.perf_counter() - t0
-            rows.append((rep, wall))
+            same = "(no sin/cos)"
+            if uses_libm(code):
+                alt = run_pil(name, registry.build(name, NOMINAL), without_libm(code))
+                same = "identical" if alt.identical else f"{alt.max_state_diff:.2g}"
+            rows.append((rep, wall, same))
             print(f"  {name} {precision}: {wall:.1f} s", flush=True)
     print(f"\nflags: {rows[0][0].flags}; {rows[0][0].compiler}")
-    print("\n| controller | precision | PIL vs host: max state diff | max u diff | step u diff "
-          "(steps) | float vs double (state) | status |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|")
-    for rep, _ in rows:
-        fd = "" if rep.float_state_diff is None else f"{rep.float_state_diff:.2g}"
+    print("\n| controller | precision | PIL vs host: max state diff | max theta diff | max u "
+          "diff | step u diff (steps) | sin/cos as polynomials | float vs double: state "
+          "(theta) | status |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|")
+    for rep, _, same in rows:
+        fd = ("" if rep.float_state_diff is None
+              else f"{rep.float_state_diff:.2g} ({rep.float_theta_diff:.2g})")  # fmt: skip
         print(f"| {rep.controller} | {rep.precision} | {rep.max_state_diff:.2g} | "
-              f"{rep.max_u_diff:.2g} | {rep.step_u_diff:.2g} ({rep.steps_differing}) | {fd} | "
-              f"{rep.status_pil} |")  # fmt: skip
+              f"{rep.max_theta_diff:.2g} | {rep.max_u_diff:.2g} | {rep.step_u_diff:.2g} "
+              f"({rep.steps_differing}) | {same} | {fd} | {rep.status_pil} |")  # fmt: skip
     print("\n| controller | precision | first | median | max (transient/steady/push/after) "
           "| cycle bound | CPI | time at 50 MHz | share of 5 ms | fits | flash/RAM/stack B "
           "| wall s |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for rep, wall in rows:
+    for rep, wall, _ in rows:
         ph = "/".join(str(v) for v in rep.phase_max().values())
         t = rep.time_s()
         print(f"| {rep.controller} | {rep.precision} | {rep.first} | {rep.median:.0f} | "
@@ -154,6 +189,7 @@ def main(names: list[str], probe: int, board: str | None) -> None:
               f"{rep.ram_bytes}/{rep.stack_bytes} | {wall:.1f} |")  # fmt: skip
     if probe:
         _probe(probe)
+        _add_scan(max(probe // 20, 100))
     if board:
         _board(board)
 

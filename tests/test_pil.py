@@ -81,8 +81,10 @@ def _report(name: str, precision: str):
 @pytest.mark.parametrize("name", NAMES)
 def test_pil_equals_host_bit_for_bit_without_libm(name, precision):
     """With sin/cos as fixed polynomials of + - * / in both builds, the emulated processor's
-    closed loop equals the host's bit for bit: libgcc's soft float, the cross compiler and
-    the harness add no difference."""
+    closed loop equals the host's bit for bit: the cross compiler, libgcc's soft float and
+    the harness add no difference. (In these 2 s runs; over 10 s the double builds of SMC,
+    DO1SMC, HODOSMC, ASTA and ASMC meet libgcc's one misrounding corner, the next test but
+    one, in cos's 1 - x^2/2 near |x| = 2e-5 rad: docs/export.md.)"""
     code = without_libm(_code(name, precision))
     assert "mwip_poly_sin" in code.source and "#define MWIP_SIN mwip_poly_sin" in code.source
     rep = run_pil(name, registry.build(name, NOMINAL), code, run=RUN)
@@ -137,6 +139,39 @@ def test_board_libm_differs_from_host_by_one_ulp(precision):
             assert ulp.max() == 0
         else:
             assert ulp.max() == 1, fn
+
+
+@needs_pil
+def test_board_double_addition_misrounds_in_one_corner():
+    """libgcc's soft-float double addition (``__aeabi_dadd``, what the board executes) is
+    correctly rounded except for ``2^k - y`` with ``y`` exactly 33 binary orders below: the
+    result loses an exponent, and the guard bit, folded into the sticky bit before the
+    one-bit normalisation, is lost (GCC's libgcc/config/arm/ieee754-df.S). Float addition
+    has no such corner. If this test fails, the toolchain's libgcc changed: update
+    docs/export.md."""
+    from mwip.core import Measurement
+
+    rng = np.random.default_rng(3)
+    for precision, dt, top in (("double", np.float64, 56), ("float", np.float32, 27)):
+        pil = PILController(math_probe("add", precision))
+        pil.reset(Measurement(0.0, np.zeros((1, 8))))
+        wrong = set()
+        for d in range(1, top):
+            a = (2.0 ** rng.integers(-4, 4, 40)).astype(dt)
+            b = (-rng.uniform(1, 2, 40) * a * 2.0**-d).astype(dt)
+            for k in range(0, 40, 2):
+                y = np.array([[a[k], b[k], a[k + 1], b[k + 1], 0, 0, 0, 0]], dtype=float)
+                u = pil(0.0, Measurement(0.0, y))[0].astype(dt)
+                if u[0] != a[k] + b[k] or u[1] != a[k + 1] + b[k + 1]:
+                    wrong.add(d)
+        assert wrong == ({33} if precision == "double" else set()), (precision, wrong)
+    # the step of the closed loop where it was found (SMC, cos of a pitch of -1.6e-5 rad)
+    pil = PILController(math_probe("add", "double"))
+    y = np.array([[1.0, -float.fromhex("0x1.26b16332a4797p-33"), 0.5, 0.25, 0, 0, 0, 0]])
+    pil.reset(Measurement(0.0, y))
+    got = pil(0.0, Measurement(0.0, y))[0]
+    assert (1.0 - float.fromhex("0x1.26b16332a4797p-33")).hex() == "0x1.fffffffed94eap-1"
+    assert got[0].hex() == "0x1.fffffffed94e9p-1" and got[1] == 0.75  # 0.8 ulp off
 
 
 # ---------------------------------------------------------------------------------------------

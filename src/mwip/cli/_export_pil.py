@@ -141,12 +141,14 @@ def _say(rep: Any, twin: bool) -> None:
     if rep.identical:
         same = "bit-identical to the host's build"
     else:
-        why = (
-            "the board's newlib sin/cos differ from the host's glibc by 1 ulp at some "
-            "arguments; docs/export.md"
-            if rep.libm_calls
-            else "see docs/export.md"
-        )
+        causes = []
+        if rep.libm_calls:
+            causes.append("the board's newlib sin/cos differ from the host's glibc by 1 ulp at "
+                          "some arguments")  # fmt: skip
+        if rep.precision == "double":
+            causes.append("libgcc's soft-float double addition misrounds 2^k - y for y 33 "
+                          "binary orders smaller")  # fmt: skip
+        why = "; ".join(causes + ["docs/export.md"])
         same = (f"max |state difference| from the host's build {rep.max_state_diff:.3g} (theta "
                 f"{rep.max_theta_diff:.3g} rad), max |u difference| {rep.max_u_diff:.3g} N m "
                 f"({why})")  # fmt: skip
@@ -154,6 +156,10 @@ def _say(rep: Any, twin: bool) -> None:
                f"{rep.run.duration:g} s from theta0 = {rep.run.theta0:g} rad{push}): {same}; "
                f"status host {rep.status_host}, PIL {rep.status_pil}; "
                f"{rep.seconds:.1f} s of emulation")  # fmt: skip
+    if rep.status_pil != "ok":
+        click.echo(f"mwip: the robot did not balance ({rep.status_pil}): the cost below covers "
+                   f"the {len(rep.instructions)} steps before; lower --push or --theta0",
+                   err=True)  # fmt: skip
     if rep.float_state_diff is not None:
         click.echo(f"float build vs the double Python controller on this run: max |state "
                    f"difference| {rep.float_state_diff:.3g} (theta {rep.float_theta_diff:.3g} "

@@ -501,7 +501,7 @@ def _replay(host: Any, res: Any, n_steps: int, twin: bool) -> tuple[float, int]:
     t = np.asarray(res.t, dtype=float).ravel()
     host.reset(Measurement(float(t[0]), y[:1]))
     worst, count = 0.0, 0
-    for k in range(n_steps):
+    for k in range(min(n_steps, len(t), len(y), len(u))):  # a run that fell ends early
         d = float(np.max(np.abs(host(float(t[k]), Measurement(float(t[k]), y[k : k + 1]))[0]
                                 - u[k])))  # fmt: skip
         worst, count = max(worst, d), count + (d != 0)
@@ -572,27 +572,31 @@ void mwip_probe_init(mwip_probe_state *s, const mwip_real y[8]) {{ (void)s; (voi
 void mwip_probe_step(mwip_probe_state *s, mwip_real t, const mwip_real y[8], mwip_real u[2])
 {{
     (void)s; (void)t;
-    u[0] = {fn}(y[0]);
-    u[1] = {fn}(y[1]);
+    u[0] = {op0};
+    u[1] = {op1};
 }}
 """
-#: The C library's functions the exported laws call (``MWIP_SIN`` ... in :mod:`c_code`).
-PROBED = ("sin", "cos", "sqrt")
+#: The C library's functions the exported laws call (``MWIP_SIN`` ... in :mod:`c_code`), and
+#: the addition (``add``: libgcc's soft-float ``__aeabi_dadd``/``__aeabi_fadd`` on the board).
+PROBED = ("sin", "cos", "sqrt", "add")
 
 
 def math_probe(function: str, precision: str = "double") -> CCode:
     """A "controller" whose step returns ``function(y[0]), function(y[1])`` (``sin``,
-    ``cos`` or ``sqrt``; ``sinf`` ... in float): the board's C library (newlib) against the
-    host's (glibc) on the same arguments, through :class:`PILController` and
-    :class:`~mwip.export.sil.CController` (docs/export.md: why a double closed loop that
-    calls them is not bit-identical)."""
+    ``cos`` or ``sqrt``; ``sinf`` ... in float), or for ``add`` the sums ``y[0] + y[1]``,
+    ``y[2] + y[3]``: the board's C library (newlib) and soft-float arithmetic (libgcc)
+    against the host's (glibc, the FPU) on the same arguments, through
+    :class:`PILController` and :class:`~mwip.export.sil.CController` (docs/export.md: why a
+    double closed loop is not always bit-identical)."""
     if function not in PROBED:
         raise ValueError(f"function must be one of {', '.join(PROBED)}, got {function!r}")
     if precision not in ("double", "float"):
         raise ValueError(f"precision must be double or float, got {precision!r}")
     real, fn = ("float", function + "f") if precision == "float" else ("double", function)
-    return CCode("mwip_probe", _PROBE_H.format(real=real), _PROBE_C.format(fn=fn), precision,
-                 f"probe of {fn}", 0.005)  # fmt: skip
+    ops = ("y[0] + y[1]", "y[2] + y[3]") if function == "add" else (f"{fn}(y[0])", f"{fn}(y[1])")
+    return CCode("mwip_probe", _PROBE_H.format(real=real),
+                 _PROBE_C.format(op0=ops[0], op1=ops[1]), precision, f"probe of {function}",
+                 0.005)  # fmt: skip
 
 
 _POLY = """
