@@ -115,6 +115,18 @@ def test_pil_against_host(name, precision):
 
 
 @needs_pil
+@pytest.mark.parametrize("name", [n for n in NAMES if n != "tsmc"])
+def test_double_difference_is_below_the_float_builds_deviation(name):
+    """What the board changes in double (one rounding here and there, carried by the loop)
+    is less than what single precision changes: the double PIL's difference from the host's
+    build stays below the float build's deviation from the double law, state and pitch.
+    Not TSMC: without position feedback any rounding lets its wheel angle drift, and its
+    pitch differences are of one size in both (1.2e-2 and 1.16e-2 rad here; docs)."""
+    d, f = _report(name, "double"), _report(name, "float")
+    assert d.max_state_diff <= f.float_state_diff and d.max_theta_diff <= f.float_theta_diff
+
+
+@needs_pil
 @pytest.mark.parametrize("precision", ["double", "float"])
 def test_board_libm_differs_from_host_by_one_ulp(precision):
     """The cause: newlib's sin and cos (the board's) differ from glibc's (the host's) in the
@@ -421,3 +433,29 @@ def _qemu_children() -> list[int]:
         if "qemu" in comm and int(rest.split()[1]) == os.getpid():
             found.append(int(stat.parent.name))
     return found
+
+
+@needs_pil
+@pytest.mark.parametrize(
+    "body, match",
+    [
+        ("for (;;) { }", "did not return within 100,000 instructions"),
+        ("*(volatile int *)0x60000000 = 1;", "stopped in mwip_pil_step"),
+    ],
+)
+def test_a_stuck_or_faulting_step_is_an_error(body, match, monkeypatch):
+    """A step that never returns is stopped after MAX_INSTRUCTIONS; one that touches memory
+    the board does not have stops the emulated processor: both a PILError naming it."""
+    import mwip.export.pil as pilmod
+    from mwip.core import Measurement
+    from mwip.export.c_code import CCode
+    from mwip.export.pil import PILError
+
+    monkeypatch.setattr(pilmod, "MAX_INSTRUCTIONS", 100_000)
+    probe = math_probe("add", "double")
+    src = probe.source.replace("u[0] = y[0] + y[1];", body + "\n    u[0] = y[0] + y[1];")
+    code = CCode(probe.prefix, probe.header, src, "double", "bad", 0.005)
+    pil = PILController(code)
+    pil.reset(Measurement(0.0, np.zeros((1, 8))))
+    with pytest.raises(PILError, match=match):
+        pil(0.0, Measurement(0.0, np.zeros((1, 8))))
