@@ -130,11 +130,16 @@ def test_constraint_null_space():
     assert np.all(np.linalg.matrix_rank(S) == 3)
 
 
-def test_spatial_matches_reduced_where_the_book_agrees():
-    """With Iwd = Izz = Db = 0 the projected (2.31) equals (2.32) after v = r psi'."""
+@pytest.mark.parametrize(("Ibz", "Iyaw"), [(REAL.Ibz, 0.0), (2.4e-3, 1.1e-3)],
+                         ids=["book-Izz0", "general-body"])  # fmt: skip
+def test_spatial_matches_reduced_where_the_book_agrees(Ibz, Iyaw):
+    """With Iwd = Db = 0 the projected (2.31) equals (2.32) after v = r psi', Izz = Iyaw: the
+    book's Izz = 0 and a general body (Ibz != Iby, Iyaw != 0; (2.20)'s Izz cos^2 th term is
+    Params' Iyaw in m33 and -Iyaw in Ibl)."""
     rng = np.random.default_rng(2)
-    p = replace(REAL, Iwd=0.0, Db=0.0)
-    sp = spatial.SpatialParams.from_params(p, Izz=0.0)
+    p = replace(REAL, Iwd=0.0, Db=0.0, Ibz=Ibz, Iyaw=Iyaw)
+    sp = spatial.SpatialParams.from_params(p)
+    assert sp.Izz == Iyaw
     qf, z, tau = _spatial_state(rng)
     zd = spatial.reduced_accelerations(sp, qf, z, tau)
     q = np.column_stack([np.zeros(len(qf)), qf[:, 3], qf[:, 2]])
@@ -145,10 +150,11 @@ def test_spatial_matches_reduced_where_the_book_agrees():
     )
 
 
-def test_spatial_and_reduced_differ_as_documented():
-    """Printed (2.20)/(2.22) differ from (2.32): Iwd in pitch, Izz in yaw, Db absolute."""
-    p = REAL
-    sp = spatial.SpatialParams.from_params(p, Izz=0.0)
+@pytest.mark.parametrize("Iyaw", [0.0, 1.1e-3])
+def test_spatial_and_reduced_differ_as_documented(Iyaw):
+    """Printed (2.20)/(2.22) differ from (2.32): Iwd in pitch, Db absolute (Izz = Iyaw)."""
+    p = replace(REAL, Iyaw=Iyaw)
+    sp = spatial.SpatialParams.from_params(p)
     qf = np.zeros(6)
     S = spatial.null_space(sp, qf)
     H = S.T @ spatial.mass_matrix(sp, qf) @ S

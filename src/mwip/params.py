@@ -7,8 +7,11 @@ symbol      meaning                                                     unit
 ==========  ==========================================================  ========
 ``mb``      body mass                                                   kg
 ``mw``      mass of one wheel                                           kg
-``Iby``     body inertia about the wheel axle (pitch)                   kg m^2
-``Ibz``     body inertia about its vertical axis (yaw)                  kg m^2
+``Iby``     body pitch inertia: about the axis through the body's      kg m^2
+            centre of mass parallel to the axle (not about the axle)
+``Ibz``     the book's Ibz, the inertia (2.32) multiplies by            kg m^2
+            ``sin^2 theta``: physically the body's roll inertia about
+            its forward axis through the centre of mass
 ``Iwa``     wheel inertia about the axle                                kg m^2
 ``Iwd``     wheel inertia about a diameter                              kg m^2
 ``l``       distance from the axle to the body's centre of mass         m
@@ -17,7 +20,19 @@ symbol      meaning                                                     unit
 ``Db``      body-wheel (motor/gearbox) rotational damping               N m s/rad
 ``Dw``      wheel-ground rotational damping                             N m s/rad
 ``g``       gravitational acceleration                                  m/s^2
+``Iyaw``    body yaw inertia about its own vertical axis through the    kg m^2
+            centre of mass (0 = the book's (2.32); an extension)
 ==========  ==========================================================  ========
+
+Body inertias (docs/models.md, "The body's inertias"). ``Iby``, ``Ibz`` and ``Iyaw`` are the
+body's principal inertias about its centre of mass, as a user measures them (CAD, pendulum
+test): pitch (axis along the axle), roll (forward axis) and yaw (the body's own vertical
+axis, upright). With pitch ``theta`` the body's yaw kinetic energy is
+``1/2 [Ibz sin^2 theta + Iyaw cos^2 theta + mb l^2 sin^2 theta] alpha'^2``; the book's
+(2.32) writes ``1/2 [(Ibz + mb l^2) sin^2 theta] alpha'^2``, which is the case ``Iyaw = 0``
+(the spatial model's (2.20) keeps both terms). With ``Iyaw`` the general body keeps (2.32)'s
+form exactly: ``Ibl = Ibz - Iyaw + mb l^2`` and ``m33`` gains ``+ Iyaw``. ``Iyaw`` defaults to
+0, so the book's robot (Tables 6.1/6.2) is (2.32) as printed.
 
 Damping. In a :class:`Params`, ``Db`` and ``Dw`` are the *rotational* coefficients that (2.32)
 multiplies with angular rates, in N m s/rad; a user's own parameter file gives them so. The
@@ -90,6 +105,7 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
     "Db": (0.0, math.inf, True),
     "Dw": (0.0, math.inf, True),
     "g": (0.0, math.inf, False),
+    "Iyaw": (0.0, math.inf, True),
 }
 
 
@@ -99,8 +115,13 @@ _PLAUSIBLE: dict[str, tuple[float, float]] = {
     "mb": (1e-6, 1e5), "mw": (1e-6, 1e5),
     "Iby": (1e-12, 1e5), "Ibz": (1e-12, 1e5), "Iwa": (1e-12, 1e5), "Iwd": (1e-12, 1e5),
     "l": (1e-6, 1e3), "b": (1e-6, 1e3), "r": (1e-6, 1e3),
-    "Db": (1e-12, 1e6), "Dw": (1e-12, 1e6), "g": (1e-3, 1e3),
+    "Db": (1e-12, 1e6), "Dw": (1e-12, 1e6), "g": (1e-3, 1e3), "Iyaw": (1e-12, 1e5),
 }  # fmt: skip
+
+
+#: Fields with a default: a file or mapping may leave them out (``g`` = 9.81 m/s^2, ``Iyaw`` =
+#: 0, the book's (2.32)).
+_OPTIONAL = ("g", "Iyaw")
 
 
 def _range_text(name: str) -> str:
@@ -113,7 +134,9 @@ class Params:
     """Parameters of one MWIP (or of a batch, when the fields are arrays).
 
     Raises ``ValueError`` naming the field and its allowed range when a value is not finite
-    or is outside the physical range (masses, inertias and lengths > 0; damping >= 0).
+    or is outside the physical range (masses, inertias and lengths > 0; ``Iwd``, ``Iyaw`` and
+    damping >= 0). ``Iyaw`` comes after ``g`` (default 0, the book's (2.32)) so that
+    positional construction with the book's twelve symbols stays valid.
 
     Examples
     --------
@@ -134,6 +157,7 @@ class Params:
     Db: Value
     Dw: Value
     g: Value = GRAVITY
+    Iyaw: Value = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -170,12 +194,22 @@ class Params:
             derived = {k: np.asarray(getattr(self, k), dtype=float)
                        for k in ("m11", "m12", "m22", "m33", "Ibl", "Gb")}  # fmt: skip
             det = derived["m11"] * derived["m22"] - derived["m12"] ** 2
+            # Ibl = Ibz - Iyaw + mb l^2 may be negative (a flat, wide body): the yaw inertia
+            # m33 + Ibl sin^2 theta of (2.32) must be positive at every pitch instead
+            yaw = derived["m33"] + np.minimum(derived["Ibl"], 0.0)
         for k, v in {**derived, "m11 m22 - m12^2": det}.items():
-            if not (np.all(np.isfinite(v)) and np.all(v > 0)):
+            if not (np.all(np.isfinite(v)) and (k == "Ibl" or np.all(v > 0))):
                 raise ValueError(
                     f"parameters give a derived coefficient {k} of (2.32) = {v!r} that is not "
-                    "finite and > 0; check the sizes of mb, mw, the inertias, l, b and r"
+                    "finite"
+                    + ("" if k == "Ibl" else " and > 0")
+                    + "; check the sizes of mb, mw, the inertias, l, b and r"
                 )
+        if not np.all(yaw > 0):
+            raise ValueError(
+                f"parameters give a yaw inertia m33 + min(Ibl, 0) = {yaw!r} <= 0 at some pitch "
+                "(2.32); check Ibz, Iyaw, mb, l, Iwd, Iwa, mw, b and r"
+            )
 
     # ---- derived coefficients of (2.32) --------------------------------------------------
     @property
@@ -195,8 +229,11 @@ class Params:
 
     @property
     def Ibl(self) -> Any:
-        """Ibl = Ibz + mb l^2  (2.32)."""
-        return self.Ibz + self.mb * self.l**2
+        """Ibl = Ibz - Iyaw + mb l^2: (2.32)'s ``Ibz + mb l^2``, less the body's own yaw
+        inertia (an extension; ``Iyaw = 0`` is the book's (2.32), module docstring and
+        docs/models.md). The coefficient of ``sin^2 theta`` in the yaw inertia; it may be
+        negative for a flat, wide body."""
+        return self.Ibz - self.Iyaw + self.mb * self.l**2
 
     @property
     def Gb(self) -> Any:
@@ -205,8 +242,14 @@ class Params:
 
     @property
     def m33(self) -> Any:
-        """m33 = 2 Iwd + (2 b^2 / r^2) (Iwa + mw r^2)  (2.32)."""
-        return 2.0 * self.Iwd + 2.0 * self.b**2 / self.r**2 * (self.Iwa + self.mw * self.r**2)
+        """m33 = 2 Iwd + (2 b^2 / r^2) (Iwa + mw r^2) + Iyaw: (2.32) plus the body's own yaw
+        inertia (an extension; ``Iyaw = 0`` is the book's (2.32), docs/models.md). The yaw
+        inertia upright."""
+        return (
+            2.0 * self.Iwd
+            + 2.0 * self.b**2 / self.r**2 * (self.Iwa + self.mw * self.r**2)
+            + self.Iyaw
+        )
 
     @property
     def batch_shape(self) -> tuple[int, ...]:
@@ -222,7 +265,8 @@ class Params:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, base: Params | None = None) -> Params:
-        """Build from a mapping. With ``base``, missing fields are taken from it.
+        """Build from a mapping. With ``base``, missing fields are taken from it; without it
+        every field but ``g`` and ``Iyaw`` (defaults 9.81 m/s^2 and 0) is required.
 
         Unknown keys raise ``ValueError`` (a typo must not be silently ignored).
         """
@@ -234,7 +278,7 @@ class Params:
             )
         if base is not None:
             return replace(base, **dict(data))
-        missing = [n for n in names if n not in data and n != "g"]
+        missing = [n for n in names if n not in data and n not in _OPTIONAL]
         if missing:
             raise ValueError(f"parameter {sorted(missing)[0]!r} is missing")
         return cls(**dict(data))
@@ -382,8 +426,9 @@ def load_params(path: str | os.PathLike[str], *, base: Params | None = None) -> 
         l = 0.0622  # m
 
     With ``base`` (e.g. ``REAL``) missing fields are taken from it; without it every field
-    but ``g`` is required. A value may also be ``"real"``/``"nominal"`` at the top level
-    key ``base``.
+    but ``g`` and ``Iyaw`` is required (a file written before ``Iyaw`` existed loads with
+    ``Iyaw = 0``, the book's (2.32), unless its base has another). A value may also be
+    ``"real"``/``"nominal"`` at the top level key ``base``.
     """
     p = Path(path)
     data = read_toml(p, "parameter file")
@@ -423,13 +468,16 @@ def _params_from_file_data(data: dict[str, Any], base: Params | None) -> Params:
 UNITS: dict[str, str] = {
     "mb": "kg", "mw": "kg", "Iby": "kg m^2", "Ibz": "kg m^2", "Iwa": "kg m^2", "Iwd": "kg m^2",
     "l": "m", "b": "m", "r": "m", "Db": "N m s/rad", "Dw": "N m s/rad", "g": "m/s^2",
+    "Iyaw": "kg m^2",
 }  # fmt: skip
 
 FILE_HEADER = (
-    "# MWIP parameters (mwip.params): SI units; mb, mw kg; Iby, Ibz, Iwa, Iwd kg m^2;\n"
+    "# MWIP parameters (mwip.params): SI units; mb, mw kg; Iby, Ibz, Iwa, Iwd, Iyaw kg m^2;\n"
     "# l, b, r m; g m/s^2. Db (body-wheel) and Dw (wheel-ground) are the ROTATIONAL damping\n"
     "# coefficients of (2.32) in N m s/rad. The book's tables print N s/m: for them this file\n"
-    "# holds D r^2 (the 'units' reading, SPEC.md section 2).\n"
+    "# holds D r^2 (the 'units' reading, SPEC.md section 2). The body's inertias are about\n"
+    "# its centre of mass: Iby pitch (axle direction), Ibz roll (forward), Iyaw yaw (its own\n"
+    "# vertical axis); Iyaw = 0 (the default) is the book's (2.32).\n"
 )
 
 

@@ -295,7 +295,7 @@ def _inputs(bench: Bench, units: NDArray[np.int64]) -> dict[str, Any]:
         loaded = plant.with_payload(pay, h, pan_radius=rad)  # type: ignore[arg-type]  # (N,)
         on = pay > 0
         plant = replace(plant, **{f: np.where(on, getattr(loaded, f), getattr(plant, f))
-                                  for f in ("mb", "l", "Iby", "Ibz")})  # fmt: skip
+                                  for f in ("mb", "l", "Iby", "Ibz", "Iyaw")})  # fmt: skip
     return {"level": li, "replicate": rep, "theta0": theta0, "plant": plant, "values": vals,
             "whole": whole, "rho": rho, "sigma": sigma, "push": push}  # fmt: skip
 

@@ -63,6 +63,7 @@ _LABELS = {
     "Db": "Db (N m s/rad)",
     "Dw": "Dw (N m s/rad)",
     "g": "g (m/s^2)",
+    "Iyaw": "Iyaw (kg m^2)",
 }
 
 

@@ -42,6 +42,10 @@ def params_show(which: str, as_json: bool, damping: str) -> None:
              "Ibl": "kg m^2", "Gb": "N m", "steady_speed_cap": "rad/s (Gb / (2 Dw))"}  # fmt: skip
     for k, v in {**p.to_dict(), **derived}.items():
         click.echo(f"{k:>16} = {v:<12.6g} {units.get(k, '')}")
+    click.echo(
+        "body inertias about its centre of mass: Iby pitch, Ibz roll (the book's Ibz), Iyaw "
+        "yaw; the book's (2.32) is the case Iyaw = 0"
+    )
     if book:
         click.echo(
             f"damping reading: {damping} (the table's Db, Dw in N s/m "

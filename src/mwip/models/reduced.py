@@ -17,6 +17,11 @@ with (2.32)
   ``D = [[2Dw + 2Db, -2Db, 0], [-2Db, 2Db, 0], [0, 0, 2 b^2/r^2 (Db + Dw)]]``
 - ``tau = [u_r + u_l, -(u_r + u_l), (b/r)(u_r - u_l)]``.
 
+``Ibl`` and ``m33`` are :class:`~mwip.params.Params`' coefficients of (2.32) with the body's own
+yaw inertia ``Iyaw`` folded in (``Ibl = Ibz - Iyaw + mb l^2``, ``m33`` plus ``Iyaw``): the
+general rigid body keeps (2.32)'s form exactly, and ``Iyaw = 0`` (the default) is the book's
+(2.32) as printed (docs/models.md, "The body's inertias").
+
 Solving for the accelerations gives (2.36): ``q'' = F + G [u_A, u_B] + tau_d`` with
 ``u_A = u_r + u_l``, ``u_B = u_r - u_l``.
 

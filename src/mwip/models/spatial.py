@@ -17,16 +17,21 @@ book derives (2.32) "based on (2.31)", but the printed terms of (2.17)-(2.24) di
    (``1/2 Iwd th'^2``, so ``M44 = m1 l1^2 + Iwd + Iyy``), whereas (2.32) puts ``2 Iwd`` into
    the *yaw* inertia ``m33``. Physically the wheels' diametral inertia is turned by yaw,
    not by pitch (the wheels do not pitch with the body), so (2.32) is right.
-2. (2.20) keeps the body's own yaw inertia ``Izz cos^2 th``; (2.32) has no such term (its
-   yaw inertia is ``(Ibz + mb l^2) sin^2 th + m33``).
+2. (2.20) keeps the body's own yaw inertia ``Izz cos^2 th``; the printed (2.32) has no such
+   term (its yaw inertia is ``(Ibz + mb l^2) sin^2 th + m33``): (2.32) is the body with
+   ``Izz = 0``, its ``Ibz`` playing ``Ixx``. mwip's :class:`~mwip.params.Params` carries the
+   term as ``Iyaw`` (``Ibl = Ibz - Iyaw + mb l^2``, ``m33`` plus ``Iyaw``; default 0, the
+   book's (2.32)), and :meth:`SpatialParams.from_params` maps ``Izz = Iyaw``, so this
+   difference is gone for every robot (docs/models.md).
 3. (2.22) damps the *absolute* pitch rate (``1/2 Db th'^2``), whereas (2.32) damps the body
    rate *relative to the wheels* (``Db (th' - psi')``, which also adds ``Db`` to the yaw
    damping). The motor and gearbox act between body and wheel, so the relative form of
    (2.32) is the physical one.
 
-With ``Iwd = 0``, ``Izz = 0`` and ``Db = 0`` (and ``Ixx = Ibz``, ``Iyy = Iby``) the two
-models coincide exactly after ``v = r psi'`` (tested). :func:`reduced_accelerations` implements
-the printed (2.24)-(2.31) so that these differences can be examined.
+With ``Iwd = 0`` and ``Db = 0`` (and ``Ixx = Ibz``, ``Iyy = Iby``, ``Izz = Iyaw``) the two
+models coincide exactly after ``v = r psi'``, for any ``Iyaw`` (tested).
+:func:`reduced_accelerations` implements the printed (2.24)-(2.31) so that these differences
+can be examined.
 """
 
 from __future__ import annotations
@@ -54,10 +59,12 @@ __all__ = [
 class SpatialParams:
     """Parameters of the printed spatial model (2.14)-(2.24).
 
-    ``m1, l1`` body mass and centre-of-mass distance; ``Ixx, Iyy, Izz`` body inertias (2.19)
-    (``Ixx`` about the body's long axis, which is vertical when upright; ``Izz`` the
-    remaining horizontal one as the book labels them); wheel ``mw, Iwa, Iwd, rw``; half track
-    ``b``; damping ``Db, Dw`` of (2.22).
+    ``m1, l1`` body mass and centre-of-mass distance; ``Ixx, Iyy, Izz`` the body's principal
+    inertias (2.19) about its centre of mass, in body axes: ``Ixx`` about the forward axis
+    (roll; (2.20) multiplies it by ``sin^2 th`` in the yaw energy), ``Iyy`` about the axis
+    along the axle (pitch), ``Izz`` about the body's long axis, which is vertical when upright
+    (yaw; ``cos^2 th`` in (2.20)); wheel ``mw, Iwa, Iwd, rw``; half track ``b``; damping
+    ``Db, Dw`` of (2.22).
     """
 
     m1: Value
@@ -75,10 +82,12 @@ class SpatialParams:
     g: Value = 9.81
 
     @classmethod
-    def from_params(cls, p: Params, *, Izz: float = 0.0) -> SpatialParams:
-        """Map the book's symbols: ``m1 = mb, l1 = l, Ixx = Ibz, Iyy = Iby, rw = r``."""
+    def from_params(cls, p: Params, *, Izz: Value | None = None) -> SpatialParams:
+        """Map the symbols: ``m1 = mb, l1 = l, Ixx = Ibz`` (roll), ``Iyy = Iby`` (pitch),
+        ``Izz = Iyaw`` (yaw; ``Izz`` given overrides it), ``rw = r``."""
+        izz = p.Iyaw if Izz is None else Izz
         return cls(
-            m1=p.mb, l1=p.l, Ixx=p.Ibz, Iyy=p.Iby, Izz=Izz, mw=p.mw, Iwa=p.Iwa, Iwd=p.Iwd,
+            m1=p.mb, l1=p.l, Ixx=p.Ibz, Iyy=p.Iby, Izz=izz, mw=p.mw, Iwa=p.Iwa, Iwd=p.Iwd,
             rw=p.r, b=p.b, Db=p.Db, Dw=p.Dw, g=p.g,
         )  # fmt: skip
 
