@@ -45,6 +45,14 @@ def _law_sources() -> list[str]:
             if (d / "kernel.py").is_file() for part in ("kernel", "packing")]  # fmt: skip
 
 
+def _hardware_sources() -> list[str]:
+    """The twin's compiled modules: every ``hardware/*.py`` with a kernel (a new element is
+    found without editing this list), and the layouts they read."""
+    hw = Path(__file__).resolve().parent / "hardware"
+    return ["layout.py", *(f"hardware/{f.name}" for f in sorted(hw.glob("*.py"))
+                           if "@njit" in f.read_text(encoding="utf-8"))]  # fmt: skip
+
+
 #: The source files compiled into :func:`mwip.sim.loop.run`, relative to the package
 #: (tests/test_aot.py checks that every mwip module the loop imports is listed).
 SOURCES: tuple[str, ...] = (
@@ -67,7 +75,7 @@ SOURCES: tuple[str, ...] = (
     "fuzzy/_kernel.py",
     "fuzzy/ts_model.py",
     "fuzzy/layout.py",
-    "sim/twin_loop.py",
+    *_hardware_sources(),
 )
 
 _ROOT = Path(__file__).resolve().parent

@@ -8,20 +8,22 @@ Example (``examples/balance.toml``)::
     Ts = 0.005               # sample period (s)
     mode = "sampled"         # or "continuous"
     # dt = 0.0005            # integration step (s), optional
-    # twin = true            # run on the digital twin (Chapter 6: IMU, encoders, drives);
-    #                        # or a twin file (`mwip twin show`), relative to this file
+    # robot = "my_robot.toml" # the robot (a robot file, relative to this file; `mwip robot
+    #                        # show`); default the book's. [plant] and [design] override it
+    # twin = true            # run on the robot's digital twin (Chapter 6: IMU, encoders,
+    #                        # drives, firmware)
     # case = 2               # with twin: 1 robot, 2 with payload, 3 payload + stick at ~6 s
     # seed = 0               # sensor-noise seed (twin)
 
     [controller]             # optional: the controller's settings (`mwip controllers NAME`)
     Q_diag = [1000.0, 100.0, 100.0, 100.0, 1000.0]
 
-    [plant]                  # the simulated robot: a base set plus overrides
-    base = "real"            # "real", "nominal", or a path to a parameter TOML
+    [plant]                  # the simulated body: the robot's, plus overrides (book symbols)
+    base = "real"            # optional: "real" or "nominal" (the book's tables) instead
     mb = 2.7
 
-    [design]                 # what the controller is designed with
-    base = "nominal"
+    [design]                 # what the controller is designed with: the robot's design model
+    base = "nominal"         # (or a book table), plus overrides
 
     [initial]                # initial state; unset entries are zero
     theta = 0.1745           # rad
@@ -51,11 +53,10 @@ from pathlib import Path
 from typing import Any, Literal
 
 from mwip.core import Controller
-from mwip.hardware.identified import default_twin
 from mwip.io import read_toml
 from mwip.laws.registry import CONTROLLERS as _REGISTRY
 from mwip.laws.registry import get as _get_controller
-from mwip.params import NOMINAL, REAL, Params, load_params
+from mwip.params import NOMINAL, REAL, Params
 from mwip.sim.disturbance import Disturbance, disturbance_from_dict
 from mwip.sim.result import SimResult
 
@@ -99,23 +100,20 @@ def _number(
     return x
 
 
-def _params_table(name: str, data: Mapping[str, Any], default: Params, where: Path) -> Params:
+def _params_table(name: str, data: Mapping[str, Any], default: Params) -> Params:
     body = dict(data)
     base_value = body.pop("base", "")
-    if not isinstance(base_value, str):
+    if not isinstance(base_value, str) or base_value.strip().lower() not in ("", "real",
+                                                                              "nominal"):
         raise ValueError(
-            f"[{name}] base must be 'real', 'nominal' or a parameter file path, got {base_value!r}"
+            f"[{name}] base must be 'real' or 'nominal' (a robot file is [scenario] robot), "
+            f"got {base_value!r}"
         )
     base_name = base_value.strip()
     if not base_name:
         base = default
-    elif base_name.lower() in ("real", "nominal"):
-        base = REAL if base_name.lower() == "real" else NOMINAL
     else:
-        path = Path(base_name)
-        if not path.is_absolute():
-            path = where.parent / path
-        base = load_params(path, base=default)
+        base = REAL if base_name.lower() == "real" else NOMINAL
     for key, value in body.items():
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ValueError(f"[{name}] {key} must be a number (one robot), got {value!r}")
@@ -142,9 +140,10 @@ class Scenario:
     twin: bool = False
     case: int = 1
     seed: int = 0
-    #: the twin's configuration (:class:`mwip.hardware.twin.Twin`, e.g. from a twin file,
-    #: ``mwip twin show``); ``None``: the default twin. Its ``Ts``/``dt`` follow the scenario.
-    twin_config: Any = None
+    #: the robot (:class:`mwip.robot.Robot`, a robot file); ``None``: the default robot. Its
+    #: body and design model are :attr:`plant` and :attr:`design` (where the scenario does
+    #: not override them) and its twin runs with ``twin``, its ``Ts``/``dt`` the scenario's.
+    robot: Any = None
 
     def __post_init__(self) -> None:
         try:
@@ -215,9 +214,11 @@ class Scenario:
         init = self.initial_state()
         if self.twin:
             from mwip.hardware.twin import case_plant, run_on_twin
+            from mwip.robot import robot_or_default
 
-            base = self.twin_config if self.twin_config is not None else default_twin()
-            tw = replace(base, Ts=self.Ts, dt=base.dt if self.dt is None else self.dt)
+            base = robot_or_default(self.robot).twin
+            tw = replace(base, firmware=replace(base.firmware, Ts=self.Ts),
+                         dt=base.dt if self.dt is None else self.dt)
             kwargs.pop("budget", None)  # the twin's fixed Ts, dt: the default budget applies
             return run_on_twin(
                 self.build_controller(), self.case, twin=tw,
@@ -257,7 +258,7 @@ def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
         if table in data and not isinstance(data[table], dict):
             raise ValueError(f"[{table}] must be a table, got {data[table]!r}")
     sc = dict(data.get("scenario", {}))
-    known = {"controller", "duration", "Ts", "dt", "mode", "twin", "case", "seed"}
+    known = {"controller", "duration", "Ts", "dt", "mode", "twin", "case", "seed", "robot"}
     extra = sorted(set(sc) - known)
     if extra:
         raise ValueError(f"[scenario] unknown key {extra[0]!r}; allowed: {sorted(known)}")
@@ -265,19 +266,25 @@ def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
         if key in sc and not isinstance(sc[key], str):
             raise ValueError(f"[scenario] {key} must be a string, got {sc[key]!r}")
     kwargs: dict[str, Any] = dict(sc)
-    kwargs["settings"] = dict(data.get("controller", {}))
-    kwargs["plant"] = _params_table("plant", data.get("plant", {}), REAL, p)
-    kwargs["design"] = _params_table("design", data.get("design", {}), NOMINAL, p)
-    kwargs["initial"] = dict(data.get("initial", {}))
-    if isinstance(kwargs.get("twin"), str):  # twin = "my_twin.toml": a twin file
-        from mwip.hardware.twin_config import load_twin
+    body, design = REAL, NOMINAL
+    if "robot" in sc:
+        from mwip.robot import load_robot
 
-        twin_path = Path(kwargs["twin"])
-        twin_path = twin_path if twin_path.is_absolute() else p.parent / twin_path
-        if not twin_path.is_file():
-            raise ValueError(f"[scenario] twin: no such twin file {str(twin_path)!r}")
-        kwargs["twin_config"] = load_twin(twin_path)
-        kwargs["twin"] = True
+        if not isinstance(sc["robot"], str) or not sc["robot"].strip():
+            raise ValueError(f"[scenario] robot must be a robot file path, got {sc['robot']!r}")
+        robot_path = Path(sc["robot"])
+        robot_path = robot_path if robot_path.is_absolute() else p.parent / robot_path
+        if not robot_path.is_file():
+            raise ValueError(f"[scenario] robot: no such robot file {str(robot_path)!r}")
+        kwargs["robot"] = load_robot(robot_path)
+        body, design = kwargs["robot"].body, kwargs["robot"].design
+    if isinstance(kwargs.get("twin"), str):
+        raise ValueError("[scenario] twin must be true or false (a twin file is now a robot "
+                         "file: [scenario] robot)")  # fmt: skip
+    kwargs["settings"] = dict(data.get("controller", {}))
+    kwargs["plant"] = _params_table("plant", data.get("plant", {}), body)
+    kwargs["design"] = _params_table("design", data.get("design", {}), design)
+    kwargs["initial"] = dict(data.get("initial", {}))
     if "disturbance" in data:
         try:
             kwargs["disturbance"] = disturbance_from_dict(data["disturbance"])

@@ -149,74 +149,6 @@ def _level_key(lv: Level) -> int:
     return zlib.crc32(lv.key.encode("utf-8"))
 
 
-class _Streams:
-    """Stands in for the IMU's generator: each ``standard_normal(n)`` returns the next column
-    of a table drawn per row (the row's own noise, whatever block it is computed in)."""
-
-    def __init__(self, table: NDArray[np.float64]) -> None:
-        self.table = table
-        self.k = 0
-
-    def standard_normal(self, size: Any = None) -> NDArray[np.float64]:
-        col = self.table[:, self.k % self.table.shape[1]]
-        self.k += 1
-        return col
-
-
-class _Sensor:
-    """The twin's sensor with each row's own IMU noise stream (:class:`_Streams`)."""
-
-    def __init__(self, inner: Any, table: NDArray[np.float64]) -> None:
-        self.inner = inner
-        self.table = table
-
-    def reset(self, n: int, seed: int | None = None) -> None:
-        self.inner.reset(n, seed)
-        self.inner.imu._rng = _Streams(self.table)
-
-    def __call__(self, t: float, state: NDArray[np.float64]) -> Any:
-        return self.inner(t, state)
-
-
-class _Actuator:
-    """Before the twin's drive, per row: torque noise ``sigma e_k``, whole samples of delay
-    ``k`` (a FIFO; the twin's own delay adds the fraction) and the responsiveness
-    ``y_k = y_k-1 + rho (u_k - y_k-1)`` (``y_-1 = 0``)."""
-
-    def __init__(self, inner: Any, whole: NDArray[np.int64], rho: NDArray[np.float64],
-                 sigma: NDArray[np.float64], noise: NDArray[np.float64]) -> None:  # fmt: skip
-        self.inner = inner
-        self.whole = whole
-        self.rho = rho[:, None]
-        self.sigma = sigma[:, None]
-        self.noise = noise
-        self.depth = int(whole.max(initial=0))
-        self.any_rho = bool(np.any(rho < 1.0))
-        self.any_noise = bool(np.any(sigma > 0.0))
-        self.reset(whole.size)
-
-    def reset(self, n: int, seed: int | None = None) -> None:
-        self.inner.reset(n, seed)
-        self.k = 0
-        self.fifo = np.zeros((self.depth + 1, n, 2))
-        self.y = np.zeros((n, 2))
-
-    def __call__(self, t: float, u_cmd: NDArray[np.float64],
-                 state: NDArray[np.float64]) -> NDArray[np.float64]:  # fmt: skip
-        u = np.asarray(u_cmd, dtype=float)
-        if self.any_noise:
-            u = u + self.sigma * self.noise[:, self.k % self.noise.shape[1], :]
-        if self.depth:
-            self.fifo = np.roll(self.fifo, 1, axis=0)
-            self.fifo[0] = u
-            u = self.fifo[self.whole, np.arange(u.shape[0])]
-        if self.any_rho:
-            u = self.y + self.rho * (u - self.y)
-            self.y = u
-        self.k += 1
-        return np.asarray(self.inner(t, u, state), dtype=float)
-
-
 class _Push:
     """Per-row rectangular pulses ``(J / width) (r, l, 0)`` from ``at`` over ``width``."""
 
@@ -286,7 +218,7 @@ def _inputs(bench: Bench, units: NDArray[np.int64]) -> dict[str, Any]:
         if lv.delay is not None:
             shift = 0 if lv.delay == 0.0 else int(np.ceil(lv.delay)) - 1
             whole[j] = shift
-            vals["delay"][j] = lv.delay - shift
+            vals["firmware.delay"][j] = lv.delay - shift
         rho[j], sigma[j], push[j], pay[j] = lv.responsiveness, lv.torque_noise, lv.push, lv.payload
     plant = replace(real, **fields)
     if np.any(pay > 0):
@@ -318,6 +250,7 @@ def run_rows(work: BenchRun, block: int, controllers: Mapping[str, Any]) -> list
     ``sample`` (the run), ``axis``, ``level``, ``replicate``, ``theta0`` and the metrics of
     :mod:`mwip.campaign.metrics`."""
     from mwip.campaign.metrics import sample_metrics
+    from mwip.hardware.twin import NoiseTable
     from mwip.sim.engine import simulate
 
     bench = work.bench
@@ -340,22 +273,17 @@ def run_rows(work: BenchRun, block: int, controllers: Mapping[str, Any]) -> list
     levels = bench.levels
     axis = np.array([levels[int(k)].axis for k in inp["level"]], dtype=object)
     label = np.array([levels[int(k)].label for k in inp["level"]], dtype=object)
-    r = np.broadcast_to(np.asarray(plant.r, dtype=float), (n,))
     b = np.broadcast_to(np.asarray(plant.b, dtype=float), (n,))
     q0 = np.column_stack([np.zeros(n), inp["theta0"], np.zeros(n)])
     rows: list[dict[str, Any]] = []
+    sensor_noise = NoiseTable(imu.reshape(n, S, 4))
+    command = {"sigma": inp["sigma"], "whole": inp["whole"], "rho": inp["rho"]}
     for entry in work.entrants:
         ctrl = copy.deepcopy(controllers[entry.label])
-        sensor = twin.sensor(p, common_noise=False, values=vals)
-        sensor.r = r.copy()  # each row's own wheel geometry (used elementwise)
-        sensor.b_over_r = b / r
-        drive = twin.actuator(p, values=vals)
-        drive.b_over_r = b / r
-        drive.drive.b_over_r = b / r
-        act = _Actuator(drive, inp["whole"], inp["rho"], inp["sigma"], tq)
+        sensor = twin.sensor(p, values=vals, noise=sensor_noise)
+        drive = twin.actuator(p, values=vals, command=command, noise=NoiseTable(tq))
         res = simulate(ctrl, p, q0=q0, duration=bench.duration, Ts=twin.Ts, dt=twin.dt,
-                       disturbance=dist, sensor=_Sensor(sensor, imu), actuator=act,
-                       seed=0)  # fmt: skip
+                       disturbance=dist, sensor=sensor, actuator=drive, seed=0)  # fmt: skip
         met = sample_metrics(res, b, _v_ref(entry), bench.success_theta)
         cols: dict[str, Any] = {"controller": np.full(n, entry.label, dtype=object),
                                 "sample": units, "axis": axis, "level": label,

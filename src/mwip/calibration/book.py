@@ -186,7 +186,7 @@ def analyse(table: Any, ev: Evidence, *, prior: Any = None, prior_draws: Any = N
     from mwip.calibration.claims import claim_rows, judge
     from mwip.calibration.posterior import condition, facts, weighted_quantile
     from mwip.calibration.runs import PUBLISHED, run_names
-    from mwip.hardware.prior import PRIOR
+    from mwip.calibration.structure import BOOK_PRIOR as PRIOR
     from mwip.hardware.twin import Twin
 
     pr = PRIOR if prior is None else prior
@@ -381,10 +381,7 @@ def calibrate_book(
     write_json_atomic(out / POSTERIOR_FILE, res.doc)
     write_text_atomic(out / "posterior.md", report_text(res.doc))
     if res.twin is not None:
-        from mwip.hardware.twin_config import twin_to_toml
-
-        write_text_atomic(out / "twin.toml", provenance(res.doc) + twin_to_toml(
-            res.twin, identified="most probable twin of the book calibration (above)"))
+        write_text_atomic(out / "robot.toml", map_robot_text(res.doc, res.twin))
     names = res.doc["prior"]["names"]
     if mix is None and ch is not None and "sampler" in res.doc["posterior"]:
         post = {n: ch.x[:, :, j].reshape(-1) for j, n in enumerate(names)}
@@ -398,6 +395,19 @@ def calibrate_book(
     return res
 
 
+def map_robot_text(doc: dict[str, Any], twin: Any) -> str:
+    """The robot file of the posterior's most probable twin: the book's body and design
+    model, the twin, its provenance as the robot's notes."""
+    from mwip.robot import Robot, robot_to_toml
+
+    notes = "\n".join(line[2:] if line.startswith("# ") else line.lstrip("#")
+                      for line in provenance(doc).splitlines())  # fmt: skip
+    src = "unknown (prior); identified: most probable twin of the book calibration (robot.notes)"
+    robot = Robot(twin=twin, name="book", notes=notes,
+                  provenance=tuple((n, src) for n in doc["prior"]["names"]))  # fmt: skip
+    return robot_to_toml(robot)
+
+
 def box_sample(table: Any, ev: Evidence, box: Any, store: Path, *, jobs: int = 1,
                duration: float = 0.0, note: Callable[[str], None] | None = None) -> Any:
     """Stage 2 (:mod:`mwip.calibration.proposal`): the box draws, pooled with the prior draws
@@ -406,7 +416,7 @@ def box_sample(table: Any, ev: Evidence, box: Any, store: Path, *, jobs: int = 1
 
     from mwip.calibration.proposal import inside, mis_weights, sample_box
     from mwip.calibration.sample import evaluate
-    from mwip.hardware.prior import PRIOR
+    from mwip.calibration.structure import BOOK_PRIOR as PRIOR
 
     names = list(PRIOR.names)
     bounds = np.asarray(PRIOR.bounds, dtype=float)
@@ -433,7 +443,7 @@ def chain_stage(pool: Any, ev: Evidence, plan: Any, store: Path, *, duration: fl
     from mwip.calibration.posterior import condition, facts
     from mwip.calibration.runs import run_names
     from mwip.calibration.sample import evaluate
-    from mwip.hardware.prior import PRIOR
+    from mwip.calibration.structure import BOOK_PRIOR as PRIOR
 
     names = list(PRIOR.names)
     bounds = np.asarray(PRIOR.bounds, dtype=float)

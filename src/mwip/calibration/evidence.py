@@ -65,7 +65,11 @@ def _proposal(entry: Any) -> Any:
 
     if entry is None:
         return None
-    box = {str(k): (float(v[0]), float(v[1])) for k, v in entry.get("box", {}).items()}
+    from mwip.hardware.prior import current_name
+
+    # the declaration names the unknowns as the twin file of its time did
+    box = {current_name(str(k)): (float(v[0]), float(v[1]))
+           for k, v in entry.get("box", {}).items()}  # fmt: skip
     return BoxProposal(draws=int(entry["draws"]), seed=int(entry["seed"]), box=box)
 
 

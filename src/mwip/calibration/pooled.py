@@ -115,7 +115,7 @@ def pooled_record(mix: MixtureResult, post: Any, sample: np.ndarray,
     }  # fmt: skip
     if mix.envelope is not None:
         from mwip.calibration.mixture import prior_density
-        from mwip.hardware.prior import PRIOR
+        from mwip.calibration.structure import BOOK_PRIOR as PRIOR
 
         e = mix.envelope
         rec["envelope"] = {
@@ -177,7 +177,7 @@ def mixture_stage(pool: Any, chains: Any, ev: Evidence, plan: Any, store: Path, 
     from mwip.calibration.runs import run_names
     from mwip.calibration.sample import evaluate
     from mwip.calibration.stored import claim_folder
-    from mwip.hardware.prior import PRIOR
+    from mwip.calibration.structure import BOOK_PRIOR as PRIOR
 
     names = list(PRIOR.names)
     bounds = np.asarray(PRIOR.bounds, dtype=float)
@@ -270,7 +270,7 @@ def _consistent_x(t: Any, mask: np.ndarray, ev: Evidence) -> np.ndarray:
     """The unknowns (n, D) of the twins of table ``t`` that meet the facts ``mask``."""
     from mwip.calibration.posterior import facts
     from mwip.calibration.runs import run_names
-    from mwip.hardware.prior import PRIOR
+    from mwip.calibration.structure import BOOK_PRIOR as PRIOR
 
     names = [f"param.{n}" for n in PRIOR.names]
     if len(t) == 0:
@@ -287,7 +287,7 @@ def _stage_densities(x: np.ndarray, n1: int, n2: int, box: Any,
     (stage 4's mixture, stage 5's envelope)."""
     from mwip.calibration.mixture import prior_density
     from mwip.calibration.proposal import inside
-    from mwip.hardware.prior import PRIOR
+    from mwip.calibration.structure import BOOK_PRIOR as PRIOR
 
     names = list(PRIOR.names)
     bounds = np.asarray(PRIOR.bounds, dtype=float)
@@ -310,7 +310,7 @@ def mixture_pool(prior_draws: Any, pool: Any, box: Any, mix: MixtureResult) -> A
     import pandas as pd
 
     from mwip.calibration.mixture import balance_weights
-    from mwip.hardware.prior import PRIOR
+    from mwip.calibration.structure import BOOK_PRIOR as PRIOR
 
     names = list(PRIOR.names)
     old = pool["weight"] if "weight" in pool.columns else pd.Series(np.ones(len(pool)))

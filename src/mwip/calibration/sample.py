@@ -25,7 +25,7 @@ def draw(
     seed: int, indices: range | list[int], prior: Any = None
 ) -> dict[str, NDArray[np.float64]]:
     """The unknowns of draws ``indices`` (name -> array), uniform on the prior's ranges."""
-    from mwip.hardware.prior import PRIOR
+    from mwip.calibration.structure import BOOK_PRIOR as PRIOR
 
     pr = PRIOR if prior is None else prior
     b = np.asarray(pr.bounds, dtype=float)

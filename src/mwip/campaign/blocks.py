@@ -139,17 +139,14 @@ def run_block(
             # the identified default twin (issue 23), its sensors or drive ideal on request
             twin = replace(default_twin(), ideal_sensors=campaign.sensors == "ideal",
                            ideal_actuator=campaign.drive == "ideal")  # fmt: skip
-            sensor = twin.sensor(campaign.centre)
-            actuator = twin.actuator(campaign.centre)
-            # each sample's own wheel geometry: the twin's sensor and drive are built for one
-            # robot, and use r and b/r only elementwise, so (B,) arrays give each its own
-            sensor.r = pb["r"]  # type: ignore[assignment]
-            sensor.b_over_r = pb["b"] / pb["r"]
-            actuator.b_over_r = pb["b"] / pb["r"]
-            kw = {"sensor": sensor, "actuator": actuator, "Ts": twin.Ts, "dt": twin.dt}
             # the plant the twin integrates: reflected rotor inertia and the back-EMF and
             # viscous damping on Db (as run_on_twin; the drive returns the rest of the torque)
             sim_plant = twin.plant(plant)
+            # each sample's own wheel geometry and drive-train mobility: the chains take them
+            # per robot from the plant the twin integrates
+            sensor = twin.sensor(sim_plant)
+            actuator = twin.actuator(sim_plant)
+            kw = {"sensor": sensor, "actuator": actuator, "Ts": twin.Ts, "dt": twin.dt}
         else:
             sim_plant = plant
         res = simulate(

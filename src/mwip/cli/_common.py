@@ -24,10 +24,11 @@ if TYPE_CHECKING:
 __all__ = [
     "DAMPING",
     "FORCE",
-    "TWIN_OPTION",
+    "ROBOT_OPTION",
+    "gone_option",
     "NonEmptyPath",
     "in_range",
-    "load_twin_option",
+    "robot_option",
     "out_ok",
     "params_value",
     "progress",
@@ -94,24 +95,52 @@ DAMPING = click.option(
     "sets (real, nominal); a parameter file gives rotational coefficients directly.",
 )
 
-TWIN_OPTION = click.option(
-    "--twin", "twin_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
-    help="Twin file ([twin] TOML tables, see `mwip twin show`); default: the default twin.",
+ROBOT_OPTION = click.option(
+    "--robot", "robot_file", type=NonEmptyPath(dir_okay=False, path_type=Path), default=None,
+    help="The robot: a robot file (body, design model, drive, firmware, sensors, payload; "
+    "`mwip robot show` prints the default, the book's robot; docs/robot.md).",
 )  # fmt: skip
 
 
-def load_twin_option(path: Path | None) -> object:
-    """The twin of a ``--twin FILE`` option (``None``: the default twin); errors name
-    ``--twin``."""
-    from mwip.hardware.identified import default_twin
-    from mwip.hardware.twin_config import load_twin
+def robot_option(path: Path | None, damping: str = "units") -> Any:
+    """The robot of ``--robot FILE`` (a :class:`mwip.robot.Robot`); without a file the book's
+    robot under the ``--damping`` reading. Errors are one line naming ``--robot``."""
+    from mwip.robot import default_robot, load_robot
 
     if path is None:
-        return default_twin()
+        robot = default_robot()
+        if damping != "units":
+            from dataclasses import replace
+
+            from mwip.params import book_params
+
+            robot = replace(robot, body=book_params("real", damping),
+                            design=book_params("nominal", damping))  # fmt: skip
+        return robot
+    if damping != "units":
+        raise click.UsageError(
+            "--damping reads the book's tables; a robot file (--robot) gives its body's and "
+            "design model's Db, Dw as the rotational coefficients of (2.32): give one of the two"
+        )
+    if not path.exists():
+        raise click.BadParameter(f"no such file {str(path)!r}", param_hint="--robot")
     try:
-        return load_twin(path)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="--twin") from None
+        return load_robot(path)
+    except (ValueError, OSError) as exc:
+        raise click.BadParameter(str(exc), param_hint="--robot") from None
+
+
+def gone_option(*names: str, hint: str, flag: bool = False) -> Callable[[Any], Any]:
+    """A hidden option of a removed name: given, it is one line saying what replaced it
+    (exit 2), rather than a silent other meaning or a bare "no such option"."""
+
+    def refuse(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
+        if value not in (None, False, ()):
+            raise click.UsageError(f"{names[0]} is gone: {hint}")
+        return None
+
+    return click.option(*names, hidden=True, expose_value=False, callback=refuse,
+                        is_flag=flag, default=None if not flag else False)  # fmt: skip
 
 
 def in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = True) -> float:

@@ -31,12 +31,11 @@ class PilRun:
     report: Any
     firmware: Any
     board: tuple[float, float, float] | None
+    robot: Any = None
 
     def files(self) -> dict[str, bytes]:
         """File name -> contents."""
         import json
-
-        from mwip.export.pil import delay_from_pil
 
         rep, p = self.report, self.firmware.code.prefix
         data = rep.to_dict()
@@ -49,19 +48,17 @@ class PilRun:
             f"{k},{k * rep.Ts:.6g},{n},{c}"
             for k, (n, c) in enumerate(zip(rep.instructions, rep.cycles, strict=True))
         ]
-        delay, source = delay_from_pil(rep, Ts=rep.Ts)
-        toml = (
-            "# The default digital twin with the computation delay measured by processor in the\n"
-            f"# loop (mwip export c --controller {rep.controller} --pil); use it as --twin FILE.\n"
-            f"# delay: {source}\n[twin]\ndelay = {delay!r}\n"
-        )
-        return {
+        out = {
             "pil.json": (json.dumps(data, indent=2) + "\n").encode(),
             "pil_steps.csv": ("\n".join(rows) + "\n").encode(),
-            "twin-delay.toml": toml.encode(),
             f"{p}_pil.elf": self.firmware.pil_elf,
             f"{p}_board.elf": self.firmware.board_elf,
         }
+        try:  # the robot with the measured delay (a law longer than Ts has none)
+            out["robot.toml"] = measured_robot_text(self.robot, rep).encode()
+        except ValueError:
+            pass
+        return out
 
     def write(self, out: Path) -> None:
         """Write :meth:`files` into ``out`` (atomically, one by one) and say so."""
@@ -82,7 +79,22 @@ def _fail(exc: BaseException) -> click.UsageError:
     return click.UsageError(f"--pil: {exc}")
 
 
-def run_pil_cli(name: str, build: Any, code: Any, *, plant: Any, twin: bool, theta0: float,
+def measured_robot_text(robot: Any, rep: Any) -> str:
+    """The robot file of ``robot`` with its firmware's computation delay set from the PIL
+    measurement ``rep`` (:func:`mwip.export.pil.delay_from_pil`), its source saying so."""
+    from dataclasses import replace
+
+    from mwip.export.pil import delay_from_pil
+    from mwip.robot import robot_to_toml
+
+    delay, source = delay_from_pil(rep, Ts=robot.Ts)
+    delay = min(max(delay, 0.0), 1.0)
+    tw = robot.twin
+    measured = replace(robot, twin=replace(tw, firmware=replace(tw.firmware, delay=delay)))
+    return robot_to_toml(measured.with_sources({"firmware.delay": f"measured: {source}"}))
+
+
+def run_pil_cli(name: str, build: Any, code: Any, *, robot: Any, twin: bool, theta0: float,
                 duration: float, push: float, board: bool, pil: bool) -> PilRun:  # fmt: skip
     """Run ``--pil`` (and ``--board``) for the export of ``name`` (``build()`` makes the
     Python controller, ``code`` its C); print the results; raise click errors (bad input and
@@ -116,11 +128,8 @@ def run_pil_cli(name: str, build: Any, code: Any, *, plant: Any, twin: bool, the
     except FirmwareError as exc:
         raise _fail(exc) from None
     run = CostRun(theta0=theta0, duration=duration, push=push, push_start=duration / 2)
-    tw = None
-    if twin:
-        from mwip.hardware.identified import default_twin
-
-        tw = default_twin()
+    plant = robot.body
+    tw = robot.twin if twin else None
     n = max(int(round(duration / code.Ts)), 1)
     try:
         with progress(n, "processor in the loop", long=True) as prog:
@@ -130,7 +139,7 @@ def run_pil_cli(name: str, build: Any, code: Any, *, plant: Any, twin: bool, the
         raise click.ClickException(f"processor in the loop: {exc}") from None
     _say(rep, twin)
     board_result = _board(firmware, build, plant, run, tw, n) if board else None
-    return PilRun(rep, firmware, board_result)
+    return PilRun(rep, firmware, board_result, robot)
 
 
 def _say(rep: Any, twin: bool) -> None:

@@ -1,5 +1,5 @@
-"""What ``mwip run`` and ``mwip reproduce`` share: their options, the robot of
-``--params``/``--nominal``, and running studies with a progress bar and the summary."""
+"""What ``mwip run`` and ``mwip reproduce`` share: their options, the robot of ``--robot``,
+and running studies with a progress bar and the summary."""
 
 from __future__ import annotations
 
@@ -9,12 +9,12 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from mwip.cli._common import NonEmptyPath, params_value
+from mwip.cli._common import ROBOT_OPTION, NonEmptyPath, gone_option, robot_option
 
 if TYPE_CHECKING:
     from mwip.params import Params
 
-__all__ = ["OUT", "RUN_OUT", "QUICK", "PLANT", "NOMINAL", "VERBOSE", "JOBS", "plant_and_design",
+__all__ = ["OUT", "RUN_OUT", "QUICK", "ROBOT", "GONE", "VERBOSE", "JOBS", "robot_inputs",
            "worker_count", "execute", "run_study_files", "robot_notes"]  # fmt: skip
 
 OUT = click.option(
@@ -34,18 +34,21 @@ RUN_OUT = click.option(
     "`mwip run`'s own, never `mwip reproduce`'s without --force).",
 )
 QUICK = click.option("--quick", is_flag=True, help="Shorter runs (for smoke tests).")
-PLANT = click.option(
-    "--params",
-    "params_file",
-    default=None,
-    help="The simulated robot: a parameter TOML file (default: the book's, Table 3.1).",
-)
-NOMINAL = click.option(
-    "--nominal",
-    "nominal_file",
-    default=None,
-    help="The design model: a parameter TOML file (default: the book's, Table 3.2).",
-)
+ROBOT = ROBOT_OPTION
+
+
+def GONE(f: Any) -> Any:  # noqa: N802 - a decorator of options, named as the others
+    """The options a robot file replaced: ``--params``, ``--nominal``, ``--twin FILE``."""
+    for opt in (
+        gone_option("--params", hint="the robot is --robot FILE (a robot file: `mwip robot "
+                    "show` prints the default; an old parameter file loads as one)"),
+        gone_option("--nominal", hint="the design model is the robot file's [design] table "
+                    "(--robot FILE)"),
+        gone_option("--twin", hint="the twin is the robot file's (--robot FILE; an old twin "
+                    "file loads as one)"),
+    ):  # fmt: skip
+        f = opt(f)
+    return f
 VERBOSE = click.option(
     "--verbose", "-v", is_flag=True, help="List every claim in the summary, not only failures."
 )
@@ -59,12 +62,11 @@ JOBS = click.option(
 )
 
 
-def plant_and_design(
-    params_file: str | None, nominal_file: str | None, damping: str = "units"
-) -> tuple[Params, Params]:
-    plant = params_value(params_file or "real", "--params", damping=damping)
-    design = params_value(nominal_file or "nominal", "--nominal", damping=damping)
-    return plant, design
+def robot_inputs(robot_file: Path | None, damping: str = "units") -> tuple[Params, Params, Any]:
+    """``(plant, design, twin)`` of ``--robot FILE`` (the book's robot under the ``--damping``
+    reading without one; its twin ``None``: the default twin)."""
+    r = robot_option(robot_file, damping)
+    return r.body, r.design, (r.twin if robot_file is not None else None)
 
 
 def worker_count(jobs: int) -> int:
@@ -146,50 +148,30 @@ def execute(
 
 
 def run_study_files(
-    files: tuple[Path, ...], out: Path, quick: bool, params_file: str | None,
-    nominal_file: str | None, verbose: bool, damping: str | None, twin: Any = None,
-    twin_file: Path | None = None,
+    files: tuple[Path, ...], out: Path, quick: bool, robot_file: Path | None, verbose: bool,
+    damping: str | None,
 ) -> None:  # fmt: skip
-    """Run each study file (its robot unless --params/--nominal override it, its twin unless
-    --twin does; ``damping``, when given on the command line, replaces the files' [robot]
-    damping)."""
+    """Run each study file (its robot unless --robot overrides it; ``damping``, when given on
+    the command line, replaces the files' [robot] damping)."""
     from mwip.studies.study_file import load_study_file
 
     parsed = [load_study_file(f, damping) for f in files]  # validate all before running any
     for sf in parsed:
         reading = damping or "units"
-        plant = sf.plant if params_file is None else params_value(params_file, "--params",
-                                                             damping=reading)  # fmt: skip
-        design = sf.nominal if nominal_file is None else params_value(nominal_file, "--nominal",
-                                                                 damping=reading)  # fmt: skip
+        plant, design, twin = sf.plant, sf.nominal, sf.twin
+        if robot_file is not None:
+            plant, design, twin = robot_inputs(robot_file, reading)
         click.echo(f"{sf.path}: {sf.name}", err=True)
-        from mwip.studies.study import plant_label
-
-        notes = robot_notes([sf.name], params_file, nominal_file, twin_file)
-        book = ("real plant", "real plant (literal damping)")
-        if params_file is None and plant_label(plant) not in book:
-            mine = f"the robot of {sf.path}"
-            notes[sf.name] = f"{mine}, {notes[sf.name]}" if sf.name in notes else mine
+        notes = robot_notes([sf.name], robot_file)
+        if robot_file is None and sf.robot is not None:
+            notes[sf.name] = f"the robot of {sf.path}"
         execute([sf.name], out, quick or sf.quick, 1, plant, design, verbose,
-                 {sf.name: sf.settings}, damping=reading,
-                 twin=twin if twin is not None else sf.twin, robot=notes)  # fmt: skip
+                 {sf.name: sf.settings}, damping=reading, twin=twin, robot=notes)  # fmt: skip
 
 
-def robot_notes(names: list[str], params_file: str | None, nominal_file: str | None,
-                 twin_file: Path | None) -> dict[str, str]:  # fmt: skip
-    """What each study of ``names`` runs on besides the book's robot, design model and default
-    twin (the Chapter 6 studies'), as the report's section titles say it."""
-    from mwip.studies import get_study
-
-    parts = []
-    if params_file is not None and params_file.lower() != "real":
-        parts.append(f"robot {params_file}")
-    if nominal_file is not None and nominal_file.lower() != "nominal":
-        parts.append(f"design model {nominal_file}")
-    notes = {}
-    for name in names:
-        here = [*parts, *([f"twin {twin_file}"] if twin_file is not None
-                          and get_study(name).place[0] == 6 else [])]  # fmt: skip
-        if here:
-            notes[name] = ", ".join(here)
-    return notes
+def robot_notes(names: list[str], robot_file: Path | None) -> dict[str, str]:
+    """What each study of ``names`` runs on besides the book's robot (its body, design model
+    and, for the Chapter 6 studies, its twin), as the report's section titles say it."""
+    if robot_file is None:
+        return {}
+    return {name: f"robot {robot_file}" for name in names}

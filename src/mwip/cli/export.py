@@ -9,7 +9,7 @@ from typing import Any
 
 import click
 
-from mwip.cli._common import split_sets
+from mwip.cli._common import ROBOT_OPTION, gone_option, robot_option, split_sets
 
 __all__ = ["export"]
 
@@ -37,16 +37,10 @@ def export() -> None:
     help="A settings file of the controller ([controller] name, [settings]; e.g. `mwip "
     "tune`'s best.toml); --set overrides it.",
 )
-@click.option(
-    "--params",
-    "params_file",
-    default=None,
-    help="Your robot (TOML): the controller is designed on it and --verify simulates "
-    "it (default: the book's, design Table 3.2, plant Table 3.1).",
-)
-@click.option(
-    "--nominal", "nominal_file", default=None, help="A different design model (TOML) than --params."
-)
+@ROBOT_OPTION
+@gone_option("--params", hint="your robot is --robot FILE (a robot file: the controller is "
+             "designed on its [design] model, --verify and --pil run its body or twin)")
+@gone_option("--nominal", hint="the design model is the robot file's [design] table")
 @click.option(
     "--Ts",
     "Ts",
@@ -80,7 +74,8 @@ def export() -> None:
     help="Processor in the loop: cross-compile for the board's Cortex-M3 (GNU Arm toolchain, "
     "soft float) and run the closed loop on an emulated processor (unicorn): its difference "
     "from the host's build, the instructions per step and their time at 50 MHz; writes "
-    "OUT/pil.json, OUT/pil_steps.csv, OUT/twin-delay.toml and the images (docs/export.md).",
+    "OUT/pil.json, OUT/pil_steps.csv, OUT/robot.toml (the robot with the measured delay) "
+    "and the images (docs/export.md).",
 )
 @click.option(
     "--board",
@@ -114,8 +109,7 @@ def export() -> None:
     "--twin", is_flag=True, help="With --verify or --pil: run on the digital twin (Chapter 6)."
 )
 def export_c(
-    name: str, sets: tuple[str, ...], settings_file: str | None, params_file: str | None,
-    nominal_file: str | None,
+    name: str, sets: tuple[str, ...], settings_file: str | None, robot_file: Path | None,
     Ts: float | None, single: bool, prefix: str | None, out: Path, force: bool, verify: bool,
     pil: bool, board: bool, push: float, duration: float, theta0: float, twin: bool,
 ) -> None:  # fmt: skip
@@ -137,7 +131,6 @@ def export_c(
     from mwip.export.transpile import check_constant
     from mwip.io import write_text_atomic
     from mwip.laws.registry import get
-    from mwip.params import book_params, load_params
 
     try:
         spec = get(name)
@@ -180,17 +173,8 @@ def export_c(
         raise click.BadParameter(f"must be in (-1.5708, 1.5708) rad, got {theta0!r}",
                                  param_hint="--theta0")  # fmt: skip
 
-    def robot(path: str | None, what: str, base: str) -> Any:
-        if path is None:
-            return None
-        p = Path(path)
-        if not p.is_file():
-            raise click.BadParameter(f"no such parameter file {path!r}", param_hint=what)
-        return load_params(p, base=book_params(base))
-
-    mine = robot(params_file, "--params", "nominal")
-    design = robot(nominal_file, "--nominal", "nominal") or mine or book_params("nominal")
-    plant = mine or book_params("real")
+    rb = robot_option(robot_file)
+    design, plant = rb.design, rb.body
     period = Ts if Ts is not None else spec.Ts
     prefix = prefix or f"mwip_{name}"
 
@@ -206,7 +190,7 @@ def export_c(
     if pil or board:
         from mwip.cli._export_pil import run_pil_cli
 
-        pil_run = run_pil_cli(name, build, code, plant=plant, twin=twin, theta0=theta0,
+        pil_run = run_pil_cli(name, build, code, robot=rb, twin=twin, theta0=theta0,
                               duration=duration, push=push, board=board, pil=pil)  # fmt: skip
     outdir.claim(out, "export c")
     for fname, text in code.files().items():
@@ -224,11 +208,7 @@ def export_c(
         cctrl = CController(code, static=bool(getattr(build(), "static", False)))
     except NoCompiler as exc:
         raise click.UsageError(f"--verify: {exc}") from None
-    tw = None
-    if twin:
-        from mwip.hardware.identified import default_twin
-
-        tw = default_twin()
+    tw = rb.twin if twin else None
     rep = run_verify(build(), cctrl, plant=plant, q0=(0.0, theta0, 0.0), duration=duration,
                      twin=tw)  # fmt: skip
     tol = 1e-9 if precision == "double" else math.inf

@@ -8,16 +8,16 @@ from pathlib import Path
 
 import click
 
-from mwip.cli._common import DAMPING, FORCE, TWIN_OPTION, load_twin_option, out_ok
+from mwip.cli._common import DAMPING, FORCE, out_ok
 from mwip.cli._studies import (
+    GONE,
     JOBS,
-    NOMINAL,
     OUT,
-    PLANT,
     QUICK,
+    ROBOT,
     VERBOSE,
     execute,
-    plant_and_design,
+    robot_inputs,
     robot_notes,
     worker_count,
 )
@@ -29,33 +29,30 @@ __all__ = ["reproduce"]
 @click.command()
 @OUT
 @QUICK
-@PLANT
-@NOMINAL
+@ROBOT
+@GONE
 @DAMPING
-@TWIN_OPTION
 @JOBS
 @VERBOSE
 @FORCE
 @click.option("--list", "list_only", is_flag=True, help="List the studies and exit.")
 @click.option(
     "--compare/--no-compare",
-    default=True,
-    show_default=True,
+    default=None,
     help="Also run every study under the other damping reading into OUT/compare-<reading>/; "
-    "the report shows each book claim's verdict under both.",
+    "the report shows each book claim's verdict under both (default: on for the book's "
+    "robot; a robot file's damping has one reading).",
 )
 def reproduce(
     out: Path,
     quick: bool,
-    params_file: str | None,
-    nominal_file: str | None,
+    robot_file: Path | None,
     damping: str,
-    twin_file: Path | None,
     jobs: int,
     verbose: bool,
     force: bool,
     list_only: bool,
-    compare: bool,
+    compare: bool | None,
 ) -> None:
     """Run every study on built-in defaults; write OUT/<study>/, OUT/index.html, OUT/run.json.
 
@@ -70,10 +67,13 @@ def reproduce(
         for s in declared():
             click.echo(f"{s.name:24s} {s.source}")
         return
+    if compare and robot_file is not None:
+        raise click.UsageError("--compare runs the book's tables under both damping readings; a "
+                               "robot file (--robot) gives its own Db, Dw: give one of the two")
+    compare = robot_file is None if compare is None else compare
     out_ok(out, force, "reproduce")
-    plant, design = plant_and_design(params_file, nominal_file, damping)
-    twin = None if twin_file is None else load_twin_option(twin_file)
-    notes = robot_notes(study_names(), params_file, nominal_file, twin_file)
+    plant, design, twin = robot_inputs(robot_file, damping)
+    notes = robot_notes(study_names(), robot_file)
     from mwip.outdir import claim, hold
 
     claim(out, "reproduce")  # OUT holds the staging (and the comparison) from now on
@@ -85,7 +85,7 @@ def reproduce(
                    err=True)  # fmt: skip
         try:
             execute(study_names(), out / f"compare-{other}", quick, worker_count(jobs),
-                     *plant_and_design(params_file, nominal_file, other), damping=other,
+                     *robot_inputs(None, other)[:2], damping=other,
                      summary=False, twin=twin, command="reproduce", robot=notes,
                      label=f"pass 1/2 ({other} reading): studies")  # fmt: skip
         except SystemExit as exc:

@@ -19,12 +19,13 @@ import click
 from mwip.cli._common import (
     DAMPING,
     FORCE,
+    ROBOT_OPTION,
     NonEmptyPath,
+    gone_option,
     in_range,
-    load_twin_option,
     out_ok,
-    params_value,
     progress,
+    robot_option,
     split_sets,
 )
 
@@ -59,15 +60,14 @@ _OPTION_OF = {"controller": "--controller", "settings": "--set", "duration": "--
     help="A settings file ([controller] name, [settings]; e.g. `mwip tune`'s best.toml); "
     "--set overrides it.",
 )
+@ROBOT_OPTION
 @click.option(
     "--twin",
     "twin",
-    is_flag=False,
-    flag_value="default",
-    default=None,
-    metavar="[FILE]",
-    help="Run on the digital twin (Chapter 6: IMU fusion, encoders, RE25 drives; sampled); "
-    "with a twin file ([twin] TOML, `mwip twin show`) that twin.",
+    is_flag=True,
+    default=False,
+    help="Run on the robot's digital twin (Chapter 6: IMU fusion, encoders, drives, "
+    "firmware; sampled).",
 )
 @click.option(
     "--case",
@@ -106,23 +106,10 @@ _OPTION_OF = {"controller": "--controller", "settings": "--set", "duration": "--
     show_default=True,
     help="Zero-order hold at Ts, or the law inside the ODE.",
 )
-@click.option(
-    "--params",
-    "--plant",
-    "plant",
-    default="real",
-    show_default=True,
-    help="The simulated robot: real, nominal or a parameter TOML file (--plant: the old name).",
-)
-@click.option(
-    "--nominal",
-    "--design-params",
-    "design_params",
-    default="nominal",
-    show_default=True,
-    help="The design model the controller is built on: real, nominal or a TOML file "
-    "(--design-params: the old name).",
-)
+@gone_option("--params", "--plant", hint="the simulated robot is --robot FILE (a robot file: "
+             "`mwip robot show` prints the default; an old parameter file loads as one)")
+@gone_option("--nominal", "--design-params", hint="the design model is the robot file's "
+             "[design] table (--robot FILE)")
 @click.option(
     "--disturbance",
     type=click.Choice(["none", "book"]),
@@ -164,16 +151,16 @@ _OPTION_OF = {"controller": "--controller", "settings": "--set", "duration": "--
 @click.pass_context
 def simulate(
     ctx: click.Context, controller: str, sets: tuple[str, ...], settings_file: Path | None,
-    twin: str | None, case: int, seed: int,
+    robot_file: Path | None, twin: bool, case: int, seed: int,
     theta0: float, alpha0: float, v0: float,
-    duration: float, Ts: float, dt: float | None, mode: str, plant: str, design_params: str,
+    duration: float, Ts: float, dt: float | None, mode: str,
     disturbance: str, out: Path | None, as_json: bool, plot: bool, damping: str, force: bool,
     max_steps: float | None, max_memory: float | None, scenario_file: Path | None,
 ) -> None:  # fmt: skip
     """Simulate a closed loop and print status, settling time and max |u|.
 
-    Any controller of `mwip controllers`, on the default robot (Table 3.1), on --params FILE,
-    or on the digital twin (--twin, --case).
+    Any controller of `mwip controllers`, on the default robot (the book's: Table 6.1,
+    designed on Table 6.2) or --robot FILE, on its body or its digital twin (--twin, --case).
     """
     from mwip.budget import DEFAULT, Budget, estimate
     from mwip.scenario import Scenario, ScenarioError, load_scenario
@@ -226,14 +213,11 @@ def simulate(
                      ("case", case), ("seed", seed)):  # fmt: skip
         if given(key):
             changes[key] = val
-    if twin is not None:
+    if twin:
         changes["twin"] = True
-        if twin != "default":
-            changes["twin_config"] = load_twin_option(Path(twin))
-    if given("plant") or given("damping"):
-        changes["plant"] = params_value(plant, "--params", damping=damping)
-    if given("design_params") or given("damping"):
-        changes["design"] = params_value(design_params, "--nominal", damping=damping)
+    if robot_file is not None or given("damping"):
+        rb = robot_option(robot_file, damping)
+        changes.update(robot=rb, plant=rb.body, design=rb.design)
     if given("disturbance"):
         changes["disturbance"] = BOOK_SINUSOIDS if disturbance == "book" else None
     initial = {} if base is None else dict(base.initial)
@@ -288,7 +272,7 @@ def _report(sc: Any, res: Any, out: Path | None, plot: bool, as_json: bool) -> N
     )
     from mwip.hardware.identified import wheel_torque_limit  # the drive's, not the twin
 
-    tw = sc.twin_config
+    tw = sc.robot.twin if sc.robot is not None else None
     limit = float(wheel_torque_limit() if tw is None
                   else tw.drive.wheel_torque_limit(tw.motor))  # fmt: skip
     peak = float(summary.get("max_abs_u") or 0.0)
@@ -318,7 +302,7 @@ def _report(sc: Any, res: Any, out: Path | None, plot: bool, as_json: bool) -> N
         )
         if over:
             click.echo(f"torque: max |u| {peak:.4g} N m is {peak / limit:.1f}x the drive's limit "
-                       f"of {limit:.3g} N m per wheel (RE25 at its current limit, `mwip twin "
+                       f"of {limit:.3g} N m per wheel (RE25 at its current limit, `mwip robot "
                        "show`): the robot could not follow this run")  # fmt: skip
         if out is not None:
             click.echo(f"wrote {out / 'timeseries.csv'}, {out / 'timeseries.npz'}, "

@@ -7,16 +7,16 @@ from pathlib import Path
 
 import click
 
-from mwip.cli._common import DAMPING, FORCE, TWIN_OPTION, NonEmptyPath, load_twin_option, out_ok
+from mwip.cli._common import DAMPING, FORCE, NonEmptyPath, out_ok
 from mwip.cli._studies import (
+    GONE,
     JOBS,
-    NOMINAL,
-    PLANT,
     QUICK,
+    ROBOT,
     RUN_OUT,
     VERBOSE,
     execute,
-    plant_and_design,
+    robot_inputs,
     robot_notes,
     run_study_files,
     worker_count,
@@ -45,10 +45,9 @@ def list_cmd() -> None:
 )
 @RUN_OUT
 @QUICK
-@PLANT
-@NOMINAL
+@ROBOT
+@GONE
 @DAMPING
-@TWIN_OPTION
 @JOBS
 @VERBOSE
 @FORCE
@@ -59,10 +58,8 @@ def run_cmd(
     scenarios: tuple[Path, ...],
     out: Path | None,
     quick: bool,
-    params_file: str | None,
-    nominal_file: str | None,
+    robot_file: Path | None,
     damping: str,
-    twin_file: Path | None,
     jobs: int,
     verbose: bool,
     force: bool,
@@ -84,15 +81,14 @@ def run_cmd(
         label = "+".join(stems) if len("+".join(stems)) <= 80 else f"{stems[0]}+{len(stems) - 1}"
         out = Path("runs") / label
     out_ok(out, force, "run")
-    plant, design = plant_and_design(params_file, nominal_file, damping)
-    twin = None if twin_file is None else load_twin_option(twin_file)
+    plant, design, twin = robot_inputs(robot_file, damping)
     if scenarios:
         given = ctx.get_parameter_source("damping") is not click.core.ParameterSource.DEFAULT
-        run_study_files(scenarios, out, quick, params_file, nominal_file, verbose,
-                       damping if given else None, twin, twin_file)  # fmt: skip
+        run_study_files(scenarios, out, quick, robot_file, verbose,
+                        damping if given else None)  # fmt: skip
     if studies:
         names = list(dict.fromkeys(studies))
-        notes = robot_notes(names, params_file, nominal_file, twin_file)
+        notes = robot_notes(names, robot_file)
         execute(names, out, quick, worker_count(jobs), plant, design, verbose, damping=damping,
                  twin=twin, robot=notes)  # fmt: skip
 

@@ -1,11 +1,9 @@
 """``mwip twin``: the digital twin's configuration and its model sensitivities.
 
-- ``mwip twin show [--twin FILE]``: the twin file (default twin, or FILE's after validation),
-  every value commented with its source;
-- ``mwip twin sensitivity [--twin FILE] [--json]``: the Case 2 payload / Case 3 stick
+- ``mwip twin sensitivity [--robot FILE] [--json]``: the Case 2 payload / Case 3 stick
   assumptions and the gear ratio, varied (:mod:`mwip.hardware.sensitivity`);
-- ``mwip twin fit LOG... --out DIR``: the twin identified from robot logs
-  (:mod:`mwip.identify`, docs/twin_fit.md);
+- ``mwip twin fit LOG... --out DIR [--robot FILE]``: the robot's twin identified from its
+  logs, starting from its robot file (:mod:`mwip.identify`, docs/twin_fit.md);
 - ``mwip twin excite --out FILE``: the excitation schedule to record those logs.
 
 Hardware modules are imported per command.
@@ -18,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from mwip.cli._common import TWIN_OPTION, load_twin_option
+from mwip.cli._common import ROBOT_OPTION, gone_option, robot_option
 
 __all__ = ["twin"]
 
@@ -28,37 +26,23 @@ def twin() -> None:
     """The digital twin of the Chapter 6 robot (docs/twin_model.md)."""
 
 
-@twin.command("show")
-@TWIN_OPTION
-@click.option("--datasheet", is_flag=True,
-              help="The data-sheet twin (every unknown at its data-sheet guess, the prior's "
-              "centre) instead of the identified default twin.")  # fmt: skip
-def twin_show(twin_file: Path | None, datasheet: bool) -> None:
-    """Print the twin file: the default twin (the book's robot identified from its evidence,
-    with its provenance), or FILE's after validation, every value with its source."""
-    from mwip.hardware import identified
-    from mwip.hardware.twin_config import twin_to_toml
-
-    if twin_file is not None and datasheet:
-        raise click.UsageError("give --twin FILE or --datasheet, not both")
-    if datasheet:
-        click.echo(twin_to_toml(identified.datasheet_twin()), nl=False)
-    elif twin_file is None:
-        click.echo(identified.provenance() + twin_to_toml(
-            identified.default_twin(), identified="most probable twin of the book calibration "
-            "(above)"), nl=False)  # fmt: skip
-    else:
-        click.echo(twin_to_toml(load_twin_option(twin_file)), nl=False)  # type: ignore[arg-type]
+@twin.command("show", hidden=True, context_settings={"ignore_unknown_options": True})
+@click.argument("args", nargs=-1, type=click.UNPROCESSED)
+def twin_show(args: tuple[str, ...]) -> None:
+    """Gone: `mwip robot show` prints the robot file (the twin is its hardware part)."""
+    raise click.UsageError("`mwip twin show` is gone: `mwip robot show [FILE] [--datasheet]` "
+                           "prints the robot file, the twin's values with the robot's")
 
 
 @twin.command("sensitivity")
-@TWIN_OPTION
+@ROBOT_OPTION
+@gone_option("--twin", hint="give the robot file with --robot FILE")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
+def twin_sensitivity(robot_file: Path | None, as_json: bool) -> None:
     """Case 2 payload, Case 3 stick and gear-ratio sensitivities of the plant model."""
     from mwip.hardware.sensitivity import sensitivity_tables, tables_markdown
 
-    tables = sensitivity_tables(load_twin_option(twin_file))  # type: ignore[arg-type]
+    tables = sensitivity_tables(robot_option(robot_file))
     if as_json:
         click.echo(json.dumps(tables, indent=1))
     else:
@@ -68,8 +52,9 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
 @twin.command("fit")
 @click.argument("logs", nargs=-1, required=False, type=click.Path(path_type=Path))
 @click.option("--out", "out", required=True, type=click.Path(path_type=Path),
-              help="Output folder (twin.toml, fit.json, fit.png); new, empty or mwip's own.")
-@TWIN_OPTION
+              help="Output folder (robot.toml, fit.json, fit.png); new, empty or mwip's own.")
+@ROBOT_OPTION
+@gone_option("--twin", hint="the starting robot is --robot FILE (a robot file)")
 @click.option("--free", "free", default=None,
               help="Comma-separated parameters to fit (default: those the logs inform).")
 @click.option("--fix", "fix", multiple=True, metavar="NAME=VALUE",
@@ -104,7 +89,7 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
               default=None, help="--evidence: twins of stage 5's envelope draws, without "
               "revision 5's extension (default: the declaration's 20000, extended until the "
               "effective size is 100; 0: no stage 5).")
-def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: str | None,
+def twin_fit(logs: tuple[Path, ...], out: Path, robot_file: Path | None, free: str | None,
              fix: tuple[str, ...], validate: Path | None, segment: int,
              force: bool, evidence: str | None, samples: int | None, seed: int | None,
              jobs: int, duration: float, stage2: int | None,
@@ -128,7 +113,8 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
     from mwip.identify.report import write_outputs
 
     target = outdir.check(out, force, command="twin fit")
-    base = load_twin_option(twin_file)
+    robot = robot_option(robot_file)
+    base = robot.twin
     fixed: dict[str, float] = {}
     for item in fix:
         name, sep, val = item.partition("=")
@@ -155,7 +141,7 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
         result.validation = {"log": str(validate), "sha256": held.sha256,
                              "fitted": fitted, "prior_centre": at_prior}  # fmt: skip
     outdir.claim(target, "twin fit")
-    files = write_outputs(target, result, read, base)
+    files = write_outputs(target, result, read, robot)
     click.echo(f"wrote {', '.join(str(f) for f in files)}")
     for flag in result.flags:
         click.echo(f"note: {flag}")
@@ -199,7 +185,7 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
                   if p["dropped"] else ""))  # fmt: skip
     click.echo(f"held-out claims: {c['holds']} hold, {c['fails']} fail, {c['undecided']} "
                "undecided")  # fmt: skip
-    click.echo(f"wrote {target / 'posterior.md'}, posterior.json, twin.toml, marginals.png")
+    click.echo(f"wrote {target / 'posterior.md'}, posterior.json, robot.toml, marginals.png")
 
 
 @twin.command("excite")

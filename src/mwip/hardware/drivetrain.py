@@ -25,13 +25,13 @@ Back-EMF of a voltage drive (element ``motor``, ``mode = "voltage"``)
     viscous torque on exactly the relative motion that ``Db`` damps in (2.32). The twin
     therefore adds ``c_emf = eta N^2 k_t k_e / R`` to the plant's ``Db`` (integrated inside
     the sample, not held from its start) and the driver holds only the voltage term.
-Gearbox friction (element ``friction``)
+Gearbox friction (switch ``friction``)
     Viscous: ``GearboxSpec.viscous`` is added to ``Db`` (the book's ``Db`` stays the rest of
     the drive train's viscous loss). Coulomb: ``-F_c sign(w)`` held over the sample, and
-    stiction, in the discrete stick-slip form of :func:`coulomb_torque`.
-Backlash (element ``backlash``)
-    :class:`Backlash`: a play of ``backlash`` rad at the wheel; after a torque reversal the
-    motor side (inertia ``N^2 J``) must cross it before torque reaches the wheel.
+    stiction, in the discrete stick-slip form of the element :mod:`mwip.hardware.friction`.
+Backlash (switch ``backlash``)
+    :mod:`mwip.hardware.backlash`: a play of ``backlash`` rad at the wheel; after a torque
+    reversal the motor side (inertia ``N^2 J``) must cross it before torque reaches the wheel.
 """
 
 from __future__ import annotations
@@ -51,8 +51,6 @@ __all__ = [
     "reflected_inertia",
     "derive_plant",
     "relative_mobility",
-    "coulomb_torque",
-    "Backlash",
     "UNKNOWNS",
 ]
 
@@ -175,85 +173,6 @@ def relative_mobility(plant: Params) -> NDArray[np.float64]:
     e = np.stack(np.broadcast_arrays(np.ones_like(br), -np.ones_like(br), br), axis=-1)
     x = np.linalg.solve(M, e[..., None])[..., 0]
     return np.sum(e * x, axis=-1)
-
-
-def coulomb_torque(
-    w: NDArray[np.float64],
-    drive: NDArray[np.float64],
-    f_c: ArrayLike,
-    mobility: ArrayLike,
-    Ts: float,
-) -> NDArray[np.float64]:
-    """Coulomb friction torque on each wheel (N m), held over a sample, in the discrete
-    stick-slip form (Karnopp): the torque that would stop the relative wheel speed ``w``
-    within the sample, ``f* = -w / (Ts m) - drive`` (``m`` the relative mobility,
-    :func:`relative_mobility`), is applied when ``|f*| <= F_c`` (sticking), else
-    ``-F_c sign(w + Ts m drive)`` (sliding). A held ``-F_c sign(w)`` would instead reverse a
-    slow wheel within the sample and chatter at the sample rate."""
-    fc = np.asarray(f_c, dtype=float)
-    m = np.asarray(mobility, dtype=float)
-    need = -w / (Ts * m) - drive
-    slide = -fc * np.sign(w + Ts * m * drive)
-    return np.where(np.abs(need) <= fc, need, slide)
-
-
-class Backlash:
-    """Gearbox play of ``width`` rad at the wheel, per wheel of N robots.
-
-    State: the gap ``g`` (motor side minus wheel side, in ``[-width/2, width/2]``) and its
-    rate ``v``. In contact (``g`` at the wall the torque pushes towards) the torque passes.
-    Otherwise the motor side, inertia ``J_m = N^2 J`` at the wheel, moves freely,
-    ``g'' = tau / J_m`` (the wheel's own motion and the impact are neglected), and the torque
-    passes from the instant it closes the gap: the held torque is ``tau (Ts - t_c) / Ts``.
-    """
-
-    def __init__(self, width: ArrayLike, inertia: ArrayLike, Ts: float) -> None:
-        self.width = np.asarray(width, dtype=float)
-        # a float, or (N,) per row (the twins' own N^2 J)
-        self.inertia: Any = (float(inertia) if np.ndim(inertia) == 0  # type: ignore[arg-type]
-                             else np.asarray(inertia, dtype=float))  # fmt: skip
-        self.Ts = float(Ts)
-        self.g = np.zeros((0, 2))
-        self.v = np.zeros((0, 2))
-
-    def reset(self, n: int) -> None:
-        """Start in contact on the positive side with the play at rest."""
-        half = np.broadcast_to(self.width, (n,))[:, None] / 2.0
-        self.g = np.broadcast_to(half, (n, 2)).copy()
-        self.v = np.zeros((n, 2))
-
-    def __call__(self, tau: NDArray[np.float64]) -> NDArray[np.float64]:
-        n = tau.shape[0]
-        if self.g.shape != tau.shape:
-            self.reset(n)
-        half = np.broadcast_to(self.width, (n,))[:, None] / 2.0 * np.ones((1, 2))
-        Ts, g, v = self.Ts, self.g, self.v
-        s = np.sign(tau)
-        wall = np.where(s != 0, s * half, np.where(v >= 0, half, -half))
-        contact = (half <= 0) | ((s != 0) & (np.abs(g - wall) <= 1e-15))
-        inertia = self.inertia
-        if np.ndim(inertia) != 0:
-            inertia = np.broadcast_to(inertia, (n,))[:, None]
-        a = tau / inertia
-        # time to the wall: g + v t + a t^2 / 2 = wall (first root in [0, Ts])
-        d = wall - g
-        t_c = np.full_like(g, np.inf)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            disc = v * v + 2.0 * a * d
-            quad = np.abs(a) > 0
-            root = np.where(quad, (-v + np.sign(a) * np.sqrt(np.maximum(disc, 0.0))) / a, 0.0)
-            root = np.where(quad & (disc >= 0), root, np.inf)
-            lin = np.where((~quad) & (v != 0), d / v, np.inf)
-        t_c = np.where(quad, root, lin)
-        t_c = np.where(np.isfinite(t_c) & (t_c >= 0), t_c, np.inf)
-        closes = ~contact & (t_c <= Ts)
-        free = ~contact & ~closes
-        out = np.where(contact, tau, np.where(closes, tau * (Ts - np.minimum(t_c, Ts)) / Ts, 0.0))
-        g_new = np.where(free, np.clip(g + v * Ts + 0.5 * a * Ts * Ts, -half, half), wall)
-        v_new = np.where(free, v + a * Ts, 0.0)
-        self.g = np.where(contact | closes, wall, g_new)
-        self.v = np.where(contact | closes, 0.0, v_new)
-        return out
 
 
 #: The gearbox's unknowns (docs/twin_model.md, "The prior").

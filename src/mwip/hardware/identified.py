@@ -1,16 +1,16 @@
 """The default twin: the book's robot identified from the book's evidence (issue 23).
 
-``book-twin.toml`` beside this module is the most probable member of the posterior of
-``mwip twin fit --evidence book`` (:mod:`mwip.calibration.book`; the declaration
-``mwip/calibration/book-evidence.toml``), copied here with its provenance (the comment block it
-starts with). :func:`default_twin` reads it once; it is the twin of every command and study
-that is not given ``--twin FILE`` (``mwip twin show`` prints it). The data-sheet twin the
-prior is centred on, ``Twin()`` (``mwip twin show --datasheet``), stays what the elements'
+The default robot's twin (``mwip/robot/book.toml``, :func:`mwip.robot.default_robot`) is the
+most probable member of the posterior of ``mwip twin fit --evidence book``
+(:mod:`mwip.calibration.book`; the declaration ``mwip/calibration/book-evidence.toml``), with
+its provenance in the robot's notes. :func:`default_twin` is the twin of every command and
+study not given ``--robot FILE`` (``mwip robot show`` prints it). The data-sheet twin the
+prior is centred on, ``Twin()`` (``mwip robot show --datasheet``), stays what the elements'
 defaults say.
 
 To refresh it after a new calibration: ``mwip twin fit --evidence book --out cal`` and copy
-``cal/twin.toml`` here (a test checks that the file is the calibration's MAP member as
-recorded in ``docs/book_calibration/posterior.json``).
+``cal/robot.toml`` to ``mwip/robot/book.toml`` (a test checks that the file is the
+calibration's MAP member as recorded in ``docs/book_calibration/posterior.json``).
 """
 
 from __future__ import annotations
@@ -25,16 +25,14 @@ if TYPE_CHECKING:
 __all__ = ["IDENTIFIED_FILE", "STATUS_FILE", "default_twin", "provenance", "datasheet_twin",
            "status"]
 
-IDENTIFIED_FILE = Path(__file__).with_name("book-twin.toml")
+IDENTIFIED_FILE = Path(__file__).resolve().parent.parent / "robot" / "book.toml"
 
 
-@lru_cache(maxsize=1)
 def default_twin() -> Twin:
-    """The identified default twin (``book-twin.toml``; its missing keys from ``Twin()``)."""
-    from mwip.hardware.twin import Twin
-    from mwip.hardware.twin_config import load_twin
+    """The identified default twin: the default robot's (:func:`mwip.robot.default_robot`)."""
+    from mwip.robot import default_robot
 
-    return load_twin(IDENTIFIED_FILE, base=Twin())
+    return default_robot().twin
 
 
 def datasheet_twin() -> Twin:
@@ -45,16 +43,13 @@ def datasheet_twin() -> Twin:
 
 
 def provenance() -> str:
-    """The comment block ``book-twin.toml`` starts with (where the default twin comes from)."""
-    out = []
-    for line in IDENTIFIED_FILE.read_text(encoding="utf-8").splitlines():
-        if not line.startswith("#") or line.startswith("# mwip digital twin"):
-            break
-        out.append(line)
-    return "\n".join(out) + "\n"
+    """Where the default twin comes from (the default robot's notes), as comment lines."""
+    from mwip.robot import default_robot
+
+    return "".join(f"# {line}\n" for line in default_robot().notes.splitlines())
 
 
-STATUS_FILE = IDENTIFIED_FILE.with_suffix(".json")
+STATUS_FILE = Path(__file__).with_name("book-twin.json")
 
 
 @lru_cache(maxsize=1)
@@ -65,7 +60,17 @@ def _posterior() -> dict[str, Any]:
         doc = json.loads(STATUS_FILE.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return {}
-    return doc if isinstance(doc, dict) else {}
+    if not isinstance(doc, dict):
+        return {}
+    from mwip.hardware.prior import current_name
+
+    # the record names the unknowns as the calibration's run did
+    if isinstance(doc.get("map_values"), dict):
+        doc["map_values"] = {current_name(k): v for k, v in doc["map_values"].items()}
+    if isinstance(doc.get("members"), list):
+        doc["members"] = [{current_name(k): v for k, v in m.items()} if isinstance(m, dict)
+                          else m for m in doc["members"]]  # fmt: skip
+    return doc
 
 
 def status(twin: Any = None) -> dict[str, Any]:

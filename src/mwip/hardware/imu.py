@@ -1,4 +1,4 @@
-"""Inertial sensing of the body pitch (Sec. 2.5.1): accelerometer, gyro and their fusion.
+"""The inertial measurement unit (Sec. 2.5.1): accelerometer and gyro on the body.
 
 Accelerometer (2.37)-(2.39)
     A two-axis accelerometer fixed to the body at ``height`` above the axle measures the
@@ -6,16 +6,26 @@ Accelerometer (2.37)-(2.39)
     when upright), ``y`` along it (up). Static, ``a_x = g sin(theta)``, ``a_y = g cos(theta)``
     and the tilt follows from (2.37) ``arcsin(a_x / g)`` or (2.39) ``arctan(a_x / a_y)``.
     Moving, the body's own acceleration corrupts both axes (the book's remark after (2.40)):
-    :func:`specific_force` includes it exactly for the planar motion (yaw-rate centripetal
-    terms neglected).
+    the sensor point is at ``(x_w + h sin theta, h cos theta)``; with the axle's forward
+    acceleration ``x'' = r psi''`` its acceleration is ``(x'' + h (theta'' cos - theta'^2
+    sin), -h (theta'' sin + theta'^2 cos))``; the specific force ``f = a + (0, g)`` projected
+    on the body axes gives ``a_x = f_z sin theta - f_x cos theta``, ``a_y = f_z cos theta +
+    f_x sin theta`` (yaw-rate centripetal terms neglected). The body's acceleration is the
+    mean over the last sample from the true velocities, ``(q'_k - q'_{k-1}) / Ts`` (the
+    IMU's anti-alias / digital low-pass filter at about the sample rate delivers that, not the
+    instantaneous acceleration, which jumps with every torque step).
 Gyroscope (2.40)
-    ``omega* = theta' + b(t) + n``: white noise ``n`` and a zero drift ``b(t)`` (initial
-    offset plus a random walk). Integrating it, ``theta_{k+1} = theta_k + omega* Ts`` (2.40),
-    drifts by ``b t``.
-Fusion
-    A complementary filter (gyro high-passed, accelerometer low-passed, time constant
-    ``tau``) and a two-state Kalman filter (angle and gyro bias, gyro as input, accelerometer
-    tilt as measurement), both batch-first.
+    ``omega* = theta' + b(t) + n``: white noise ``n`` and a zero drift ``b(t)``, starting at
+    ``gyro_bias`` and walking by ``gyro_bias_walk sqrt(Ts)`` per sample ("zero drift ...
+    related to environmental temperature", Sec. 2.5.1). Integrated alone by (2.40) it drifts
+    by ``b t``.
+
+The element (:data:`ELEMENT`, kernel :func:`step`) draws four normal variates per sample
+(bias walk, accelerometer x and y, gyro), whatever is switched on, so switching an effect off
+leaves the others' noise unchanged; switches ``imu_noise`` (white noise), ``imu_bias``
+(offsets and drift) and ``accel_motion`` (the body's own acceleration). It writes ``acc``,
+``gyro``, ``gyro_bias`` and ``theta_acc`` (2.39) on the bus. The fusion of these into the
+pitch estimate is the firmware's (:mod:`mwip.hardware.fusion`).
 
 Noise levels (:class:`ImuNoise`) default to a consumer MEMS IMU of the robot's class
 (MPU-6050 / ADXL-class data sheets, about 100 Hz bandwidth): see docs/twin.md.
@@ -23,28 +33,21 @@ Noise levels (:class:`ImuNoise`) default to a consumer MEMS IMU of the robot's c
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
 
+from mwip.hardware.bus import B
+from mwip.hardware.element import Element, PackContext
 from mwip.hardware.unknown import Unknown
+from mwip.jit_cache import njit
+from mwip.layout import Field, Layout
 
-__all__ = [
-    "ImuNoise",
-    "FusionSpec",
-    "specific_force",
-    "tilt_arcsin",
-    "tilt_arctan",
-    "gyro_integrate",
-    "complementary_step",
-    "kalman_step",
-    "Imu",
-    "TiltFilter",
-    "UNKNOWNS",
-]
+__all__ = ["ImuNoise", "G", "ELEMENT", "step", "UNKNOWNS", "CODE"]
 
+#: Gravitational acceleration the accelerometer feels (m/s^2; SPEC.md section 2).
 G = 9.81
 
 
@@ -91,210 +94,102 @@ class ImuNoise:
         return cls(0.0, 0.0, 0.0, 0.0, 0.0, height)
 
 
-@dataclass(frozen=True)
-class FusionSpec:
-    """Which fusion filter and its tuning.
 
-    kind : ``"complementary"`` or ``"kalman"``.
-    tau : complementary time constant (s): gyro trusted above ``1/tau``, accelerometer below.
-    q_angle : Kalman process noise of the angle (rad^2/s).
-    q_bias : Kalman process noise of the gyro bias (rad^2/s^3).
-    r_angle : Kalman variance of the accelerometer tilt (rad^2); it covers the sensor noise
-        and the motion acceleration (a 0.3 m/s^2 body acceleration is 0.03 rad of tilt error).
-    """
+#: The element's code (its branch in :mod:`mwip.hardware.dispatch`).
+CODE = 1
 
-    kind: Literal["complementary", "kalman"] = "complementary"
-    tau: float = 0.5
-    q_angle: float = 1e-4
-    q_bias: float = 1e-6
-    r_angle: float = 1e-3
-
-    def __post_init__(self) -> None:
-        if self.kind not in ("complementary", "kalman"):
-            raise ValueError(f"'kind' must be 'complementary' or 'kalman', got {self.kind!r}")
-        _check("tau", self.tau, 0.0, 1e3, open_lo=True)
-        _check("q_angle", self.q_angle, 0.0, 1.0, open_lo=True)
-        _check("q_bias", self.q_bias, 0.0, 1.0)
-        _check("r_angle", self.r_angle, 0.0, 1.0, open_lo=True)
+PARAMS = Layout((
+    Field("Ts", (), "sample period (s)"),
+    Field("r", (), "wheel radius (m): the axle's acceleration r psi''"),
+    Field("walk", (), "gyro_bias_walk sqrt(Ts): the drift's step (rad/s)"),
+    Field("on_noise", (), "1: white noise (imu_noise)"),
+    Field("on_bias", (), "1: offsets and drift (imu_bias)"),
+    Field("on_motion", (), "1: the body's acceleration (accel_motion)"),
+    Field("accel_sigma", (), "m/s^2"),
+    Field("accel_bias", (), "m/s^2"),
+    Field("gyro_sigma", (), "rad/s"),
+    Field("height", (), "accelerometer above the axle (m)"),
+    Field("g", (), "gravity (m/s^2)"),
+))  # fmt: skip
+STATE = Layout((
+    Field("prev", (8,), "the true state of the previous sample"),
+    Field("bias", (), "the gyro's zero drift (rad/s)"),
+))  # fmt: skip
+P = PARAMS.index()
+S = STATE.index()
 
 
-def specific_force(
-    theta: ArrayLike,
-    theta_dot: ArrayLike,
-    theta_ddot: ArrayLike,
-    x_ddot: ArrayLike,
-    height: ArrayLike,
-    g: float = G,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Body-axis accelerometer readings ``(a_x, a_y)`` at ``height`` above the axle.
-
-    The sensor point is at ``(x_w + h sin theta, h cos theta)``; with the axle's forward
-    acceleration ``x'' = r psi''`` its acceleration is
-    ``(x'' + h (theta'' cos - theta'^2 sin), -h (theta'' sin + theta'^2 cos))``; the specific
-    force ``f = a + (0, g)`` projected on the body axes gives
-    ``a_x = (f_z) sin theta - f_x cos theta``, ``a_y = f_z cos theta + f_x sin theta``, so
-    that a static body reads ``(g sin theta, g cos theta)`` as assumed by (2.37)-(2.39).
-    """
-    th = np.asarray(theta, dtype=float)
-    td = np.asarray(theta_dot, dtype=float)
-    tdd = np.asarray(theta_ddot, dtype=float)
-    s, c = np.sin(th), np.cos(th)
-    fx = np.asarray(x_ddot, dtype=float) + height * (tdd * c - td**2 * s)
-    fz = g - height * (tdd * s + td**2 * c)
-    return fz * s - fx * c, fz * c + fx * s
+def _pack(ctx: PackContext) -> dict[str, Any]:
+    nz = ctx.twin.imu
+    return {
+        "Ts": ctx.twin.Ts, "r": ctx.rows(ctx.plant.r),
+        "walk": nz.gyro_bias_walk * np.sqrt(ctx.twin.Ts),
+        "on_noise": ctx.on("imu_noise"), "on_bias": ctx.on("imu_bias"),
+        "on_motion": ctx.on("accel_motion"), "accel_sigma": ctx.value("imu.accel_sigma"),
+        "accel_bias": ctx.value("imu.accel_bias"), "gyro_sigma": ctx.value("imu.gyro_sigma"),
+        "height": ctx.value("imu.height"), "g": G,
+    }  # fmt: skip
 
 
-def tilt_arcsin(a_x: ArrayLike, g: float = G) -> NDArray[np.float64]:
-    """Single-axis tilt ``arcsin(a_x / g)`` (2.37) (argument clipped to [-1, 1])."""
-    return np.arcsin(np.clip(np.asarray(a_x, dtype=float) / g, -1.0, 1.0))
+def _init(ctx: PackContext) -> dict[str, Any]:
+    return {"bias": ctx.rows(ctx.value("imu.gyro_bias"))}
 
 
-def tilt_arctan(a_x: ArrayLike, a_y: ArrayLike) -> NDArray[np.float64]:
-    """Two-axis tilt ``arctan(a_x / a_y)`` (2.39), quadrant-correct (``arctan2``)."""
-    return np.arctan2(np.asarray(a_x, dtype=float), np.asarray(a_y, dtype=float))
+@njit(inline="always")
+def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
+    """One IMU reading (module docstring): the specific force at the sensor (2.37)-(2.39),
+    the gyro (2.40), the tilt ``arctan2(a_x, a_y)`` (2.39)."""
+    Ts = p[P.Ts]
+    if k == 0:  # at rest in the filter's sense: no acceleration known, no drift yet
+        acc0 = 0.0
+        acc1 = 0.0
+        bias = s[S.bias]
+    else:
+        acc0 = (yi[3] - s[S.prev + 3]) / Ts
+        acc1 = (yi[4] - s[S.prev + 4]) / Ts
+        bias = s[S.bias] + p[P.walk] * z[0]
+        s[S.bias] = bias
+    on_n, on_b, on_m = p[P.on_noise], p[P.on_bias], p[P.on_motion]
+    th = yi[1]
+    td = on_m * yi[4]
+    tdd = on_m * acc1
+    xdd = on_m * (p[P.r] * acc0)
+    height = p[P.height]
+    sn, cs = math.sin(th), math.cos(th)
+    fx = xdd + height * (tdd * cs - td * td * sn)
+    fz = p[P.g] - height * (tdd * sn + td * td * cs)
+    ax = fz * sn - fx * cs
+    ay = fz * cs + fx * sn
+    ax = ax + on_n * p[P.accel_sigma] * z[1]
+    ay = ay + on_n * p[P.accel_sigma] * z[2]
+    ax = ax + on_b * p[P.accel_bias]
+    omega = yi[4] + on_b * bias + on_n * p[P.gyro_sigma] * z[3]
+    th_acc = math.atan2(ax, ay)  # (2.39)
+    for j in range(8):
+        s[S.prev + j] = yi[j]
+    bus[B.acc] = ax
+    bus[B.acc + 1] = ay
+    bus[B.gyro] = omega
+    bus[B.gyro_bias] = on_b * bias
+    bus[B.theta_acc] = th_acc
+    lg[0] = th_acc
+    lg[1] = omega
+    lg[2] = bias
+    lg[3] = ax
+    lg[4] = ay
 
 
-def gyro_integrate(angle: ArrayLike, omega: ArrayLike, Ts: float) -> NDArray[np.float64]:
-    """One step of gyro integration ``alpha_{k+1} = alpha_k + alpha'* Ts`` (2.40)."""
-    return np.asarray(angle, dtype=float) + np.asarray(omega, dtype=float) * Ts
-
-
-def complementary_step(
-    angle: ArrayLike, omega: ArrayLike, angle_acc: ArrayLike, Ts: float, tau: ArrayLike
-) -> NDArray[np.float64]:
-    """Complementary filter: ``a (angle + omega Ts) + (1 - a) angle_acc``, ``a = tau/(tau+Ts)``.
-
-    The gyro path is the integration (2.40); the accelerometer tilt (2.39) corrects its drift
-    below ``1 / tau`` rad/s. A constant gyro bias ``b`` leaves a steady error ``b tau``.
-    """
-    t: Any = tau
-    a = t / (t + Ts)
-    return a * gyro_integrate(angle, omega, Ts) + (1.0 - a) * np.asarray(angle_acc, dtype=float)
-
-
-def kalman_step(
-    x: NDArray[np.float64],
-    P: NDArray[np.float64],
-    omega: ArrayLike,
-    angle_acc: ArrayLike,
-    Ts: float,
-    spec: FusionSpec,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """One predict/update step of the angle-bias Kalman filter, batch-first.
-
-    State ``x = [angle, bias]`` (N, 2); prediction by the gyro integration (2.40) with the
-    bias removed, ``angle += (omega - bias) Ts``; measurement the accelerometer tilt (2.39).
-    ``P`` (2, 2) is shared by the batch (its recursion does not depend on the data).
-    """
-    A = np.array([[1.0, -Ts], [0.0, 1.0]])
-    Q = np.diag([spec.q_angle * Ts, spec.q_bias * Ts])
-    xp = np.empty_like(x)
-    xp[:, 0] = x[:, 0] + (np.asarray(omega, dtype=float) - x[:, 1]) * Ts
-    xp[:, 1] = x[:, 1]
-    Pp = A @ P @ A.T + Q
-    S = Pp[0, 0] + spec.r_angle
-    K = Pp[:, 0] / S
-    innov = np.asarray(angle_acc, dtype=float) - xp[:, 0]
-    xn = xp + innov[:, None] * K[None, :]
-    Pn = Pp - np.outer(K, Pp[0, :])
-    return xn, 0.5 * (Pn + Pn.T)
-
-
-class Imu:
-    """Stateful IMU of N robots: the gyro's zero drift is a random walk (seeded).
-
-    Every call draws the same normal variates whatever is switched on (bias walk, accel x,
-    accel y, gyro: ``n`` each, or one each broadcast to all rows when ``common``), so switching
-    an element on or off leaves the others' noise unchanged, and with ``common`` every row of
-    a batch sees the noise of a single run with the same seed.
-    """
-
-    def __init__(self, noise: ImuNoise = ImuNoise(), *, common: bool = False) -> None:
-        self.noise = noise
-        self.common = common
-        # per-row values (floats, or (N,) arrays set by the twin for a batch of twins)
-        self.accel_sigma: Any = noise.accel_sigma
-        self.accel_bias: Any = noise.accel_bias
-        self.gyro_sigma: Any = noise.gyro_sigma
-        self.gyro_bias: Any = noise.gyro_bias
-        self.height: Any = noise.height
-        self.bias = np.zeros(0)
-        self._rng = np.random.default_rng(0)
-
-    def reset(self, n: int, seed: int | None = None) -> None:
-        """New noise stream; the zero drift starts at ``gyro_bias``."""
-        self._rng = np.random.default_rng(seed)
-        if np.ndim(self.gyro_bias) == 0:
-            self.bias = np.full(n, self.gyro_bias)
-        else:
-            self.bias = np.broadcast_to(np.asarray(self.gyro_bias, dtype=float), (n,)).copy()
-
-    def _normal(self, n: int) -> NDArray[np.float64]:
-        if self.common:
-            return np.broadcast_to(self._rng.standard_normal(1), (n,))
-        return self._rng.standard_normal(n)
-
-    def read(
-        self,
-        theta: NDArray[np.float64],
-        theta_dot: NDArray[np.float64],
-        theta_ddot: NDArray[np.float64],
-        x_ddot: NDArray[np.float64],
-        dt: float,
-        *,
-        noise: ArrayLike = True,
-        bias: ArrayLike = True,
-        motion: ArrayLike = True,
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """``(a_x, a_y, omega*)`` for true motion; advances the drift by ``dt`` first.
-
-        ``noise``, ``bias``, ``motion`` (bool, per row) switch the white noise, the offsets
-        and drift, and the body-acceleration terms of :func:`specific_force`."""
-        nz = self.noise
-        n = theta.shape[0]
-        on_n = np.broadcast_to(np.asarray(noise, dtype=float), (n,))
-        on_b = np.broadcast_to(np.asarray(bias, dtype=float), (n,))
-        on_m = np.broadcast_to(np.asarray(motion, dtype=float), (n,))
-        walk = self._normal(n)
-        if dt > 0:
-            self.bias = self.bias + nz.gyro_bias_walk * np.sqrt(dt) * walk
-        ax, ay = specific_force(theta, on_m * theta_dot, on_m * theta_ddot, on_m * x_ddot,
-                                self.height)  # fmt: skip
-        ax = ax + on_n * self.accel_sigma * self._normal(n)
-        ay = ay + on_n * self.accel_sigma * self._normal(n)
-        ax = ax + on_b * self.accel_bias
-        omega = theta_dot + on_b * self.bias + on_n * self.gyro_sigma * self._normal(n)
-        return ax, ay, omega
-
-
-class TiltFilter:
-    """Fusion of accelerometer tilt (2.39) and gyro rate (2.40) into ``theta, theta'``."""
-
-    def __init__(self, spec: FusionSpec = FusionSpec()) -> None:
-        self.spec = spec
-        self.tau: Any = spec.tau  # a float, or (N,) per row (a batch of twins)
-        self.x = np.zeros((0, 2))
-        self.P = np.eye(2)
-
-    def reset(self, angle_acc: NDArray[np.float64]) -> None:
-        """Start from the accelerometer tilt (the robot is at rest at power-on)."""
-        self.x = np.column_stack([angle_acc, np.zeros_like(angle_acc)])
-        self.P = np.diag([self.spec.r_angle, 0.02**2])
-
-    def update(
-        self, omega: NDArray[np.float64], angle_acc: NDArray[np.float64], Ts: float
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Advance one sample; returns ``(theta, theta')`` estimates."""
-        if self.spec.kind == "complementary":
-            self.x[:, 0] = complementary_step(self.x[:, 0], omega, angle_acc, Ts, self.tau)
-            return self.x[:, 0].copy(), np.asarray(omega, dtype=float).copy()
-        self.x, self.P = kalman_step(self.x, self.P, omega, angle_acc, Ts, self.spec)
-        return self.x[:, 0].copy(), np.asarray(omega, dtype=float) - self.x[:, 1]
-
+ELEMENT = Element(
+    name="imu", code=CODE, stage="sensor", params=PARAMS, state=STATE, pack=_pack, init=_init,
+    logs=(("imu_theta_acc", 1), ("imu_gyro", 1), ("imu_gyro_bias", 1), ("imu_accel", 2)),
+    noise=4,
+    switches=("fusion", "accel_motion", "imu_noise", "imu_bias"),
+    doc="accelerometer and gyro with noise, offsets and drift",
+)  # fmt: skip
 
 _MEMS = "MEMS class, the book names no part"
 
-#: The IMU's and the fusion's unknowns (docs/twin_model.md, "The prior").
+#: The IMU's unknowns (docs/twin_model.md, "The prior").
 UNKNOWNS: tuple[Unknown, ...] = (
     Unknown("imu.gyro_bias", -0.02, 0.02, "rad/s", _MEMS, "imu_bias", 0.01),
     Unknown("imu.accel_bias", -0.05, 0.05, "m/s^2", _MEMS, "imu_bias", 0.02),
@@ -302,6 +197,4 @@ UNKNOWNS: tuple[Unknown, ...] = (
     Unknown("imu.gyro_sigma", 0.0005, 0.005, "rad/s", _MEMS, "imu_noise", 0.002),
     Unknown("imu.height", 0.0, 0.13, "m", "board on the body, axle to top of body 2l = 0.12 m",
             "accel_motion", 0.1),
-    Unknown("fusion.tau", 0.1, 2.0, "s", "complementary filter time constant, not printed",
-            "fusion", 0.5),
 )  # fmt: skip

@@ -19,15 +19,18 @@ transients reach ~1 N m), while the wheel no-load speed 43.5 rad/s leaves ample 
 the 7 rad/s speed target.
 
 Driver (Sec. 2.5.2: a MOSFET H-bridge, "the PWM technique is used to realize speed
-regulation"): ``mode="voltage"`` (default) maps the torque command to a duty open-loop,
-``V* = R tau / (N eta k_t)``, so back-EMF acts on the motor as the physical damping
-``eta N^2 k_t k_e / R`` per wheel (0.096 N m s/rad); ``mode="torque"`` is a current-mode
-servo driver, ``V* = R i* + k_e omega_m`` (back-EMF feed-forward). Then, as the hardware does
-it: duty clipped to [-1, 1] against the nominal 24 V, quantised to ``pwm_levels``, reduced by
-the dead-band, times the (sagging) battery voltage, and the driver's current limit
-``|V - k_e omega_m| <= R I_max`` (:class:`DriveActuator`).
-The current is integrated exactly over the sample (``V``, ``omega_m`` held), and the torque
-held over the sample is the one produced by the *mean* current.
+regulation"): it takes the firmware's duty command (:mod:`mwip.hardware.firmware`: in a
+voltage drive, ``mode="voltage"``, the duty follows the torque command open-loop, so back-EMF
+acts on the motor as the physical damping ``eta N^2 k_t k_e / R`` per wheel, 0.096 N m s/rad;
+``mode="torque"`` is a current-mode servo driver, ``V* = R i* + k_e omega_m``). Then, as the
+hardware does it (element :data:`ELEMENT`, kernel :func:`step`): duty clipped to [-1, 1]
+against the nominal 24 V, quantised to ``pwm_levels`` and reduced by the dead-band (switch
+``pwm``), times the battery voltage sagging under the current drawn the sample before
+(switch ``sag``), and the driver's current limit ``|V - k_e omega_m| <= R I_max`` within the
+supply. The current is integrated exactly over the sample (``V``, ``omega_m`` held):
+``i_end = i_ss + (i_0 - i_ss) e^{-Ts/tau_e}``, ``i_ss = (V - k_e omega_m) / R``, and the torque
+held over the sample is the one produced by the *mean* current,
+``i_mean = i_ss + (i_0 - i_ss) (tau_e / Ts)(1 - e^{-Ts/tau_e})``.
 """
 
 from __future__ import annotations
@@ -36,23 +39,15 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
 
+from mwip.hardware.bus import B
+from mwip.hardware.element import Element, PackContext
+from mwip.hardware.numerics import clip, maximum, sign
 from mwip.hardware.unknown import Unknown
+from mwip.jit_cache import njit
+from mwip.layout import Field, Layout
 
-__all__ = [
-    "MotorData",
-    "RE25",
-    "DriveSpec",
-    "current_step",
-    "driver_voltage",
-    "quantise_duty",
-    "steady_speed",
-    "simulate_motor",
-    "apply_deadband",
-    "DriveActuator",
-    "UNKNOWNS",
-]
+__all__ = ["MotorData", "RE25", "DriveSpec", "ELEMENT", "step", "UNKNOWNS", "CODE"]
 
 RPM = 2.0 * np.pi / 60.0
 
@@ -150,13 +145,9 @@ class DriveSpec:
     mode : ``"voltage"`` (default, the book's PWM speed regulation: duty proportional to the
         commanded torque, ``V* = R tau / (N eta k_t)``, back-EMF acting on the motor) or
         ``"torque"`` (a current-controlled driver: ``V* = R i* + k_e omega_m``).
-    emf_compensation : voltage mode only: the fraction ``c`` in [0, 1] of the back-EMF of the
-        wheel speed at the sample instant that the firmware adds, ``V* = R i* + c k_e omega_m``
-        (default 0: the book's "the control signal modulates a pulse signal of a certain
-        width", Sec. 6.1; 1: full feed-forward, as a current-mode driver). The plant's
-        back-EMF damping stays whole whatever ``c``. ``mode="torque"`` means ``c = 1``.
-    emf_feedforward : deprecated alias: ``True`` / ``False`` set ``emf_compensation`` to 1 / 0
-        (then read back as ``None``).
+    The firmware's back-EMF compensation is the firmware's
+    (:class:`mwip.hardware.firmware.FirmwareSpec`); the plant's back-EMF damping stays whole
+    whatever it is.
     """
 
     gear_ratio: float = 23.0
@@ -167,21 +158,8 @@ class DriveSpec:
     mode: Literal["torque", "voltage"] = "voltage"
     deadband: float = 0.01
     supply_resistance: float = 0.2
-    emf_compensation: float = 0.0
-    emf_feedforward: bool | None = None
 
     def __post_init__(self) -> None:
-        if self.emf_feedforward is not None:
-            if not isinstance(self.emf_feedforward, bool | np.bool_):
-                raise ValueError(
-                    f"'emf_feedforward' must be true or false, got {self.emf_feedforward!r}"
-                )
-            object.__setattr__(self, "emf_compensation", 1.0 if self.emf_feedforward else 0.0)
-            object.__setattr__(self, "emf_feedforward", None)
-        c = self.emf_compensation
-        if isinstance(c, bool) or not (np.isfinite(c) and 0.0 <= c <= 1.0):
-            raise ValueError(f"'emf_compensation' must be finite and in [0, 1], got {c!r}")
-        object.__setattr__(self, "emf_compensation", float(c))
         _check("gear_ratio", self.gear_ratio, 0.0, 1000.0)
         _check("gear_efficiency", self.gear_efficiency, 0.0, 1.0)
         _check("supply_voltage", self.supply_voltage, 0.0, 1000.0)
@@ -200,12 +178,6 @@ class DriveSpec:
                 f"got {self.supply_resistance!r}"
             )
 
-    @property
-    def compensation(self) -> float:
-        """The back-EMF fraction the driver adds: 1 for ``mode="torque"``, else
-        ``emf_compensation``."""
-        return 1.0 if self.mode == "torque" else self.emf_compensation
-
     def wheel_torque_limit(self, motor: MotorData = RE25) -> float:
         """Largest wheel torque at standstill (N m): current limit or supply, whichever binds."""
         i = min(self.current_limit, self.supply_voltage / motor.resistance)
@@ -219,210 +191,118 @@ class DriveSpec:
         return self.gear_efficiency * n * n * motor.k_t * motor.k_e / motor.resistance
 
 
-def current_step(
-    i0: ArrayLike, v: ArrayLike, omega_m: ArrayLike, motor: MotorData, Ts: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Exact solution of ``L i' = V - R i - k_e omega_m`` over ``Ts`` with ``V, omega_m`` held.
 
-    Returns ``(i_end, i_mean)``: the current at the end of the sample and its mean over it.
-    """
-    R, tau = motor.resistance, motor.tau_e
-    i_ss = (np.asarray(v, dtype=float) - motor.k_e * np.asarray(omega_m, dtype=float)) / R
-    d = np.asarray(i0, dtype=float) - i_ss
-    e = np.exp(-Ts / tau)
-    return i_ss + d * e, i_ss + d * (tau / Ts) * (1.0 - e)
+#: The element's code (its branch in :mod:`mwip.hardware.dispatch`).
+CODE = 6
 
-
-def driver_voltage(
-    tau_cmd: ArrayLike, omega_m: ArrayLike, motor: MotorData, drive: DriveSpec
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Terminal voltage asked by the driver for a wheel torque command, after the current
-    limit and the supply limit. Returns ``(V, limited)``."""
-    gain = drive.gear_ratio * drive.gear_efficiency * motor.k_t
-    i_ref = np.asarray(tau_cmd, dtype=float) / gain
-    R = motor.resistance
-    emf = motor.k_e * np.asarray(omega_m, dtype=float)
-    v = R * i_ref + (emf if drive.mode == "torque" else 0.0)
-    # current limit: the steady current (V - emf)/R stays within +-I_max
-    lo = emf - R * drive.current_limit
-    hi = emf + R * drive.current_limit
-    v_lim = np.clip(v, lo, hi)
-    v_lim = np.clip(v_lim, -drive.supply_voltage, drive.supply_voltage)
-    return v_lim, np.abs(v_lim - v) > 1e-12
+PARAMS = Layout((
+    Field("R", (), "winding resistance (Ohm)"),
+    Field("gain", (), "wheel torque per ampere N eta k_t (N m/A)"),
+    Field("gear_ratio", (), "motor turns per wheel turn"),
+    Field("b_over_r", (), "b / r"),
+    Field("k_e", (), "back-EMF constant (V s/rad)"),
+    Field("V", (), "nominal supply voltage (V)"),
+    Field("levels", (), "duty steps (0: not quantised)"),
+    Field("deadband", (), "duty lost to the bridge's dead time"),
+    Field("pwm", (), "1: quantisation and dead-band (switch pwm)"),
+    Field("sag", (), "1: battery sag (switch sag)"),
+    Field("R_s", (), "battery + wiring resistance (Ohm)"),
+    Field("band", (), "R I_max: the current limit as a voltage band (V)"),
+    Field("decay", (), "exp(-Ts / tau_e)"),
+    Field("tau_over_Ts", (), "tau_e / Ts"),
+    Field("emf_in_plant", (), "1: the plant integrates the back-EMF damping itself"),
+    Field("on", (), "1: the wheels get the motor's torque (switch motor)"),
+))  # fmt: skip
+STATE = Layout((
+    Field("i", (2,), "motor currents at the sample's end (A)"),
+    Field("i_bat", (), "battery current of the last sample (A)"),
+))  # fmt: skip
+P = PARAMS.index()
+S = STATE.index()
 
 
-def quantise_duty(v: ArrayLike, drive: DriveSpec) -> NDArray[np.float64]:
-    """PWM: duty ``V / V_supply`` rounded to ``1 / pwm_levels`` (0 levels: no quantisation)."""
-    duty = np.clip(np.asarray(v, dtype=float) / drive.supply_voltage, -1.0, 1.0)
-    if drive.pwm_levels > 0:
-        duty = np.round(duty * drive.pwm_levels) / drive.pwm_levels
-    return duty
+def _pack(ctx: PackContext) -> dict[str, Any]:
+    m, d = ctx.twin.motor, ctx.twin.drive
+    gr: Any = ctx.value("drive.gear_ratio")
+    R = m.resistance
+    Ts = ctx.twin.Ts
+    return {
+        "R": R, "gain": np.asarray(gr, dtype=float) * d.gear_efficiency * m.k_t,
+        "gear_ratio": gr, "b_over_r": np.asarray(ctx.plant.b / ctx.plant.r, dtype=float),
+        "k_e": m.k_e, "V": d.supply_voltage, "levels": float(d.pwm_levels),
+        "deadband": ctx.value("drive.deadband"), "pwm": ctx.on("pwm"), "sag": ctx.on("sag"),
+        "R_s": d.supply_resistance,
+        "band": R * np.asarray(ctx.value("drive.current_limit"), dtype=float),
+        "decay": np.exp(-Ts / m.tau_e),  # NumPy's exp, computed once
+        "tau_over_Ts": m.tau_e / Ts, "emf_in_plant": float(d.mode == "voltage"),
+        "on": ctx.on("motor"),
+    }  # fmt: skip
 
 
-def apply_deadband(duty: ArrayLike, deadband: float) -> NDArray[np.float64]:
-    """Duty after the driver's dead-band: ``sign(d) max(|d| - deadband, 0)``."""
-    d = np.asarray(duty, dtype=float)
-    return np.sign(d) * np.maximum(np.abs(d) - deadband, 0.0)
 
 
-def steady_speed(v: ArrayLike, load_torque: ArrayLike, motor: MotorData = RE25) -> NDArray:
-    """Steady shaft speed (rad/s) at voltage ``v`` and load torque (N m): the speed-torque line
-    ``omega = (V - R tau / k_t) / k_e``."""
-    return (
-        np.asarray(v, dtype=float)
-        - motor.resistance * np.asarray(load_torque, dtype=float) / motor.k_t
-    ) / motor.k_e
 
 
-def simulate_motor(
-    v: float,
-    load_torque: float = 0.0,
-    duration: float = 0.5,
-    motor: MotorData = RE25,
-    dt: float = 1e-5,
-) -> tuple[NDArray[np.floating], NDArray[np.float64], NDArray[np.float64]]:
-    """Free motor run from rest (electrical and mechanical model): ``(t, omega, i)``.
-
-    Semi-implicit Euler on ``L i' = V - R i - k_e omega``, ``J omega' = k_t i - tau_load``
-    (the electrical pole is integrated exactly per step).
-    """
-    n = int(round(duration / dt))
-    t = np.arange(n + 1) * dt
-    om = np.zeros(n + 1)
-    cur = np.zeros(n + 1)
-    for k in range(n):
-        i_end, i_mean = current_step(cur[k], v, om[k], motor, dt)
-        cur[k + 1] = i_end
-        om[k + 1] = om[k] + dt * (motor.k_t * i_mean - load_torque) / motor.rotor_inertia
-    return t, om, cur
-
-
-class DriveActuator:
-    """Actuator protocol (:mod:`mwip.sim.sensors`): two RE25 motors through the gearbox and
-    the H-bridge PWM driver. ``ideal=True`` passes the commanded torques through.
-
-    Per sample: the firmware turns the torque command into a duty against the nominal supply
-    (``mode``, :class:`DriveSpec`), clipped to [-1, 1], quantised and reduced by the dead-band
-    (``pwm``, per row); the bridge applies ``duty x V_s`` with the battery's sag
-    ``V_s = V_0 - R_s I_bat`` (``sag``, per row; ``I_bat = sum duty i`` of the previous
-    sample); the driver's current limit clips the voltage to ``|V - k_e omega_m| <= R I_max``
-    within the supply ``|V| <= V_s``.
-    The current is integrated exactly over the sample with ``V`` and ``omega_m`` held
-    (:func:`current_step`); the wheel torque is ``eta N k_t`` times the mean current.
-
-    ``emf_in_plant`` (voltage mode): the plant integrates the back-EMF's viscous torque
-    ``-eta N^2 k_t k_e w / R`` itself (:mod:`mwip.hardware.drivetrain`), so the torque returned
-    is the rest, ``eta N k_t (i_mean + k_e omega_m / R)``; ``last["torque"]`` is always the
-    whole motor torque at the sample's start speed.
-
-    ``plant_b_over_r`` is the plant's ``b / r``, to get each wheel's speed from the state.
-    After each call ``last`` holds ``duty``, ``current`` (mean, A), ``voltage``, ``supply``,
-    ``torque`` and ``limited`` for the logs.
-    """
-
-    def __init__(
-        self,
-        motor: MotorData = RE25,
-        drive: DriveSpec = DriveSpec(),
-        *,
-        plant_b_over_r: float = 0.15 / 0.04,
-        Ts: float = 0.005,
-        ideal: bool = False,
-        pwm: ArrayLike = True,
-        sag: ArrayLike = True,
-        emf_in_plant: bool = False,
-    ) -> None:
-        self.motor = motor
-        self.drive = drive
-        self.b_over_r = float(plant_b_over_r)
-        self.Ts = float(Ts)
-        self.ideal = ideal
-        self.pwm = np.asarray(pwm, dtype=bool)
-        self.sag = np.asarray(sag, dtype=bool)
-        self.emf_in_plant = bool(emf_in_plant)
-        # per-row values (scalars, or (N,) arrays set by the twin for a batch of twins)
-        self.gear_ratio: Any = drive.gear_ratio
-        self.compensation: Any = drive.compensation
-        self.deadband: Any = drive.deadband
-        self.current_limit: Any = drive.current_limit
-        self.i = np.zeros((0, 2))
-        self.i_bat = np.zeros(0)
-        self.last: dict[str, NDArray[np.float64]] = {}
-
-    def reset(self, n: int, seed: int | None = None) -> None:
-        """Currents to zero."""
-        self.i = np.zeros((n, 2))
-        self.i_bat = np.zeros(n)
-        self.last = {}
-
-    def motor_speed(self, state: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Motor shaft speeds ``N (psi_i' - theta')`` (N, 2), right then left."""
-        pd, td, ad = state[:, 3], state[:, 4], state[:, 5]
-        wr = pd + self.b_over_r * ad - td
-        wl = pd - self.b_over_r * ad - td
-        return _col(self.gear_ratio) * np.column_stack([wr, wl])
-
-    def __call__(
-        self, t: float, u_cmd: NDArray[np.float64], state: NDArray[np.float64]
-    ) -> NDArray[np.float64]:
-        u_cmd = np.asarray(u_cmd, dtype=float)
-        if self.ideal:
-            self.last = {"limited": np.zeros_like(u_cmd)}
-            return u_cmd
-        n = u_cmd.shape[0]
-        if self.i.shape != u_cmd.shape:
-            self.reset(n)
-        m, d = self.motor, self.drive
-        R = m.resistance
-        gain = _col(self.gear_ratio) * d.gear_efficiency * m.k_t
-        om = self.motor_speed(state)
-        emf = m.k_e * om
-        c = self.compensation
-        if np.ndim(c) == 0:
-            ff: Any = emf if c == 1.0 else (0.0 if c == 0.0 else c * emf)
-        else:
-            ff = _col(c) * emf
-        v_ref = R * np.nan_to_num(u_cmd) / gain + ff
-        duty_ref = v_ref / d.supply_voltage
-        duty = np.clip(duty_ref, -1.0, 1.0)
-        shaped = duty
-        if d.pwm_levels > 0:
-            shaped = np.round(shaped * d.pwm_levels) / d.pwm_levels
-        shaped = apply_deadband(shaped, _col(self.deadband))
-        pwm = np.broadcast_to(self.pwm, (n,))[:, None]
-        duty = np.where(pwm, shaped, duty)
-        sag = np.broadcast_to(self.sag, (n,))
-        vs = d.supply_voltage - np.where(sag, d.supply_resistance * self.i_bat, 0.0)
-        vs = np.maximum(vs, 0.0)[:, None]
+@njit(inline="always")
+def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
+    """The driver and motors of one sample (module docstring): the firmware's duty on the bus
+    in, the wheel torques out (where the switch ``motor`` is on); logs ``drive_duty``,
+    ``drive_current`` (mean), ``drive_voltage``, ``drive_supply``, ``drive_torque`` (the whole
+    motor torque) and ``drive_limited``."""
+    pd, td, ad = yi[3], yi[4], yi[5]
+    bor = p[P.b_over_r]
+    R, gain, V = p[P.R], p[P.gain], p[P.V]
+    vs = V - (p[P.R_s] * s[S.i_bat] if p[P.sag] != 0.0 else 0.0)
+    vs = maximum(vs, 0.0)
+    p0 = 0.0
+    for w in range(2):
+        wheel = pd + bor * ad - td if w == 0 else pd - bor * ad - td
+        om = p[P.gear_ratio] * wheel
+        emf = p[P.k_e] * om
+        duty_ref = bus[B.duty + w]
+        duty = clip(duty_ref, -1.0, 1.0)
+        if p[P.pwm] != 0.0:
+            shaped = duty
+            if p[P.levels] > 0.0:
+                shaped = np.round(shaped * p[P.levels]) / p[P.levels]
+            duty = sign(shaped) * maximum(abs(shaped) - p[P.deadband], 0.0)
         v = duty * vs
-        band = R * _col(self.current_limit)
-        v_lim = np.clip(np.clip(v, emf - band, emf + band), -vs, vs)
-        limited = (np.abs(duty_ref) > 1.0) | (np.abs(v_lim - v) > 1e-12)
-        self.i, i_mean = current_step(self.i, v_lim, om, m, self.Ts)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            duty_eff = np.where(vs > 0, v_lim / vs, 0.0)
-        self.i_bat = np.sum(duty_eff * i_mean, axis=1)
+        band = p[P.band]
+        v_lim = clip(clip(v, emf - band, emf + band), -vs, vs)
+        i_ss = (v_lim - p[P.k_e] * om) / R
+        dev = s[S.i + w] - i_ss
+        e = p[P.decay]
+        s[S.i + w] = i_ss + dev * e
+        i_mean = i_ss + dev * p[P.tau_over_Ts] * (1.0 - e)
+        duty_eff = v_lim / vs if vs > 0 else 0.0
         torque = gain * i_mean
-        u = torque + gain * emf / R if (self.emf_in_plant and d.mode == "voltage") else torque
-        self.last = {"duty": duty_eff, "current": i_mean, "voltage": v_lim,
-                     "supply": vs[:, 0], "torque": torque,
-                     "limited": limited.astype(float)}  # fmt: skip
-        return u
+        out = torque + gain * emf / R if p[P.emf_in_plant] != 0.0 else torque
+        if w == 0:
+            p0 = duty_eff * i_mean
+        else:
+            s[S.i_bat] = p0 + duty_eff * i_mean
+        if p[P.on] != 0.0:
+            bus[B.u + w] = out
+        lg[w] = duty_eff
+        lg[2 + w] = i_mean
+        lg[4 + w] = v_lim
+        lg[7 + w] = torque
+        lg[9 + w] = 1.0 if (abs(duty_ref) > 1.0 or abs(v_lim - v) > 1e-12) else 0.0
+    lg[6] = vs
 
 
-def _col(x: Any) -> Any:
-    """A per-row value as a column against (N, 2) wheel arrays (a scalar as it is)."""
-    return x if np.ndim(x) == 0 else np.asarray(x, dtype=float)[:, None]
-
+ELEMENT = Element(
+    name="motor", code=CODE, stage="drive", params=PARAMS, state=STATE, pack=_pack,
+    logs=(("drive_duty", 2), ("drive_current", 2), ("drive_voltage", 2), ("drive_supply", 1),
+          ("drive_torque", 2), ("drive_limited", 2)),
+    switches=("motor",), doc="DC motors and H-bridge PWM driver",
+)  # fmt: skip
 
 #: The drive's unknowns (docs/twin_model.md, "The prior"); Table 2.1's motor data, the 24 V
 #: battery and the encoder lines are fixed by the data sheet.
 UNKNOWNS: tuple[Unknown, ...] = (
     Unknown("drive.gear_ratio", 3.7, 51.0, "", "MAXON GP 32 A planetary ratios offered with "
             "the RE25, 1-3 stages; the book names no gearbox", "inertia", 23.0),
-    Unknown("drive.emf_compensation", 0.0, 1.0, "", "fraction of k_e omega_m the firmware/"
-            "driver adds: 0 = open-loop PWM as Sec. 6.1's words read, 1 = full feed-forward / "
-            "current-mode driver", "motor", 0.0),
     Unknown("drive.deadband", 0.0, 0.05, "duty", "H-bridge dead time / minimum pulse, "
             "0-2.5 us at 20 kHz", "pwm", 0.01),
     Unknown("drive.current_limit", 1.0, 10.0, "A", "RE25 continuous current to its stall "

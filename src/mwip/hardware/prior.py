@@ -30,19 +30,43 @@ from numpy.typing import NDArray
 
 from mwip.hardware.unknown import Unknown
 
-__all__ = ["Unknown", "Prior", "PRIOR", "declared"]
+__all__ = ["Unknown", "Prior", "PRIOR", "declared", "ORDER", "LEGACY_NAMES", "current_name"]
 
 #: The element modules that declare unknowns, in the prior's order.
 _MODULES = (
     "mwip.hardware.motor",
+    "mwip.hardware.firmware",
     "mwip.hardware.drivetrain",
-    "mwip.hardware.twin",
     "mwip.hardware.imu",
     "mwip.hardware.payload",
     "mwip.hardware.obstacle",
 )
 
-_ENTRY_KEYS = ("low", "high", "unit", "source")
+#: The prior's order: the book calibration's unknowns in the order they were declared (its
+#: draws are columns in this order; renamed where the robot file moved them,
+#: :data:`LEGACY_NAMES`), then the later ones in :data:`_MODULES` order.
+ORDER = (
+    "drive.gear_ratio", "firmware.emf_compensation", "drive.deadband", "drive.current_limit",
+    "gearbox.coulomb", "gearbox.viscous", "gearbox.backlash", "firmware.delay",
+    "imu.gyro_bias", "imu.accel_bias", "imu.accel_sigma", "imu.gyro_sigma", "imu.height",
+    "firmware.fusion.tau", "payload.height", "payload.radius", "stick.height",
+)  # fmt: skip
+
+#: Names of unknowns before the robot file (``[twin]`` files, records of earlier runs) and
+#: their names now.
+LEGACY_NAMES: dict[str, str] = {
+    "delay": "firmware.delay",
+    "drive.emf_compensation": "firmware.emf_compensation",
+    "fusion.tau": "firmware.fusion.tau",
+}
+
+
+def current_name(name: str) -> str:
+    """``name``, or its name now if it is a :data:`LEGACY_NAMES` one."""
+    return LEGACY_NAMES.get(name, name)
+
+
+_ENTRY_KEYS = ("low", "high", "unit", "source", "scale")
 
 
 @dataclass(frozen=True)
@@ -86,11 +110,21 @@ class Prior:
     def __getitem__(self, name: str) -> Unknown:
         return self.unknowns[self.index(name)]
 
+    @property
+    def uniform(self) -> bool:
+        """Every unknown is uniform in its value (a box prior of constant density)."""
+        return all(u.scale == "linear" for u in self.unknowns)
+
     def sample(self, rng: np.random.Generator, n: int) -> NDArray[np.float64]:
-        """``n`` uniform draws, (n, P) (a fixed unknown: its value)."""
+        """``n`` draws, (n, P) (a fixed unknown: its value; log-uniform ones by their
+        logarithm)."""
         b = self.bounds
         u = rng.random((int(n), len(self)))
-        return b[:, 0] + u * (b[:, 1] - b[:, 0])
+        out = b[:, 0] + u * (b[:, 1] - b[:, 0])
+        for j, unk in enumerate(self.unknowns):
+            if unk.scale == "log":
+                out[:, j] = unk.from_unit(u[:, j])
+        return out
 
     def centre(self) -> NDArray[np.float64]:
         """The box's centre, (P,)."""
@@ -106,9 +140,16 @@ class Prior:
         return {name: a[:, i].copy() for i, name in enumerate(self.names)}
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
-        """``{name: {"low", "high", "unit", "source"}}`` (the ``[twin.prior]`` table)."""
-        return {u.name: {"low": u.low, "high": u.high, "unit": u.unit, "source": u.source}
-                for u in self.unknowns}  # fmt: skip
+        """``{name: {"low", "high", "unit", "source"[, "scale"]}}`` (the ``[prior]`` table;
+        ``scale`` only where it is ``"log"``)."""
+        out: dict[str, dict[str, Any]] = {}
+        for u in self.unknowns:
+            e: dict[str, Any] = {"low": u.low, "high": u.high, "unit": u.unit,
+                                 "source": u.source}  # fmt: skip
+            if u.scale != "linear":
+                e["scale"] = u.scale
+            out[u.name] = e
+        return out
 
     def check(self, values: Mapping[str, float]) -> None:
         """Every value of ``values`` (a twin's :meth:`~mwip.hardware.twin.Twin.values`) with a
@@ -126,6 +167,7 @@ class Prior:
         pr = PRIOR if base is None else base
         if not isinstance(data, Mapping):
             raise ValueError(f"twin.prior must be a table, got {data!r}")
+        data = {current_name(k): v for k, v in data.items()}
         for name, entry in data.items():
             if name not in pr.names:
                 raise ValueError(f"twin.prior.{name}: unknown name; allowed: {', '.join(pr.names)}")
@@ -141,7 +183,8 @@ class Prior:
         out = []
         for u in pr.unknowns:
             entry = data.get(u.name, {})
-            kw: dict[str, Any] = {k: entry[k] for k in ("low", "high", "source") if k in entry}
+            kw: dict[str, Any] = {k: entry[k] for k in ("low", "high", "source", "scale")
+                                  if k in entry}  # fmt: skip
             try:
                 out.append(replace(u, **kw))
             except (TypeError, ValueError) as exc:
@@ -156,6 +199,8 @@ def declared() -> Prior:
     out: list[Unknown] = []
     for mod in _MODULES:
         out.extend(importlib.import_module(mod).UNKNOWNS)
+    rank = {n: i for i, n in enumerate(ORDER)}
+    out.sort(key=lambda u: rank.get(u.name, len(ORDER)))  # stable: the rest in module order
     return Prior(tuple(out))
 
 

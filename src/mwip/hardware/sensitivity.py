@@ -130,8 +130,7 @@ def gear_sensitivity(
     rows = []
     for n in ratios:
         drive: DriveSpec = replace(tw.drive, gear_ratio=float(n))
-        t2 = replace(tw, drive=drive, encoder=replace(tw.encoder, gear_ratio=float(n)),
-                     elements=frozenset({"inertia"}))  # fmt: skip
+        t2 = replace(tw, drive=drive, elements=frozenset({"inertia"}))
         p = t2.plant(base)
         m = tw.motor
         rows.append({
@@ -221,10 +220,16 @@ def stick_closed_loop(
     return _closed_rows(res, heights, "height", window, speed)
 
 
-def sensitivity_tables(twin: Twin | None = None) -> dict[str, list[dict[str, Any]]]:
-    """All three tables with their default ranges."""
-    return {"payload": payload_sensitivity(), "stick": stick_sensitivity(),
-            "gear": gear_sensitivity(twin=twin)}  # fmt: skip
+def sensitivity_tables(robot: Any = None) -> dict[str, list[dict[str, Any]]]:
+    """All three tables with their default ranges, for ``robot`` (a
+    :class:`mwip.robot.Robot`; default: the default robot): its body, payload and twin."""
+    from mwip.robot import robot_or_default
+
+    r = robot_or_default(robot)
+    loaded = r.case_plant(2)
+    return {"payload": payload_sensitivity(base=r.body, nominal=r.design),
+            "stick": stick_sensitivity(plant=loaded),
+            "gear": gear_sensitivity(twin=r.twin, base=r.body, nominal=r.design)}  # fmt: skip
 
 
 def tables_markdown(tables: dict[str, list[dict[str, Any]]]) -> str:

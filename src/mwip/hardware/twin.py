@@ -1,19 +1,26 @@
-"""The digital twin of the Chapter 6 robot: plant + drive train + sensors + a 5 ms controller.
+"""The digital twin of the Chapter 6 robot: plant + firmware + drive train + sensors.
 
-:class:`Twin` is the configuration (data: :mod:`mwip.hardware.twin_config` reads and writes it
-as ``[twin]`` TOML tables, ``mwip twin show``); every physical effect is an *element*
-(:mod:`mwip.hardware.elements`) that can be switched off, and ``Twin.ideal()`` switches all
-off (the plain simulation, bit for bit). The pieces:
+:class:`Twin` is the hardware part of a robot (:mod:`mwip.robot`: the robot file's drive,
+firmware, sensors, payload and the prior of their unknowns); every physical effect is an
+element switch (:mod:`mwip.hardware.elements`) that can be turned off, and ``Twin.ideal()``
+turns all off (the plain simulation, bit for bit). The pieces:
 
 - the plant (:meth:`Twin.plant`): the case's parameters plus the rotor inertia reflected
   through the gearbox and, for a voltage drive, the back-EMF damping on ``Db``
   (:mod:`mwip.hardware.drivetrain`);
-- :class:`TwinSensor` (sensor protocol, :mod:`mwip.sim.sensors`): what the LM3S2965 board
-  computes: pitch and pitch rate from the IMU fused by a complementary or Kalman filter
-  (:mod:`mwip.hardware.imu`), wheel angle, yaw and their rates from the motor encoders by
-  differences (:mod:`mwip.hardware.encoder`), position by odometry;
-- :class:`TwinActuator` (actuator protocol): the computation delay, the RE25 motors and PWM
-  driver (:class:`mwip.hardware.motor.DriveActuator`), gearbox friction and backlash.
+- the sensor chain (:class:`TwinSensor`, the sensor protocol of :mod:`mwip.sim.sensors`):
+  what the LM3S2965 board measures and computes: the IMU (:mod:`mwip.hardware.imu`), the
+  firmware's pitch estimate (:mod:`mwip.hardware.fusion`), the encoders and odometry
+  (:mod:`mwip.hardware.encoder`);
+- the drive chain (:class:`TwinActuator`, the actuator protocol): the firmware's delay and
+  torque-to-duty map (:mod:`mwip.hardware.delay`, :mod:`mwip.hardware.firmware`), the RE25
+  motors and PWM driver (:mod:`mwip.hardware.motor`), gearbox Coulomb friction
+  (:mod:`mwip.hardware.friction`) and backlash (:mod:`mwip.hardware.backlash`).
+
+Each element has one compiled implementation (:mod:`mwip.hardware.element`). A controller with
+a packed law runs with the whole loop compiled (:mod:`mwip.hardware.loop`); any other
+controller runs in the engine's Python loop, whose :class:`TwinSensor` and
+:class:`TwinActuator` step the same compiled chains for the batch at each sample.
 
 :func:`run_on_twin` runs any mwip controller on it unchanged, for the book's uncertainty
 cases (:data:`CASES`):
@@ -28,11 +35,6 @@ differ in their unknown values (:mod:`mwip.hardware.prior`: row ``i`` is
 ``twin.with_values({k: values[k][i]})``, every element taking its parameters per row); with
 ``common_noise`` (the default for both) every row sees the IMU noise of a single run with the
 same seed.
-
-The accelerometer needs the body's acceleration: the sensor takes the mean acceleration over
-the last sample from the true velocities, ``(q'_k - q'_{k-1}) / Ts`` (what the IMU's
-anti-alias/digital low-pass filter at about the sample rate delivers), instead of the
-instantaneous acceleration.
 """
 
 from __future__ import annotations
@@ -45,13 +47,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mwip.core import Controller, Measurement
-from mwip.hardware.drivetrain import (
-    Backlash,
-    GearboxSpec,
-    coulomb_torque,
-    derive_plant,
-    relative_mobility,
-)
+from mwip.hardware.drivetrain import GearboxSpec, derive_plant, relative_mobility
+from mwip.hardware.element import PackContext
 from mwip.hardware.elements import (
     DRIVE_ELEMENTS,
     ELEMENTS,
@@ -60,13 +57,16 @@ from mwip.hardware.elements import (
     check_elements,
     element_mask,
 )
-from mwip.hardware.encoder import EncoderSpec, count, counts_to_angle
+from mwip.hardware.encoder import EncoderSpec
+from mwip.hardware.firmware import FirmwareSpec
 from mwip.hardware.identified import default_twin
-from mwip.hardware.imu import FusionSpec, Imu, ImuNoise, TiltFilter, tilt_arctan
-from mwip.hardware.motor import RE25, DriveActuator, DriveSpec, MotorData
+from mwip.hardware.imu import ImuNoise
+from mwip.hardware.motor import RE25, DriveSpec, MotorData
 from mwip.hardware.obstacle import StickObstacle, StickRows, StickSpec
+from mwip.hardware.pack import Chain, pack_chain
 from mwip.hardware.payload import PayloadSpec
-from mwip.hardware.unknown import Unknown
+from mwip.hardware.prior import current_name
+from mwip.hardware.registry import DRIVE_CHAIN, SENSOR_CHAIN
 from mwip.params import REAL, Params
 from mwip.sim.disturbance import Disturbance, Sum
 from mwip.sim.engine import simulate
@@ -76,20 +76,14 @@ if TYPE_CHECKING:
     from mwip.hardware.prior import Prior
 
 __all__ = [
-    "Twin", "TwinSensor", "TwinActuator", "DriveActuator", "case_plant", "run_on_twin",
-    "CASES", "stick_for", "UNKNOWNS",
+    "Twin", "TwinSensor", "TwinActuator", "case_plant", "run_on_twin", "CASES", "stick_for",
+    "NoiseTable",
 ]  # fmt: skip
 
 CASES = {1: "real robot (Table 6.1)", 2: "with payload (0.5 kg on 0.1 m rods)",
          3: "with payload, crossing a stick at ~6 s"}  # fmt: skip
 
 _IDX = {e: i for i, e in enumerate(ELEMENTS)}
-
-#: The twin's own unknown (docs/twin_model.md, "The prior").
-UNKNOWNS: tuple[Unknown, ...] = (
-    Unknown("delay", 0.0, 1.0, "Ts", "fraction of Ts: 0-5 ms of computation on the 50 MHz "
-            "Cortex-M3", "delay", 0.2),
-)  # fmt: skip
 
 
 def _declared_prior() -> Prior:
@@ -100,28 +94,28 @@ def _declared_prior() -> Prior:
 
 @dataclass(frozen=True)
 class Twin:
-    """Configuration of the twin (defaults and their sources: docs/twin_model.md).
+    """The hardware of a robot (defaults and their sources: docs/twin_model.md).
 
-    ``elements`` are the physical effects switched on (:data:`mwip.hardware.elements.ELEMENTS`,
-    all by default); ``ideal_sensors`` / ``ideal_actuator`` switch off all sensor / all
-    drive-train elements (the twin then reproduces the plain simulation exactly).
-    ``delay`` is the computation and actuation delay as a fraction of ``Ts`` in [0, 1]
-    (assumed 0.2: 1 ms of a 5 ms loop on the 50 MHz Cortex-M3 without FPU). ``payload`` is
-    the Case 2/3 pan, ``stick`` the Case 3 stick; ``prior`` the ranges of the unknown values
-    (:mod:`mwip.hardware.prior`; :meth:`values`, :meth:`with_values`).
+    ``motor``, ``drive`` (gearbox ratio and efficiency, battery, PWM driver), ``gearbox``
+    (friction, backlash), ``firmware`` (sample period, delay, torque gain, back-EMF
+    compensation, gyro zeroing, fusion), ``imu``, ``encoder``; ``dt`` the plant's integration
+    step; ``elements`` the physical effects switched on
+    (:data:`mwip.hardware.elements.ELEMENTS`, all by default); ``ideal_sensors`` /
+    ``ideal_actuator`` switch off all sensor / all drive-train elements (the twin then
+    reproduces the plain simulation exactly). ``payload`` is the Case 2/3 pan, ``stick`` the
+    Case 3 stick; ``prior`` the ranges of the unknown values (:mod:`mwip.hardware.prior`;
+    :meth:`values`, :meth:`with_values`).
     """
 
     imu: ImuNoise = field(default_factory=ImuNoise)
-    fusion: FusionSpec = field(default_factory=FusionSpec)
     encoder: EncoderSpec = field(default_factory=EncoderSpec)
     motor: MotorData = RE25
     drive: DriveSpec = field(default_factory=DriveSpec)
-    Ts: float = 0.005
+    firmware: FirmwareSpec = field(default_factory=FirmwareSpec)
     dt: float = 0.0005
     ideal_sensors: bool = False
     ideal_actuator: bool = False
     gearbox: GearboxSpec = field(default_factory=GearboxSpec)
-    delay: float = 0.2
     elements: frozenset[str] = frozenset(ELEMENTS)
     payload: PayloadSpec = field(default_factory=PayloadSpec)
     stick: StickSpec = field(default_factory=StickSpec)
@@ -129,17 +123,17 @@ class Twin:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "elements", check_elements(self.elements))
-        if abs(self.encoder.gear_ratio - self.drive.gear_ratio) > 1e-12:
-            raise ValueError(
-                f"'encoder.gear_ratio' ({self.encoder.gear_ratio:g}) must equal "
-                f"'drive.gear_ratio' ({self.drive.gear_ratio:g}): one gearbox"
-            )
-        if not (np.isfinite(self.Ts) and 0 < self.Ts <= 1.0):
-            raise ValueError(f"'Ts' must be finite and in (0, 1], got {self.Ts!r}")
         if not (np.isfinite(self.dt) and 0 < self.dt <= self.Ts):
             raise ValueError(f"'dt' must be finite and in (0, Ts], got {self.dt!r}")
-        if not (np.isfinite(self.delay) and 0.0 <= self.delay <= 1.0):
-            raise ValueError(f"'delay' must be finite and in [0, 1] (of Ts), got {self.delay!r}")
+        n = round(self.Ts / self.dt)
+        if abs(n * self.dt - self.Ts) > 1e-9 * self.Ts:
+            raise ValueError(f"'dt' ({self.dt!r}) must divide the sample period "
+                             f"firmware.Ts ({self.Ts!r})")  # fmt: skip
+
+    @property
+    def Ts(self) -> float:
+        """The sample period: the firmware's (``firmware.Ts``)."""
+        return self.firmware.Ts
 
     def values(self) -> dict[str, float]:
         """The twin's value of every unknown of :attr:`prior` (dotted names)."""
@@ -147,36 +141,27 @@ class Twin:
 
     def with_values(self, mapping: Mapping[str, float]) -> Twin:
         """This twin with the unknowns ``mapping`` (dotted names) replaced; an unknown name or
-        a value outside :attr:`prior` is a one-line ``ValueError`` naming it
-        (``drive.gear_ratio`` also sets the encoder's)."""
-        by_table: dict[str, dict[str, float]] = {}
-        top: dict[str, float] = {}
-        for name, raw in mapping.items():
-            u = self.prior[name] if name in self.prior.names else None
-            if u is None:
+        a value outside :attr:`prior` is a one-line ``ValueError`` naming it."""
+        out: Twin = self
+        for raw_name, raw in mapping.items():
+            name = current_name(raw_name)
+            if name not in self.prior.names:
                 raise ValueError(
-                    f"with_values: unknown name {name!r}; allowed: {', '.join(self.prior.names)}"
+                    f"with_values: unknown name {raw_name!r}; allowed: "
+                    f"{', '.join(self.prior.names)}"
                 )
+            u = self.prior[name]
             v = float(raw)
             if not (np.isfinite(v) and u.low <= v <= u.high):
                 raise ValueError(
                     f"with_values: {name!r} = {v!r} is outside the prior [{u.low:g}, {u.high:g}]"
-                    f" (twin.prior.{name})"
+                    f" (prior.{name})"
                 )
-            if "." in name:
-                table, key = name.split(".", 1)
-                by_table.setdefault(table, {})[key] = v
-            else:
-                top[name] = v
-        kw: dict[str, Any] = dict(top)
-        try:
-            for table, sub in by_table.items():
-                kw[table] = replace(getattr(self, table), **sub)
-            if "gear_ratio" in by_table.get("drive", {}):
-                kw["encoder"] = replace(self.encoder, gear_ratio=by_table["drive"]["gear_ratio"])
-            return replace(self, **kw)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"with_values: {exc}") from None
+            try:
+                out = _set(out, name.split("."), v)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"with_values: {exc}") from None
+        return out
 
     def row_values(self, values: Mapping[str, ArrayLike]) -> tuple[dict[str, Any], int]:
         """Validated per-row values of a batch of twins: ``({name: value}, N)`` with every
@@ -185,25 +170,26 @@ class Twin:
         prior or a value outside it)."""
         out: dict[str, Any] = self.values()
         n: int | None = None
-        for name, raw in values.items():
+        for raw_name, raw in values.items():
+            name = current_name(raw_name)
             if name not in self.prior.names:
                 raise ValueError(
-                    f"values: unknown name {name!r}; allowed: {', '.join(self.prior.names)}"
+                    f"values: unknown name {raw_name!r}; allowed: {', '.join(self.prior.names)}"
                 )
             a = np.asarray(raw, dtype=float)
             if a.ndim != 1 or a.size == 0:
-                raise ValueError(f"values[{name!r}] must be a 1-D array, got shape {a.shape}")
+                raise ValueError(f"values[{raw_name!r}] must be a 1-D array, got shape {a.shape}")
             if n is None:
                 n = a.size
             elif a.size != n:
-                raise ValueError(f"values[{name!r}] has {a.size} rows, the others {n}")
+                raise ValueError(f"values[{raw_name!r}] has {a.size} rows, the others {n}")
             u = self.prior[name]
             bad = ~(np.isfinite(a) & (a >= u.low) & (a <= u.high))
             if bad.any():
                 i = int(np.argmax(bad))
                 raise ValueError(
-                    f"values[{name!r}][{i}] = {float(a[i])!r} is outside the prior "
-                    f"[{u.low:g}, {u.high:g}] (twin.prior.{name})"
+                    f"values[{raw_name!r}][{i}] = {float(a[i])!r} is outside the prior "
+                    f"[{u.low:g}, {u.high:g}] (prior.{name})"
                 )
             self.with_values({name: float(a.min())})  # the elements' own limits (intervals)
             self.with_values({name: float(a.max())})
@@ -256,276 +242,307 @@ class Twin:
     def sensor(
         self, plant: Params, rows: Iterable[Iterable[str]] | None = None, *,
         common_noise: bool = False, values: Mapping[str, Any] | None = None,
+        noise: NoiseTable | None = None,
     ) -> TwinSensor:  # fmt: skip
-        """A fresh sensor for ``plant`` (it needs the plant's wheel geometry); ``values``: the
-        per-row unknowns of :meth:`row_values`."""
+        """A fresh sensor chain for ``plant`` (the plant the twin integrates, for its wheel
+        geometry: one row per robot or one for all); ``values``: the per-row unknowns of
+        :meth:`row_values`; ``noise``: the variates per robot instead of the run's seed."""
         return TwinSensor(plant, self, masks=self.masks(rows), common_noise=common_noise,
-                          values=values)  # fmt: skip
+                          values=values, noise=noise)  # fmt: skip
 
     def actuator(
         self, plant: Params, rows: Iterable[Iterable[str]] | None = None,
-        values: Mapping[str, Any] | None = None,
+        values: Mapping[str, Any] | None = None, *, command: Mapping[str, Any] | None = None,
+        noise: NoiseTable | None = None,
     ) -> TwinActuator:  # fmt: skip
-        """A fresh drive for ``plant``; ``values``: the per-row unknowns of
-        :meth:`row_values`."""
-        return TwinActuator(self, plant_b_over_r=float(np.mean(plant.b / plant.r)),
-                            masks=self.masks(rows), mobility=relative_mobility(plant),
-                            values=values)  # fmt: skip
+        """A fresh drive chain for ``plant``; ``values``: the per-row unknowns of
+        :meth:`row_values`; ``command``: the optional command disturbances per robot
+        (:mod:`mwip.hardware.command`) with their ``noise``."""
+        return TwinActuator(plant, self, masks=self.masks(rows), values=values,
+                            command=command, noise=noise)  # fmt: skip
 
 
-def _get(twin: Twin, name: str) -> float:
-    obj: Any = twin
+def _get(obj: Any, name: str) -> float:
     for part in name.split("."):
         obj = getattr(obj, part)
     return float(obj)
 
 
-def _c(x: Any) -> Any:
-    """A per-row value as a column against (N, 2) wheel arrays (a float as it is)."""
-    return x if np.ndim(x) == 0 else np.asarray(x, dtype=float)[:, None]
+def _set(obj: Any, path: list[str], value: float) -> Any:
+    """``obj`` (a frozen dataclass) with the field at ``path`` replaced."""
+    if len(path) == 1:
+        return replace(obj, **{path[0]: value})
+    return replace(obj, **{path[0]: _set(getattr(obj, path[0]), path[1:], value)})
 
 
-def _col(masks: NDArray[np.bool_], name: str) -> NDArray[np.bool_]:
-    return masks[:, _IDX[name]]
+class NoiseTable:
+    """The normal variates of a chain's elements per robot, given instead of drawn: ``table``
+    (N, S, V) for ``S`` samples of ``V`` variates (sample ``k`` reads row ``k mod S``)."""
+
+    def __init__(self, table: ArrayLike) -> None:
+        self.table = np.asarray(table, dtype=float)
+        if self.table.ndim != 3:
+            raise ValueError(f"NoiseTable: table must be (N, samples, variates), got shape "
+                             f"{self.table.shape}")  # fmt: skip
+
+    def draw(self, k0: int, k1: int, width: int) -> NDArray[np.float64]:
+        """Samples ``k0 .. k1 - 1``: (k1 - k0, width, N)."""
+        S = self.table.shape[1]
+        if self.table.shape[2] != width:
+            raise ValueError(f"NoiseTable: {self.table.shape[2]} variates per sample, the "
+                             f"chain draws {width}")  # fmt: skip
+        idx = np.arange(k0, k1) % S
+        return np.ascontiguousarray(self.table[:, idx, :].transpose(1, 2, 0))
 
 
-class TwinActuator:
-    """Actuator protocol: delay, motor + driver, gearbox friction and backlash, per row.
+class _Generator:
+    """The run's own variates: NumPy's generator seeded by the run's seed, one column per
+    robot or one for all (``common``), drawn in sample order."""
 
-    Per sample ``k`` and wheel, with the commanded ``u_k``:
+    def __init__(self, seed: int | None, columns: int) -> None:
+        self.rng = np.random.default_rng(seed)
+        self.columns = columns
 
-    1. ``delay`` (fraction ``d`` of ``Ts``): the board writes the new duty ``d Ts`` after the
-       sample instant, so the torque command held over the sample is
-       ``d u_{k-1} + (1 - d) u_k`` (exact for ``d = 0`` and ``d = 1``, a one-sample shift;
-       for a fraction the sample's mean);
-    2. ``motor`` (:class:`~mwip.hardware.motor.DriveActuator`, with ``pwm`` and ``sag``): the
-       torque the motor delivers (the back-EMF term of a voltage drive is in the plant's
-       ``Db``); without it the command is applied as a torque;
-    3. ``friction``: Coulomb friction held over the sample
-       (:func:`~mwip.hardware.drivetrain.coulomb_torque`);
-    4. ``backlash`` (:class:`~mwip.hardware.drivetrain.Backlash`).
+    def draw(self, k0: int, k1: int, width: int) -> NDArray[np.float64]:
+        if width == 0 or k1 <= k0:
+            return np.zeros((max(k1 - k0, 1), width, self.columns))
+        return np.ascontiguousarray(self.rng.standard_normal((k1 - k0, width, self.columns)))
 
-    ``last`` holds the drive's logs (``duty``, ``current``, ``voltage``, ``supply``,
-    ``torque``, ``limited``) and ``friction``.
-    """
 
-    def __init__(
-        self,
-        twin: Twin,
-        *,
-        plant_b_over_r: float,
-        masks: NDArray[np.bool_] | None = None,
-        mobility: ArrayLike = 1.0 / 2e-3,
-        values: Mapping[str, Any] | None = None,
-    ) -> None:
-        self.twin = twin
+class _Chained:
+    """What the sensor and the actuator share: a packed chain, its state, its noise and the
+    sample it is at."""
+
+    chain: Chain
+    X: NDArray[np.float64]
+    k: int
+
+    def _pack(self, chain: Any, plant: Params, twin: Twin, masks: NDArray[np.bool_],
+              values: Mapping[str, Any] | None, n: int,
+              extra: Mapping[str, Any]) -> None:  # fmt: skip
         v = twin.values() if values is None else values
-        self.values = v
-        self.mobility = np.asarray(mobility, dtype=float)
-        self.masks = twin.masks() if masks is None else np.asarray(masks, dtype=bool)
-        m = self.masks
-        self.drive = DriveActuator(
-            twin.motor, twin.drive, plant_b_over_r=float(plant_b_over_r), Ts=twin.Ts,
-            pwm=_col(m, "pwm"), sag=_col(m, "sag"), emf_in_plant=True,
-        )  # fmt: skip
-        gr = v["drive.gear_ratio"]
-        self.drive.gear_ratio = gr
-        self.drive.compensation = (1.0 if twin.drive.mode == "torque"
-                                   else v["drive.emf_compensation"])  # fmt: skip
-        self.drive.deadband = v["drive.deadband"]
-        self.drive.current_limit = v["drive.current_limit"]
-        self.gear_ratio = gr
-        self.delay = _c(v["delay"])
-        self.coulomb = _c(v["gearbox.coulomb"])
-        n2j = gr * gr * twin.motor.rotor_inertia
-        self.backlash = Backlash(_col(m, "backlash") * v["gearbox.backlash"], n2j, twin.Ts)
-        idx = [_IDX[e] for e in sorted(DRIVE_ELEMENTS)]
-        self.any = bool(np.any(m[:, idx]))
-        self.u_prev = np.zeros((0, 2))
-        self.last: dict[str, NDArray[np.float64]] = {}
+        ctx = PackContext(twin=twin, plant=plant, values=v, masks=masks, n=n, extra=extra)
+        self.chain = pack_chain(chain, ctx)
+        self.X = self.chain.fresh_state()
+        self.k = 0
 
 
-    @property
-    def b_over_r(self) -> Any:
-        """The plant's ``b / r`` (a number, or one per robot), from which the drive gets each
-        wheel's speed: the inner :class:`~mwip.hardware.motor.DriveActuator`'s (one value, so
-        setting it here reaches the motor model)."""
-        return self.drive.b_over_r
-
-    @b_over_r.setter
-    def b_over_r(self, value: Any) -> None:
-        self.drive.b_over_r = value
-
-    def reset(self, n: int, seed: int | None = None) -> None:
-        """Currents, the delay line and the backlash to rest."""
-        self.drive.reset(n, seed)
-        self.backlash.reset(n)
-        self.u_prev = np.zeros((n, 2))
-        self.last = {}
-
-    def _rows(self, name: str, n: int) -> NDArray[np.bool_]:
-        return np.broadcast_to(_col(self.masks, name), (n,))[:, None]
-
-    def __call__(
-        self, t: float, u_cmd: NDArray[np.float64], state: NDArray[np.float64]
-    ) -> NDArray[np.float64]:
-        u_cmd = np.asarray(u_cmd, dtype=float)
-        if not self.any:
-            self.last = {"limited": np.zeros_like(u_cmd)}
-            return u_cmd
-        n = u_cmd.shape[0]
-        if self.u_prev.shape != u_cmd.shape:
-            self.reset(n)
-        d = self.delay * self._rows("delay", n)
-        u = d * self.u_prev + (1.0 - d) * u_cmd
-        self.u_prev = u_cmd.copy()
-        motor = self._rows("motor", n)
-        if motor.any():
-            u = np.where(motor, self.drive(t, u, state), u)
-            last = dict(self.drive.last)
-        else:
-            last = {"limited": np.zeros_like(u)}
-        fric = np.zeros_like(u)
-        if self._rows("friction", n).any():
-            w = self.drive.motor_speed(state) / _c(self.gear_ratio)
-            fc = self.coulomb * self._rows("friction", n)
-            mob = np.broadcast_to(self.mobility, (n,))[:, None]
-            fric = coulomb_torque(w, u, fc, mob, self.twin.Ts)
-            u = u + fric
-        if self._rows("backlash", n).any():
-            u = self.backlash(u)
-        last["friction"] = fric
-        self.last = last
-        return u
-
-
-class TwinSensor:
-    """Sensor protocol: IMU fusion for ``theta, theta'``, encoders for ``psi, alpha`` and
-    rates, odometry for ``x, y``, per row as the elements say (``encoder``, ``fusion``,
-    ``accel_motion``, ``imu_noise``, ``imu_bias``); a row without ``encoder`` gets the true
-    ``psi, alpha``, rates and position, one without ``fusion`` the true ``theta, theta'``.
-    ``last`` holds the raw readings of the last call. ``record_measurement``: the compiled
-    twin loop also records the measurement as the log ``y_meas`` (set by :func:`run_on_twin`
-    with ``drive_logs=False``)."""
+class TwinSensor(_Chained):
+    """Sensor protocol: the twin's sensor chain (IMU, the firmware's pitch estimate,
+    encoders and odometry) for a batch, per robot as its element switches say (``encoder``,
+    ``fusion``, ``accel_motion``, ``imu_noise``, ``imu_bias``): a robot without ``encoder``
+    gets the true ``psi, alpha``, rates and position, one without ``fusion`` the true
+    ``theta, theta'``. ``last`` holds the chain's logs of the last call (``imu_theta_acc``,
+    ``imu_gyro``, ``imu_gyro_bias``). In the compiled loop, ``record_measurement`` also records
+    the measurement as the log ``y_meas`` and ``record_logs`` the elements' logs (both set by
+    :func:`run_on_twin`)."""
 
     record_measurement: bool = False
+    record_logs: bool = False
 
     def __init__(
         self, plant: Params = REAL, twin: Twin | None = None, *,
         masks: NDArray[np.bool_] | None = None, common_noise: bool = False,
-        values: Mapping[str, Any] | None = None,
+        values: Mapping[str, Any] | None = None, noise: NoiseTable | None = None,
     ) -> None:  # fmt: skip
         self.twin = twin if twin is not None else default_twin()
-        v = self.twin.values() if values is None else values
+        self.plant = plant
+        self.values = values
         self.masks = self.twin.masks() if masks is None else np.asarray(masks, dtype=bool)
-        self.r = float(np.mean(plant.r))
-        self.b_over_r = float(np.mean(plant.b / plant.r))
-        self.imu = Imu(self.twin.imu, common=common_noise)
-        for key in ("accel_sigma", "accel_bias", "gyro_sigma", "gyro_bias", "height"):
-            setattr(self.imu, key, v[f"imu.{key}"])
-        self.filter = TiltFilter(self.twin.fusion)
-        self.filter.tau = v["fusion.tau"]
-        gr = v["drive.gear_ratio"]
-        # encoder resolution per row (None: the spec's, the same arithmetic)
-        self._res: Any = None
-        if np.ndim(gr) != 0:
-            self._res = 2.0 * np.pi / (self.twin.encoder.cpr * np.asarray(gr)[:, None])
-        idx = [_IDX[e] for e in sorted(SENSOR_ELEMENTS)]
-        self.any = bool(self.masks[:, idx].any())
-        self._prev: NDArray[np.float64] | None = None
-        self._theta0 = np.zeros(0)
-        self._c0 = np.zeros((0, 2), dtype=np.int64)
-        self._rel_prev = np.zeros((0, 2))
-        self._origin = np.zeros((0, 4))
-        self._pos = np.zeros((0, 2))
+        self.common = bool(common_noise)
+        self.table = noise
         self.last: dict[str, NDArray[np.float64]] = {}
+        self.n = 0
 
     def reset(self, n: int, seed: int | None = None) -> None:
-        """Seed the noise; filters and counters start at the first call."""
-        self.imu.reset(n, seed)
-        self._prev = None
+        """Pack the chain for ``n`` robots and seed the noise; the elements start their
+        state at the first call (power-on)."""
+        self._pack(SENSOR_CHAIN, self.plant, self.twin, self.masks, self.values, n, {})
+        self.n = n
+        self.source: Any = (self.table if self.table is not None
+                            else _Generator(seed, 1 if self.common else n))  # fmt: skip
         self.last = {}
+
+    @property
+    def columns(self) -> int:
+        """Noise columns: 1 (common to the batch) or one per robot."""
+        return 1 if (self.table is None and self.common) else self.n
 
     def compiled_loop(self, actuator: Any, n: int, n_samples: int) -> Any:
         """The engine's hook (:func:`mwip.sim.engine.simulate`): this sensor and ``actuator``
         (a :class:`TwinActuator`) as a compiled loop around a packed law
-        (:mod:`mwip.sim.twin_loop`), or ``None`` where the Python loop stays (a subclass
-        of either, another actuator, a Kalman filter). Called after the first measurement."""
+        (:mod:`mwip.hardware.loop`), or ``None`` where the Python loop stays (a subclass of
+        either, another actuator, a chain already past its first sample). Called after the
+        first measurement."""
         if type(self) is not TwinSensor or type(actuator) is not TwinActuator:
             return None
-        if self.any and self._prev is None:
+        if self.k != 1 or actuator.k != 0 or actuator.n != n:
             return None
-        from mwip.hardware.twin_pack import prepare
-
-        return prepare(self, actuator, n, n_samples)
-
-    def _relative(self, state: NDArray[np.float64]) -> NDArray[np.float64]:
-        psi, th, al = state[:, 0], state[:, 1], state[:, 2]
-        return np.column_stack([psi + self.b_over_r * al - th, psi - self.b_over_r * al - th])
-
-    def _on(self, name: str, n: int) -> NDArray[np.bool_]:
-        return np.broadcast_to(_col(self.masks, name), (n,))
+        return TwinRun(self, actuator, n, n_samples)
 
     def __call__(self, t: float, state: NDArray[np.float64]) -> Measurement:
-        if not self.any:
+        from mwip.hardware.loop import sense_batch
+
+        if self.chain.empty:
+            self.k += 1
             return Measurement(t=t, y=state.copy())
-        Ts = self.twin.Ts
         n = state.shape[0]
-        first = self._prev is None
-        if first:
-            acc = np.zeros((n, 3))
-        else:
-            acc = (state[:, 3:6] - self._prev[:, 3:6]) / Ts  # type: ignore[index]
-        ax, ay, omega = self.imu.read(
-            state[:, 1], state[:, 4], acc[:, 1], self.r * acc[:, 0], 0.0 if first else Ts,
-            noise=self._on("imu_noise", n), bias=self._on("imu_bias", n),
-            motion=self._on("accel_motion", n),
-        )  # fmt: skip
-        th_acc = tilt_arctan(ax, ay)  # (2.39)
-        fusion = self._on("fusion", n)
-        if first:
-            self.filter.reset(th_acc)
-            th_hat, thd_hat = th_acc.copy(), omega.copy()
-        else:
-            th_hat, thd_hat = self.filter.update(omega, th_acc, Ts)
-        th_hat = np.where(fusion, th_hat, state[:, 1])
-        thd_hat = np.where(fusion, thd_hat, state[:, 4])
-        if first:
-            self._theta0 = th_hat.copy()
-            self._c0 = count(self._relative(state), self.twin.encoder, self._res)
-            self._rel_prev = np.zeros((n, 2))
-            self._origin = state[:, [0, 2, 6, 7]].copy()
-            self._pos = state[:, 6:8].copy()
-        enc_spec = self.twin.encoder
-        rel = counts_to_angle(count(self._relative(state), enc_spec, self._res) - self._c0,
-                              enc_spec, self._res)  # fmt: skip
-        rel_rate = (rel - self._rel_prev) / Ts if not first else np.zeros((n, 2))
-        self._rel_prev = rel
-        psi = self._origin[:, 0] + rel.mean(axis=1) + th_hat - self._theta0
-        alpha = self._origin[:, 1] + (rel[:, 0] - rel[:, 1]) / (2.0 * self.b_over_r)
-        psi_dot = rel_rate.mean(axis=1) + thd_hat
-        alpha_dot = (rel_rate[:, 0] - rel_rate[:, 1]) / (2.0 * self.b_over_r)
-        if not first:
-            v = self.r * psi_dot
-            self._pos = self._pos + Ts * np.column_stack([v * np.cos(alpha), v * np.sin(alpha)])
-        self._prev = state.copy()
-        y = np.column_stack([psi, th_hat, alpha, psi_dot, thd_hat, alpha_dot, self._pos])
-        enc = self._on("encoder", n)[:, None]
-        y[:, [0, 2, 3, 5, 6, 7]] = np.where(enc, y[:, [0, 2, 3, 5, 6, 7]],
-                                            state[:, [0, 2, 3, 5, 6, 7]])  # fmt: skip
-        y[:, 1] = th_hat
-        y[:, 4] = thd_hat
-        self.last = {"theta_acc": th_acc, "gyro": omega, "gyro_bias": self.imu.bias.copy()}
-        return Measurement(t=t, y=y)
+        Z = self.source.draw(self.k, self.k + 1, self.chain.noise)
+        LG = np.zeros((n, max(self.chain.log_width, 1)))
+        YM = np.empty((n, 8))
+        sense_batch(self.k, np.ascontiguousarray(state, dtype=float), self.chain.P, self.X,
+                    self.chain.plan, Z, LG, YM)  # fmt: skip
+        self.k += 1
+        self.last = {k_: v.copy() for k_, v in self.chain.split_logs(LG).items()}
+        return Measurement(t=t, y=YM)
+
+
+class TwinActuator(_Chained):
+    """Actuator protocol: the twin's drive chain for a batch (per sample and wheel: the
+    optional command disturbances of ``mwip bench``, the firmware's delay and torque-to-duty
+    map, the motors and PWM driver, gearbox Coulomb friction and backlash; per robot as its
+    element switches say). ``last`` holds the chain's logs of the last call (``drive_duty``,
+    ``drive_current``, ``drive_voltage``, ``drive_supply``, ``drive_torque``,
+    ``drive_limited``, ``drive_friction``)."""
+
+    def __init__(
+        self, plant: Params = REAL, twin: Twin | None = None, *,
+        masks: NDArray[np.bool_] | None = None, values: Mapping[str, Any] | None = None,
+        command: Mapping[str, Any] | None = None, noise: NoiseTable | None = None,
+        mobility: ArrayLike | None = None,
+    ) -> None:  # fmt: skip
+        self.twin = twin if twin is not None else default_twin()
+        self.plant = plant
+        self.values = values
+        self.masks = self.twin.masks() if masks is None else np.asarray(masks, dtype=bool)
+        self.extra: dict[str, Any] = {"command": command}
+        self.extra["mobility"] = (relative_mobility(plant) if mobility is None
+                                  else np.asarray(mobility, dtype=float))  # fmt: skip
+        self.table = noise
+        self.n = 0
+        self.last: dict[str, NDArray[np.float64]] = {}
+
+    def reset(self, n: int, seed: int | None = None) -> None:
+        """Pack the chain for ``n`` robots: currents, the delay line and the backlash at
+        rest."""
+        self._pack(DRIVE_CHAIN, self.plant, self.twin, self.masks, self.values, n, self.extra)
+        self.n = n
+        if self.chain.noise and self.table is None:
+            raise ValueError("the command noise needs its variates (noise=NoiseTable(...))")
+        self.last = {}
+
+    def draw(self, k0: int, k1: int) -> NDArray[np.float64]:
+        """The chain's variates of samples ``k0 .. k1 - 1``: (k1 - k0, V, N) or (., 0, 1)."""
+        if self.chain.noise == 0:
+            return np.zeros((max(k1 - k0, 1), 0, 1))
+        assert self.table is not None
+        return self.table.draw(k0, k1, self.chain.noise)
+
+    def __call__(
+        self, t: float, u_cmd: NDArray[np.float64], state: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        from mwip.hardware.loop import drive_batch
+
+        u_cmd = np.asarray(u_cmd, dtype=float)
+        if self.chain.empty:
+            self.k += 1
+            self.last = {"drive_limited": np.zeros_like(u_cmd)}
+            return u_cmd
+        n = u_cmd.shape[0]
+        Z = self.draw(self.k, self.k + 1)
+        LG = np.zeros((n, max(self.chain.log_width, 1)))
+        UA = np.empty((n, 2))
+        drive_batch(self.k, np.ascontiguousarray(state, dtype=float),
+                    np.ascontiguousarray(u_cmd), self.chain.P, self.X, self.chain.plan, Z, LG,
+                    UA)  # fmt: skip
+        self.k += 1
+        self.last = {k_: v.copy() for k_, v in self.chain.split_logs(LG).items()}
+        return UA
+
+
+class TwinRun:
+    """The compiled twin loop of a sensor (after its first sample) and an actuator (before
+    its first), prepared by :meth:`TwinSensor.compiled_loop`: called by the engine with the
+    packed law, the disturbance by chunks of samples and the run's arrays, it fills them and
+    returns the extra logs: ``u_applied``; ``y_meas`` with the sensor's
+    ``record_measurement``; the elements' logs with its ``record_logs``."""
+
+    def __init__(self, sensor: TwinSensor, actuator: TwinActuator, n: int,
+                 n_samples: int) -> None:  # fmt: skip
+        self.sensor, self.actuator, self.n, self.n_samples = sensor, actuator, n, n_samples
+
+    def function(self) -> Any:
+        """The compiled loop this run calls: threaded for batches of ``PARALLEL_MIN`` or more."""
+        from mwip.hardware import loop
+        from mwip.sim.codes import PARALLEL_MIN
+
+        return loop.run_parallel if self.n >= PARALLEL_MIN else loop.run
+
+    def __call__(self, first: NDArray[np.float64], y: NDArray[np.float64], coef: NDArray,
+                 tau: Callable[[int, int], NDArray], column: NDArray[np.int64], method: int,
+                 dt: float, n_sub: int, Ts: float, rec_idx: NDArray[np.int64], code: int,
+                 P: NDArray, X: NDArray, states: NDArray, us: NDArray, log_arr: NDArray,
+                 status: NDArray, t_end: NDArray) -> dict[str, NDArray[np.float64]]:  # fmt: skip
+        from mwip.hardware import loop
+
+        n, n_samples = self.n, self.n_samples
+        sen, act = self.sensor, self.actuator
+        sc, dc = sen.chain, act.chain
+        cols = max(sen.columns if sc.noise else 1, n if dc.noise else 1)
+        width = sc.noise + dc.noise
+        per_sample = tau(0, 1).size + width * cols
+        chunk = max(16, loop.CHUNK_NUMBERS // max(per_sample, 1))
+        measured = sen.record_measurement
+        u_app = np.full((n, rec_idx.size, 10 if measured else 2), np.nan)
+        keep = sen.record_logs
+        ls = sc.log_width
+        LG0 = np.zeros((n, ls))
+        if ls:  # the first sample's logs, from the engine's first call
+            col = 0
+            for name_i, w in sc.logs:
+                LG0[:, col : col + w] = np.asarray(sen.last[name_i], dtype=float).reshape(n, w)
+                col += w
+        width_logs = ls + dc.log_width if keep else 0
+        elogs = np.full((n, rec_idx.size if keep else 0, width_logs), np.nan)
+        M0 = np.ascontiguousarray(first, dtype=float)
+        RUN = np.zeros((n, 3), dtype=np.int64)  # next record row, left, disturbance column
+        RUN[:, 2] = column
+        fn = self.function()
+        SX, DX = sen.X, act.X
+        for k0 in range(0, n_samples + 1, chunk):
+            k1 = min(k0 + chunk, n_samples + 1)
+            tk = tau(k0, min(k1, n_samples)) if k0 < n_samples else tau(0, 1)
+            Z = np.zeros((k1 - k0, width, cols))
+            if sc.noise:  # the sensor's variates of samples max(k0, 1) ..; sample 0's are drawn
+                s0 = max(k0, 1)
+                if k1 > s0:
+                    Z[s0 - k0 :, : sc.noise, :] = sen.source.draw(s0, k1, sc.noise)
+            if dc.noise:
+                Z[:, sc.noise :, :] = act.draw(k0, k1)
+            fn(y, coef, tk, method, dt, n_sub, n_samples, Ts, rec_idx, np.int64(code), P, X,
+               M0, Z, sc.P, SX, sc.plan, dc.P, DX, dc.plan, LG0, states, us, log_arr, u_app,
+               elogs, status, t_end, np.int64(k0), np.int64(k1), RUN)  # fmt: skip
+            if bool(RUN[:, 1].all()):
+                break
+        out: dict[str, NDArray[np.float64]] = {"u_applied": u_app[:, :, :2].copy()}
+        if measured:
+            out["y_meas"] = u_app[:, :, 2:].copy()
+        if keep:
+            out.update({k_: v.copy() for k_, v in sc.split_logs(elogs[:, :, :ls]).items()})
+            out.update({k_: v.copy() for k_, v in dc.split_logs(elogs[:, :, ls:]).items()})
+        return out
 
 
 class _Logged:
-    """Forwards a controller unchanged and adds the twin's readings to its logs."""
+    """Forwards a controller unchanged (its packed law too, so that it runs in the compiled
+    twin loop) and adds the measurement and the twin's logs to its logs in the Python loop."""
 
-    def __init__(self, controller: Controller, sensor: TwinSensor, actuator: TwinActuator) -> None:
+    def __init__(self, controller: Controller, sensor: TwinSensor, actuator: TwinActuator,
+                 element_logs: bool = True) -> None:  # fmt: skip
         self._c = controller
         self._sensor = sensor
         self._act = actuator
+        self._elements = element_logs
         self._meas: NDArray[np.float64] | None = None
         self.Ts = getattr(controller, "Ts", None)
         self.static = False
@@ -543,20 +560,14 @@ class _Logged:
         out = dict(get()) if get is not None else {}
         if self._meas is not None:
             out["y_meas"] = self._meas
-        for k, v in self._act.last.items():
-            out[f"drive_{k}"] = v
-        for k, v in self._sensor.last.items():
-            out[f"imu_{k}"] = v
+        if self._elements:
+            out.update(self._act.last)
+            out.update(self._sensor.last)
         return out
 
-
-class _Measured(_Logged):
-    """:class:`_Logged` that lets a packed controller run in the compiled twin loop
-    (:mod:`mwip.sim.twin_loop`, which then records ``y_meas`` itself; the drive and IMU logs
-    are the Python loop's only): ``packed_law`` is the controller's own, unless the
-    controller's class overrides what the Python loop calls below the class that packs it."""
-
     def packed_law(self) -> Any:
+        """The controller's own packed law, unless the controller's class overrides what the
+        Python loop calls below the class that packs it."""
         from mwip.sim.engine import _overrides_below_packed_law
 
         get = getattr(self._c, "packed_law", None)
@@ -636,9 +647,9 @@ def run_on_twin(
     beside the controller's own logs and the applied torque ``u_applied`` (the held part: a
     voltage drive's back-EMF torque is in the plant's ``Db``). ``progress(k)`` is called as
     samples complete (as :func:`mwip.sim.engine.simulate`). ``drive_logs=False`` keeps of the
-    twin's logs only ``y_meas`` and ``u_applied``, so that a controller with a packed law runs
-    in the compiled twin loop (:mod:`mwip.sim.twin_loop`; the same arithmetic, equal to the
-    Python loop to round-off, tests/test_twin_loop.py).
+    twin's logs only ``y_meas`` and ``u_applied`` (less memory for large batches). A
+    controller with a packed law runs in the compiled twin loop (:mod:`mwip.hardware.loop`),
+    any other in the engine's Python loop on the same compiled elements.
     """
     tw = twin if twin is not None else default_twin()
     rows = None if rows is None else [list(r) for r in rows]
@@ -678,11 +689,11 @@ def run_on_twin(
     common = batch if common_noise is None else common_noise
     sensor = tw.sensor(p, rows, common_noise=common, values=vals)
     actuator = tw.actuator(p, rows, vals)
-    if not drive_logs and isinstance(sensor, TwinSensor):
-        sensor.record_measurement = True
-    wrap = _Logged if drive_logs else _Measured
+    sensor.record_measurement = True
+    sensor.record_logs = drive_logs
     return simulate(
-        wrap(controller, sensor, actuator), p, q0=q0, qdot0=qdot0, duration=duration,
+        _Logged(controller, sensor, actuator, drive_logs), p, q0=q0, qdot0=qdot0,
+        duration=duration,
         Ts=tw.Ts, dt=tw.dt, disturbance=dist, sensor=sensor, actuator=actuator,
         record_every=record_every, seed=seed, progress=progress,
     )  # fmt: skip

@@ -8,6 +8,7 @@ module of its own so that the element modules can declare without importing the 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -16,11 +17,13 @@ __all__ = ["Unknown"]
 
 @dataclass(frozen=True)
 class Unknown:
-    """A value the book does not print: ``name`` (dotted path of the twin file, e.g.
-    ``"drive.gear_ratio"``), a continuous uniform range ``[low, high]`` (``low == high``
-    fixes it), its ``unit``, the ``source`` of the range, the twin ``element`` it acts
-    through and the default twin's value ``default`` (informative; the declared prior has it
-    inside, a narrowed one need not: a twin's own values are checked by :meth:`check`)."""
+    """A value the book does not print: ``name`` (dotted path of the robot file, e.g.
+    ``"drive.gear_ratio"``), a continuous range ``[low, high]`` (``low == high`` fixes it),
+    uniform in the value (``scale = "linear"``) or in its logarithm (``"log"``, ``low > 0``:
+    a ratio known only to a factor), its ``unit``, the ``source`` of the range, the twin
+    ``element`` it acts through and the default twin's value ``default`` (informative; the
+    declared prior has it inside, a narrowed one need not: a twin's own values are checked by
+    :meth:`check`)."""
 
     name: str
     low: float
@@ -29,6 +32,7 @@ class Unknown:
     source: str
     element: str
     default: float
+    scale: Literal["linear", "log"] = "linear"
 
     def __post_init__(self) -> None:
         for key in ("unit", "source", "element"):
@@ -47,6 +51,12 @@ class Unknown:
             raise ValueError(
                 f"twin.prior.{self.name}: low ({self.low:g}) must be <= high ({self.high:g})"
             )
+        if self.scale not in ("linear", "log"):
+            raise ValueError(f"twin.prior.{self.name}: 'scale' must be 'linear' or 'log', got "
+                             f"{self.scale!r}")  # fmt: skip
+        if self.scale == "log" and self.low <= 0:
+            raise ValueError(f"twin.prior.{self.name}: a log-uniform range needs low > 0, got "
+                             f"{self.low:g}")  # fmt: skip
 
     def check(self, value: float) -> None:
         """A twin's ``value`` must lie in the range: else a one-line ``ValueError`` naming
@@ -56,6 +66,13 @@ class Unknown:
                 f"twin.prior.{self.name}: the twin's value {value!r} is outside "
                 f"[{self.low:g}, {self.high:g}]"
             )
+
+    def from_unit(self, u: np.ndarray) -> np.ndarray:
+        """Values at the quantiles ``u`` in [0, 1] of the range (uniform or log-uniform)."""
+        if self.scale == "log":
+            lo, hi = np.log(self.low), np.log(self.high)
+            return np.exp(lo + u * (hi - lo))
+        return self.low + u * (self.high - self.low)
 
     @property
     def fixed(self) -> bool:

@@ -1,7 +1,7 @@
 """The parameters ``mwip twin fit`` identifies: dotted twin-file paths, bounds, prior centre.
 
 The bounds are the twin's declared prior (``mwip.hardware.prior.PRIOR``); the fit reads them
-only through :data:`BOUNDS`, :func:`centre` and :data:`UNITS`. ``drive.emf_compensation`` is
+only through :data:`BOUNDS`, :func:`centre` and :data:`UNITS`. ``firmware.emf_compensation`` is
 the fraction of the back-EMF ``k_e omega_m`` the firmware adds to the voltage (0: open-loop
 PWM).
 """
@@ -19,9 +19,9 @@ def _bounds() -> dict[str, tuple[float, float]]:
 
 #: what the fit can identify, in this order
 _FITTED = (
-    "drive.gear_ratio", "drive.emf_compensation", "drive.deadband", "drive.current_limit",
-    "gearbox.coulomb", "gearbox.viscous", "delay", "imu.gyro_bias", "imu.accel_bias",
-    "imu.height", "fusion.tau",
+    "drive.gear_ratio", "firmware.emf_compensation", "drive.deadband", "drive.current_limit",
+    "gearbox.coulomb", "gearbox.viscous", "firmware.delay", "imu.gyro_bias", "imu.accel_bias",
+    "imu.height", "firmware.fusion.tau",
 )  # fmt: skip
 
 #: name -> (lower, upper) bound: the twin's declared prior (mwip.hardware.prior.PRIOR)
@@ -29,16 +29,16 @@ BOUNDS: dict[str, tuple[float, float]] = {n: _bounds()[n] for n in _FITTED}
 
 UNITS: dict[str, str] = {
     "drive.gear_ratio": "motor turns per wheel turn",
-    "drive.emf_compensation": "fraction of k_e omega_m added by the firmware",
+    "firmware.emf_compensation": "fraction of k_e omega_m added by the firmware",
     "drive.deadband": "duty",
     "drive.current_limit": "A",
     "gearbox.coulomb": "N m per wheel",
     "gearbox.viscous": "N m s/rad per wheel",
-    "delay": "fraction of Ts",
+    "firmware.delay": "fraction of Ts",
     "imu.gyro_bias": "rad/s",
     "imu.accel_bias": "m/s^2",
     "imu.height": "m",
-    "fusion.tau": "s",
+    "firmware.fusion.tau": "s",
 }
 
 NAMES: tuple[str, ...] = tuple(BOUNDS)

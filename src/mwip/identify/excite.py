@@ -7,7 +7,7 @@ The schedule (one row per control sample, a ``mode`` column):
    (``imu.accel_bias``);
 2. ``wheels-off-ground`` (robot on a stand, wheels free): duty steps of both signs and
    sizes (small ones near the dead-band, large ones into the current limit), then a chirp:
-   ``drive.gear_ratio`` (the wheel's inertia ``N^2 J`` and gain), ``drive.emf_compensation``
+   ``drive.gear_ratio`` (the wheel's inertia ``N^2 J`` and gain), ``firmware.emf_compensation``
    (the speed damping), ``drive.deadband``, ``drive.current_limit``, ``gearbox.coulomb``,
    ``gearbox.viscous`` and ``delay`` (the chirp's phase). The wheels get different
    schedules (the right one's steps are the left one's delayed), so the battery sag is seen.

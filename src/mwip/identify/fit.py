@@ -21,7 +21,7 @@ Experiments (the ``mode`` column) and what they inform (docs/twin_fit.md):
 - ``static`` and ``wheels-off-ground`` (the body held level and still): ``imu.gyro_bias`` (the
   gyro's mean; its standard error includes the declared bias random walk) and, with
   ``accel_x``, ``imu.accel_bias`` (the mean of ``accel_x``);
-- any log with ``accel_x, accel_y``: ``fusion.tau`` from the board's complementary filter,
+- any log with ``accel_x, accel_y``: ``firmware.fusion.tau`` from the board's complementary filter,
   ``theta_k = a (theta_{k-1} + omega_k Ts) + (1 - a) atan2(a_x, a_y)`` (linear in ``a``);
 - ``balancing``: read and validated, but no parameter is fitted from it in this version
   (``imu.height`` and the rigid-body terms are reported as not informed).
@@ -251,7 +251,7 @@ def _informed(logs: Sequence[Log]) -> dict[str, str]:
         if any(lg.has("accel_x") and np.any(lg.mode != "balancing") for lg in logs):
             out["imu.accel_bias"] = "static"
     if any(lg.has("accel_x") for lg in logs):
-        out["fusion.tau"] = "any log with accel_x, accel_y"
+        out["firmware.fusion.tau"] = "any log with accel_x, accel_y"
     return out
 
 
@@ -422,7 +422,7 @@ def _fit_stand(
     res1 = _Progress(f"stage 1 of {n_stages}", progress).wrap(smooth)
     if search and "drive.gear_ratio" in free:
         i = free.index("drive.gear_ratio")
-        j = free.index("drive.emf_compensation") if "drive.emf_compensation" in free else None
+        j = free.index("firmware.emf_compensation") if "firmware.emf_compensation" in free else None
         # the current limit is a kink: below the currents the log reaches it binds, above
         # them its Jacobian column is zero; a descent started where it binds can stall at a
         # local minimum (it cannot leave upwards), one started where it does not bind cannot
@@ -633,7 +633,7 @@ def fit(
     walk = float(getattr(getattr(tw, "imu", None), "gyro_bias_walk", 0.0))
     for n, fn in (("imu.gyro_bias", lambda: _gyro_bias(logs, walk)),
                   ("imu.accel_bias", lambda: _accel_bias(logs)),
-                  ("fusion.tau", lambda: _fusion_tau(logs))):  # fmt: skip
+                  ("firmware.fusion.tau", lambda: _fusion_tau(logs))):  # fmt: skip
         if n in want and n in informed:
             est, se_n, rr = fn()
             lo, hi = BOUNDS[n]
@@ -641,7 +641,7 @@ def fit(
             stderr[n] = se_n
             status[n] = "fitted"
             sig = {"imu.gyro_bias": "theta_rate", "imu.accel_bias": "accel_x",
-                   "fusion.tau": "theta"}[n]  # fmt: skip
+                   "firmware.fusion.tau": "theta"}[n]  # fmt: skip
             residuals[sig] = {"rms": float(np.sqrt(np.mean(rr**2))), "whiteness": whiteness(rr),
                               "n": float(rr.size)}  # fmt: skip
     for n in NAMES:

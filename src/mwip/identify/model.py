@@ -42,8 +42,8 @@ COULOMB_WIDTH = 1e-3
 
 #: The parameters the wheels-off-ground model depends on.
 STAND_PARAMS: tuple[str, ...] = (
-    "drive.gear_ratio", "drive.emf_compensation", "drive.deadband", "drive.current_limit",
-    "gearbox.coulomb", "gearbox.viscous", "delay",
+    "drive.gear_ratio", "firmware.emf_compensation", "drive.deadband", "drive.current_limit",
+    "gearbox.coulomb", "gearbox.viscous", "firmware.delay",
 )  # fmt: skip
 
 
@@ -139,12 +139,12 @@ def stand_rollout(
     are those of the trajectory; :mod:`mwip.identify.fit`, stage 2).
     """
     N = _col(p["drive.gear_ratio"])
-    c = _col(p["drive.emf_compensation"])
+    c = _col(p["firmware.emf_compensation"])
     db = _col(p["drive.deadband"])
     imax = _col(p["drive.current_limit"])
     fc = _col(p["gearbox.coulomb"])
     bv = _col(p["gearbox.viscous"])
-    dl = _col(p["delay"])
+    dl = _col(p["firmware.delay"])
     S, L1, _ = cmd.shape
     L = L1 - 1
     gain = N * k.eta * k.ke

@@ -1,9 +1,9 @@
-"""The outputs of ``mwip twin fit``: ``twin.toml``, ``fit.json``, ``fit.png``.
+"""The outputs of ``mwip twin fit``: ``robot.toml``, ``fit.json``, ``fit.png``.
 
-``twin.toml`` is the base twin with the fitted values (:mod:`mwip.hardware.twin_config`),
-preceded by a date-free provenance comment block (the logs' SHA-256, the free and fixed
-lists), so the same logs give the same file. ``drive.emf_compensation`` is written as
-``drive.emf_compensation`` is the fitted fraction (``fit.json`` has it too).
+``robot.toml`` is the robot the fit started from (``--robot FILE``, default the book's) with
+the fitted values (:mod:`mwip.robot.file`): each fitted or fixed value's source says so in
+``[provenance]`` (the fit, its standard error, the logs by SHA-256), the robot's notes list
+the logs, the free and fixed parameters; no date, so the same logs give the same file.
 """
 
 from __future__ import annotations
@@ -18,34 +18,47 @@ import numpy as np
 from mwip.identify.fit import FitResult
 from mwip.identify.logs import Log
 
-__all__ = ["fitted_twin", "twin_text", "fit_json", "write_figure", "write_outputs"]
+__all__ = ["fitted_robot", "robot_text", "fit_json", "write_figure", "write_outputs"]
 
 
-def fitted_twin(result: FitResult, base: object | None = None) -> Any:
-    """The base twin (default: the default twin) with the fitted and fixed values."""
-    from mwip.hardware.twin import Twin
+def fitted_robot(result: FitResult, logs: Sequence[Log], base: Any = None) -> Any:
+    """The robot ``base`` (default: the default robot) with the fitted and fixed values, and
+    their provenance (module docstring)."""
+    from mwip.robot import robot_or_default
 
-    tw: Twin = Twin() if base is None else base  # type: ignore[assignment]
+    robot = robot_or_default(base)
     use = {n: v for n, v in result.estimates.items()
            if result.status[n] in ("fitted", "fixed", "not identified")}  # fmt: skip
-
-    return tw.with_values(use)
-
-
-def twin_text(result: FitResult, logs: Sequence[Log], base: object | None = None) -> str:
-    """``twin.toml``: provenance comments, then the fitted twin's tables."""
-    from mwip.hardware.twin_config import twin_to_toml
-
-    lines = ["# Fitted by `mwip twin fit` (docs/twin_fit.md) from the logs (SHA-256):"]
-    for lg in logs:
-        lines.append(f"#   {lg.sha256}  {os.path.basename(lg.path)}")
-    lines.append(f"# free: {', '.join(result.free) or '(none)'}")
+    sha = ", ".join(f"{os.path.basename(lg.path)} ({lg.sha256[:12]})" for lg in logs)
+    sources: dict[str, str] = {}
+    for n in use:
+        st = result.status[n]
+        se = result.stderr.get(n)
+        if st == "fixed":
+            sources[n] = "fixed by `mwip twin fit --fix`"
+        else:
+            err = f" +- {se:.3g} (1 standard error)" if se is not None and np.isfinite(se) else ""
+            sources[n] = f"{st}: `mwip twin fit`{err} on the logs {sha}"
+    notes = ["Fitted by `mwip twin fit` (docs/twin_fit.md) from the logs (SHA-256):"]
+    notes += [f"  {lg.sha256}  {os.path.basename(lg.path)}" for lg in logs]
+    notes.append(f"free: {', '.join(result.free) or '(none)'}")
     fx = ", ".join(f"{k}={v:g}" for k, v in result.fixed.items())
-    lines.append(f"# fixed: {fx or '(none)'}")
-    ni = [n for n, s in result.status.items() if s == "not informed"]
-    lines.append(f"# not informed (prior kept): {', '.join(ni) or '(none)'}")
-    lines.append("")
-    return "\n".join(lines) + "\n" + twin_to_toml(fitted_twin(result, base))
+    notes.append(f"fixed: {fx or '(none)'}")
+    ni = [n for n, st in result.status.items() if st == "not informed"]
+    notes.append(f"not informed (the starting robot's values kept): {', '.join(ni) or '(none)'}")
+    if robot.notes:
+        notes += ["", f"Started from the robot {robot.name!r}:", robot.notes]
+    from dataclasses import replace
+
+    out = replace(robot.with_values(use), notes="\n".join(notes))
+    return out.with_sources(sources)
+
+
+def robot_text(result: FitResult, logs: Sequence[Log], base: Any = None) -> str:
+    """``robot.toml`` (module docstring)."""
+    from mwip.robot import robot_to_toml
+
+    return robot_to_toml(fitted_robot(result, logs, base))
 
 
 def fit_json(result: FitResult, logs: Sequence[Log]) -> dict[str, Any]:
@@ -95,8 +108,8 @@ def write_outputs(out: Path, result: FitResult, logs: Sequence[Log],
     """Write the three files into ``out`` (already claimed), atomically."""
     from mwip.io import write_json_atomic, write_text_atomic
 
-    files = [out / "twin.toml", out / "fit.json", out / "fit.png"]
-    write_text_atomic(files[0], twin_text(result, logs, base))
+    files = [out / "robot.toml", out / "fit.json", out / "fit.png"]
+    write_text_atomic(files[0], robot_text(result, logs, base))
     write_json_atomic(files[1], fit_json(result, logs))
     write_figure(result, files[2])
     return files

@@ -1,15 +1,14 @@
 """Synthetic logs from the twin's own elements (the generator of the identification tests).
 
-Wheels-off-ground and static logs: the body held level (``theta = 0``), each wheel driven by
-the twin's actuator (:class:`mwip.hardware.twin.TwinActuator`: delay, RE25 + PWM driver with
-quantisation, dead-band, sag and current limit, Coulomb stick-slip friction) and integrated
-exactly (``J w' = T - D w``, ``J = I_wa + N^2 J_r``, ``D`` the twin plant's ``Db`` with the
-back-EMF damping and the gearbox viscous friction), read by the twin's encoders
-(:func:`mwip.hardware.encoder.count`) and IMU (:class:`mwip.hardware.imu.Imu` with its noise,
-bias and drift, :class:`mwip.hardware.imu.TiltFilter`). The fractional back-EMF compensation
-``c`` is added to the torque command as its share ``c eta N k_t k_e omega_m / R`` (the
-driver's own compensation off), as the driver does it.
-Backlash is switched off (it is not identified).
+Wheels-off-ground and static logs: the body held level (``theta = 0``, at rest: the
+accelerometer feels no motion), each wheel driven by the twin's drive chain
+(:class:`mwip.hardware.twin.TwinActuator`: delay, the firmware's torque-to-duty map with its
+back-EMF compensation, RE25 + PWM driver with quantisation, dead-band, sag and current limit,
+Coulomb stick-slip friction) and integrated exactly (``J w' = T - D w``, ``J = I_wa + N^2
+J_r``, ``D`` the twin plant's ``Db`` with the back-EMF damping and the gearbox viscous
+friction), read by the twin's sensor chain (:class:`mwip.hardware.twin.TwinSensor`: the IMU
+with its noise, bias and drift, the firmware's fusion, the encoders). Backlash is switched off
+(it is not identified).
 
 Balancing logs: :func:`mwip.hardware.twin.run_on_twin` with a controller of
 :mod:`mwip.laws.registry` on the same twin.
@@ -48,18 +47,18 @@ def twin_for(truth: Mapping[str, float], base: object | None = None) -> Any:
 
     tw: Twin = Twin() if base is None else base  # type: ignore[assignment]
     n = truth["drive.gear_ratio"]
+    fw = tw.firmware
     return replace(
         tw,
         drive=replace(tw.drive, gear_ratio=n, deadband=truth["drive.deadband"],
-                      current_limit=truth["drive.current_limit"],
-                      emf_compensation=truth["drive.emf_compensation"]),
-        encoder=replace(tw.encoder, gear_ratio=n),
+                      current_limit=truth["drive.current_limit"]),
         gearbox=replace(tw.gearbox, coulomb=truth["gearbox.coulomb"],
                         viscous=truth["gearbox.viscous"]),
         imu=replace(tw.imu, gyro_bias=truth["imu.gyro_bias"], accel_bias=truth["imu.accel_bias"],
                     height=truth["imu.height"]),
-        fusion=replace(tw.fusion, tau=truth["fusion.tau"]),
-        delay=truth["delay"],
+        firmware=replace(fw, emf_compensation=truth["firmware.emf_compensation"],
+                         delay=truth["firmware.delay"],
+                         fusion=replace(fw.fusion, tau=truth["firmware.fusion.tau"])),
         elements=frozenset(e for e in ELEMENTS if e != "backlash"),
     )  # fmt: skip
 
@@ -75,57 +74,45 @@ def stand_log(
 ) -> dict[str, NDArray]:
     """A wheels-off-ground / static log for the schedule ``duty`` (n, 2): columns of the
     log schema (``u_r, u_l`` instead of duties with ``torque``)."""
-    from mwip.hardware.encoder import EncoderSpec, count, counts_to_angle
-    from mwip.hardware.imu import Imu, TiltFilter, tilt_arctan
-    from mwip.hardware.twin import TwinActuator
+    from mwip.hardware.twin import TwinActuator, TwinSensor
     from mwip.params import REAL
 
     tw = twin_for(truth, base)
     m, d, Ts = tw.motor, tw.drive, tw.Ts
-    c = float(truth["drive.emf_compensation"])
     N = d.gear_ratio
     gain = N * d.gear_efficiency * m.k_t
     J = float(REAL.Iwa) + N * N * m.rotor_inertia
     D = d.emf_damping(m) + tw.gearbox.viscous + float(REAL.Db)
     a = np.exp(-D * Ts / J)
-    tw_ff = replace(tw, drive=replace(d, emf_compensation=0.0))
     br = float(REAL.b / REAL.r)
-    act = TwinActuator(tw_ff, plant_b_over_r=br, mobility=1.0 / J)
+    # the body at rest on the stand: the accelerometer feels no motion
+    still = replace(tw, elements=tw.elements - {"accel_motion"})
+    sensor = TwinSensor(REAL, still)
+    sensor.reset(1, seed)
+    act = TwinActuator(REAL, tw, mobility=1.0 / J)
     act.reset(1)
-    imu = Imu(tw.imu)
-    imu.reset(1, seed)
-    filt = TiltFilter(tw.fusion)
-    enc_spec = EncoderSpec(tw.encoder.cpr, N)
     n = duty.shape[0]
     rng = np.random.default_rng(seed + 10_000)
     phi = rng.uniform(-1.0, 1.0, 2)
     w = np.zeros(2)
-    c0 = count(phi, enc_spec)
     cols: dict[str, list[float]] = {k: [] for k in (
         "t", "theta", "theta_rate", "enc_r", "enc_l", "accel_x", "accel_y")}  # fmt: skip
     cmd_out = np.zeros((n, 2))
-    zero = np.zeros(1)
     for k in range(n):
-        ax, ay, om = imu.read(zero, zero, zero, zero, 0.0 if k == 0 else Ts)
-        th_acc = tilt_arctan(ax, ay)
-        if k == 0:
-            filt.reset(th_acc)
-            th = th_acc
-        else:
-            th, _ = filt.update(om, th_acc, Ts)
-        enc = counts_to_angle(count(phi, enc_spec) - c0, enc_spec)
-        for key, val in (("t", k * Ts), ("theta", th[0]), ("theta_rate", om[0]),
-                         ("enc_r", enc[0]), ("enc_l", enc[1]), ("accel_x", ax[0]),
-                         ("accel_y", ay[0])):  # fmt: skip
-            cols[key].append(float(val))
-        u = duty[k] * d.supply_voltage * gain / m.resistance
-        cmd_out[k] = u if torque else duty[k]
-        emf = m.k_e * N * w
-        u_ff = u + c * gain * emf / m.resistance
         psi, alpha = 0.5 * (phi[0] + phi[1]), (phi[0] - phi[1]) / (2.0 * br)
         state = np.array([[psi, 0.0, alpha, 0.5 * (w[0] + w[1]), 0.0,
                            (w[0] - w[1]) / (2.0 * br), 0.0, 0.0]])  # fmt: skip
-        T = act(k * Ts, u_ff[None, :], state)[0]
+        ym = sensor(k * Ts, state).y[0]
+        lg = sensor.last
+        enc = lg["encoder_angles"][0]
+        acc = lg["imu_accel"][0]
+        for key, val in (("t", k * Ts), ("theta", ym[1]), ("theta_rate", lg["imu_gyro"][0, 0]),
+                         ("enc_r", enc[0]), ("enc_l", enc[1]), ("accel_x", acc[0]),
+                         ("accel_y", acc[1])):  # fmt: skip
+            cols[key].append(float(val))
+        u = duty[k] * d.supply_voltage * gain / m.resistance
+        cmd_out[k] = u if torque else duty[k]
+        T = act(k * Ts, u[None, :], state)[0]
         wss = T / D
         phi = phi + wss * Ts + (w - wss) * (J / D) * (1.0 - a)
         w = wss + (w - wss) * a

@@ -32,7 +32,6 @@ import scipy
 
 from mwip.hardware.identified import default_twin
 from mwip.hardware.twin import Twin
-from mwip.hardware.twin_config import twin_to_toml
 from mwip.io import write_json_atomic, write_text_atomic
 from mwip.outdir import MARKER, marker_text, owner
 from mwip.params import Params
@@ -279,7 +278,7 @@ def run_studies(
                 "started": started, "wall_s": round(time.perf_counter() - t0, 3), "jobs": jobs,
                 "quick": quick, "studies": {n: studies[n] for n in order if n in studies},
                 "params": {"plant": plant.to_dict(), "nominal (design)": nominal.to_dict()},
-                "damping": damping, "twin": twin_to_toml(twin),
+                "damping": damping, "robot": _robot_text(plant, nominal, twin),
                 "twin_status": twin_status(twin),
             })  # fmt: skip
             write_json_atomic(stage.path / RUN_RECORD, record)
@@ -334,6 +333,18 @@ def settings_of(name: str, overrides: dict[str, Any] | None) -> dict[str, Any]:
         return {**settings.defaults(name), **(overrides or {})}
     except ValueError:
         return dict(overrides or {})
+
+
+def _robot_text(plant: Params, nominal: Params, twin: Any) -> str:
+    """The robot file of the run: its body, design model and twin (default: the default
+    twin)."""
+    from mwip.robot import Robot, robot_to_toml
+
+    tw = default_twin() if twin is None else twin
+    try:
+        return robot_to_toml(Robot(body=plant, design=nominal, twin=tw, name="run"))
+    except ValueError:  # a batch of robots: no one file
+        return ""
 
 
 def twin_status(twin: Any) -> dict[str, Any]:

@@ -6,18 +6,18 @@
     name = "asta-balance"        # a study of `mwip list`
     quick = false                # optional: shorter runs
 
-    [robot]                      # optional; default: the book's robot and design model
-    params = "heavy_robot.toml"  # the simulated robot: "real", "nominal" or a parameter TOML
-    nominal = "nominal"          # the design model: same choices
-    damping = "units"            # optional: how "real"/"nominal" read the tables' Db, Dw
-                                 # ("units": D r^2, or "literal"; SPEC.md section 2)
+    [robot]                      # optional; default: the book's robot
+    file = "heavy_robot.toml"    # a robot file (`mwip robot show`): its body, design model
+                                 # and twin
+    damping = "units"            # optional, without a file: how the book's tables' Db, Dw
+                                 # read ("units": D r^2, or "literal"; SPEC.md section 2)
 
     [settings]                   # optional: the study's own numbers (:mod:`.settings`)
     theta0 = -0.2                # e.g. the initial pitch (rad)
 
-A Chapter 6 study file may name the digital twin it runs on: ``[robot] twin = "my_twin.toml"``
-(a twin file, ``mwip twin show``) and/or ``[twin]`` tables of its own that override it key by
-key (:mod:`mwip.hardware.twin_config`); ``mwip run --twin FILE`` replaces both.
+The robot file's twin is the one the Chapter 6 studies run on; ``mwip run --robot FILE``
+replaces the file's robot. (The older ``[robot] params``, ``nominal`` and ``twin`` keys and
+``[twin]`` tables are gone: one robot file holds them all.)
 
 Every study ships its file with all its settings (``mwip scenario STUDY`` prints it). Paths are
 relative to the study file. Unknown tables or keys are errors; every error is a one-line
@@ -31,16 +31,15 @@ from pathlib import Path
 from typing import Any
 
 from mwip.io import read_toml
-from mwip.params import DAMPING_READINGS, Params, book_params, load_params
+from mwip.params import DAMPING_READINGS, Params, book_params
 from mwip.studies.settings import validate
 
 __all__ = ["StudyFile", "load_study_file"]
 
 _TABLES = {
     "study": ("name", "quick"),
-    "robot": ("params", "nominal", "damping", "twin"),
+    "robot": ("file", "damping"),
     "settings": (),
-    "twin": (),  # the twin's [twin] tables (mwip.hardware.twin_config)
     "open": (),  # documentation of the settings the book leaves open (settings.open_settings)
     "ranges": (),  # the study's allowed values (settings.ranges), accepted unchanged
     "report": (),  # the texts of the HTML report (settings.report_texts); ignored in a run
@@ -58,17 +57,10 @@ class StudyFile:
     nominal: Params
     settings: dict[str, Any] = field(default_factory=dict)
     twin: Any = None  # mwip.hardware.twin.Twin, or None: the run's twin
+    robot: Any = None  # mwip.robot.Robot of [robot] file, or None: the book's
 
 
-def _robot(value: object, key: str, base: Params, folder: Path, damping: str) -> Params:
-    if not isinstance(value, str) or not value:
-        raise ValueError(f"[robot] {key} must be 'real', 'nominal' or a TOML path, got {value!r}")
-    if value.lower() in ("real", "nominal"):
-        return book_params(value.lower(), damping)
-    path = (folder / value).resolve()
-    if not path.is_file():
-        raise ValueError(f"[robot] {key}: no such parameter file {str(path)!r}")
-    return load_params(path, base=base)
+_GONE = {"params": "the body", "nominal": "the design model", "twin": "the twin"}
 
 
 def load_study_file(path: str | Path, damping: str | None = None) -> StudyFile:
@@ -90,8 +82,14 @@ def _parse(path: Path, data: dict[str, Any], damping: str | None) -> StudyFile:
     from mwip.studies.settings import packaged_ranges_text
 
     known = study_names()
-    tables_free = ("settings", "open", "ranges", "report", "twin")  # keys not checked here
+    tables_free = ("settings", "open", "ranges", "report")  # keys not checked here
 
+    if "twin" in data:
+        raise ValueError("[twin] tables are gone: the robot file ([robot] file) holds the twin")
+    for key, what in _GONE.items():
+        if key in data.get("robot", {}):
+            raise ValueError(f"[robot] {key} is gone: a robot file holds {what} "
+                             "([robot] file = \"my_robot.toml\")")  # fmt: skip
     for table, body in data.items():
         if table not in _TABLES:
             raise ValueError(f"unknown table [{table}]; allowed: {', '.join(_TABLES)}")
@@ -115,10 +113,23 @@ def _parse(path: Path, data: dict[str, Any], damping: str | None) -> StudyFile:
         raise ValueError(
             f"[robot] damping must be one of {', '.join(DAMPING_READINGS)}, got {reading!r}"
         )
-    plant = _robot(robot.get("params", "real"), "params", book_params("real", reading),
-                   folder, reading)  # fmt: skip
-    nominal = _robot(robot.get("nominal", "nominal"), "nominal",
-                     book_params("nominal", reading), folder, reading)  # fmt: skip
+    rb = None
+    if "file" in robot:
+        from mwip.robot import load_robot
+
+        value = robot["file"]
+        if not isinstance(value, str) or not value.strip():
+            raise ValueError(f"[robot] file must be a robot file path, got {value!r}")
+        full = (folder / value).resolve()
+        if not full.is_file():
+            raise ValueError(f"[robot] file: no such robot file {str(full)!r}")
+        if "damping" in robot:
+            raise ValueError("[robot] damping reads the book's tables; the robot file gives "
+                             "its own Db, Dw: give one of file and damping")  # fmt: skip
+        rb = load_robot(full)
+        plant, nominal = rb.body, rb.design
+    else:
+        plant, nominal = book_params("real", reading), book_params("nominal", reading)
     if "ranges" in data and data["ranges"] != packaged_ranges_text(name):
         raise ValueError(
             f"[ranges] is the study's own table of allowed values and cannot be changed; "
@@ -142,23 +153,5 @@ def _parse(path: Path, data: dict[str, Any], damping: str | None) -> StudyFile:
             )
     overrides = validate(name, data.get("settings", {}))
     return StudyFile(path=path, name=name, quick=quick, plant=plant, nominal=nominal,
-                     settings=overrides, twin=_twin(robot.get("twin"), data.get("twin"),
-                                                    folder))  # fmt: skip
-
-
-def _twin(path: object, tables: Any, folder: Path) -> Any:
-    """The twin of ``[robot] twin`` (a twin file) overridden by the file's ``[twin]`` tables;
-    ``None`` when the study file names neither."""
-    if path is None and tables is None:
-        return None
-    from mwip.hardware.twin_config import load_twin, twin_from_dict
-
-    base = None
-    if path is not None:
-        if not isinstance(path, str) or not path:
-            raise ValueError(f"[robot] twin must be a twin file path, got {path!r}")
-        full = (folder / path).resolve()
-        if not full.is_file():
-            raise ValueError(f"[robot] twin: no such twin file {str(full)!r}")
-        base = load_twin(full)
-    return base if tables is None else twin_from_dict(tables, base)
+                     settings=overrides, twin=None if rb is None else rb.twin,
+                     robot=rb)  # fmt: skip

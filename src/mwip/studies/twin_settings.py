@@ -110,10 +110,10 @@ def twin_doc(twin: Twin) -> str:
     d = twin.drive
     return (
         f"{d.mode} drive (RE25 + {d.gear_ratio:g}:1, {d.supply_voltage:g} V, "
-        f"{d.current_limit:g} A, {d.pwm_levels} PWM levels), {twin.fusion.kind} fusion "
-        f"(tau {twin.fusion.tau:g} s), "
+        f"{d.current_limit:g} A, {d.pwm_levels} PWM levels), {twin.firmware.fusion.kind} fusion "
+        f"(tau {twin.firmware.fusion.tau:g} s), "
         f"encoders {twin.encoder.cpr} cpr, sampled every {twin.Ts * 1e3:g} ms with "
-        f"{twin.delay:g} Ts delay, plant step {twin.dt * 1e3:g} ms; elements off: "
+        f"{twin.firmware.delay:g} Ts delay, plant step {twin.dt * 1e3:g} ms; elements off: "
         f"{', '.join(off) or 'none'} (mwip twin show)"
     )
 
