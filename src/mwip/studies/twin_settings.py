@@ -114,7 +114,7 @@ def twin_doc(twin: Twin) -> str:
         f"(tau {twin.firmware.fusion.tau:g} s), "
         f"encoders {twin.encoder.cpr} cpr, sampled every {twin.Ts * 1e3:g} ms with "
         f"{twin.firmware.delay:g} Ts delay, plant step {twin.dt * 1e3:g} ms; elements off: "
-        f"{', '.join(off) or 'none'} (mwip twin show)"
+        f"{', '.join(off) or 'none'} (mwip robot show)"
     )
 
 
