@@ -13,7 +13,6 @@ Hardware modules are imported per command.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
@@ -60,7 +59,9 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
 
     tables = sensitivity_tables(load_twin_option(twin_file))  # type: ignore[arg-type]
     if as_json:
-        click.echo(json.dumps(tables, indent=1))
+        from mwip.io import json_text
+
+        click.echo(json_text(tables, indent=1))
     else:
         click.echo(tables_markdown(tables))
 
