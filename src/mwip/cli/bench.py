@@ -7,12 +7,14 @@ from pathlib import Path
 
 import click
 
+from mwip.cli._common import NonEmptyPath
+
 __all__ = ["bench"]
 
 
 @click.command("bench")
 @click.argument("controllers", nargs=-1, metavar="[CONTROLLER...]")
-@click.option("--out", type=click.Path(path_type=Path), default=None,
+@click.option("--out", type=NonEmptyPath(path_type=Path), default=None,
               help="Results folder (created; a rerun continues an interrupted run).")
 @click.option("--settings", "settings_files", multiple=True, metavar="FILE",
               help="Enter a controller with the settings of FILE ([controller] name, "

@@ -17,6 +17,7 @@ import difflib
 import hashlib
 import io
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -140,6 +141,9 @@ def read_log(path: str | Path) -> Log:
     if not p.strip():
         raise _err(p, None, "the file name is empty")
     fp = Path(p)
+    if p.endswith(("/", os.sep)) and not fp.is_dir():  # (Path drops the slash)
+        raise _err(p, None, "ends in '/', which names a folder, but "
+                   + ("is a file: drop the '/'" if fp.exists() else "does not exist"))
     if fp.is_dir():
         raise _err(p, None, "is a folder, not a log file")
     if not fp.exists():
