@@ -144,9 +144,8 @@ def hold(out: Path, option: str = "--out") -> Iterator[Path]:
     holds it. A lock file that no live process holds (its writer was killed) is taken over. A
     folder created here is removed again if it is still empty at the end.
     """
-    import fcntl
-
     import errno
+    import fcntl
 
     out = Path(out)
     created = not out.exists()
