@@ -13,6 +13,7 @@ Hardware modules are imported per command.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
