@@ -183,6 +183,9 @@ def read_toml(path: str | os.PathLike[str], what: str) -> dict[str, Any]:
         raise ValueError(f"{what} {text!r} cannot be read: {exc.strerror or exc}") from None
     if len(data) > _MAX_TOML_BYTES:
         raise ValueError(f"{what} {text!r} is larger than {_MAX_TOML_BYTES // 2**20} MiB")
+    if data.startswith(b"\xef\xbb\xbf"):
+        raise ValueError(f"{what} {text!r} starts with a UTF-8 byte-order mark (BOM), which TOML "
+                         "does not allow; save it as UTF-8 without BOM")  # fmt: skip
     try:
         return tomllib.loads(data.decode("utf-8"))
     except UnicodeDecodeError:

@@ -52,7 +52,8 @@ from mwip.io import write_json_atomic, write_parquet_atomic
 from mwip.outdir import LOCK
 
 __all__ = ["RunSummary", "compute_chunk", "run_campaign", "assemble", "done_blocks", "n_blocks",
-           "check_scheduler", "deaf_spawns", "kill_children", "SCHEDULER_TIMEOUT_S"]
+           "check_scheduler", "deaf_spawns", "kill_children", "SCHEDULER_TIMEOUT_S", "Work",
+           "work", "check_work", "MAX_HOURS"]
 
 _CHUNK_RE = re.compile(r"^blocks-(\d{6,})-(\d{6,})\.parquet$")
 #: chunks per worker the default chunk size aims at (load balance vs per-chunk overhead)
@@ -95,6 +96,76 @@ def n_blocks(campaign: Campaign) -> int:
                          f"{campaign.block} samples; at most {MAX_BLOCKS} (fewer samples or "
                          "larger blocks)")  # fmt: skip
     return blocks
+
+
+#: Plant-seconds a second of one core simulates (BENCHMARKS.md: ~500-700 on the twin's sensors
+#: and drive, ~10,000 on the plain plant): the estimate of a run's time.
+PLANT_S_PER_S = {"twin": 500.0, "ideal": 10_000.0}
+#: Estimated hours of one core a run may take (``max_hours``; ``--max-hours`` raises it).
+MAX_HOURS = 48.0
+
+
+@dataclass(frozen=True)
+class Work:
+    """A run's size, estimated before it starts: ``plant_s`` simulated robot-seconds (all
+    samples and controllers), ``cpu_hours`` at :data:`PLANT_S_PER_S`, ``block_bytes`` the
+    records of one engine batch (one per worker at a time)."""
+
+    plant_s: float
+    cpu_hours: float
+    block_bytes: float
+
+
+def work(campaign: Campaign) -> Work | None:
+    """The size of a robustness campaign or a benchmark (``None`` for other kinds: a claims
+    or calibration sample is a whole study run, bounded by the sample limits)."""
+    from mwip.budget import estimate
+
+    if campaign.kind == "robustness":
+        n_ctrl, duration = len(campaign.controllers), float(campaign.duration)
+        sensors, dt = str(campaign.sensors), 0.005
+    elif campaign.kind == "bench":
+        bench: Any = getattr(campaign, "bench", None)
+        n_ctrl, duration = len(getattr(campaign, "entrants", ())), float(bench.duration)
+        sensors, dt = "twin", 0.0005
+    else:
+        return None
+    plant_s = float(campaign.samples) * n_ctrl * duration
+    rate = PLANT_S_PER_S["twin" if sensors == "twin" else "ideal"]
+    block = estimate(duration, 0.005, dt, n=int(campaign.block)).bytes
+    return Work(plant_s, plant_s / rate / 3600.0, float(block))
+
+
+def check_work(campaign: Campaign, workers: int, max_hours: float | None = None,
+               local: bool = True) -> None:  # fmt: skip
+    """Refuse a run whose estimated time exceeds ``max_hours`` hours of one core (default
+    :data:`MAX_HOURS`), or (``local``: its workers on this machine) whose ``workers`` blocks
+    in memory at once exceed half this machine's memory (one-line ``ValueError``: what it
+    would need, what raises the limit)."""
+    w = work(campaign)
+    if w is None:
+        return
+    limit = MAX_HOURS if max_hours is None else float(max_hours)
+    if not (math.isfinite(limit) and limit > 0):
+        raise ValueError(f"--max-hours must be a positive number, got {max_hours!r}")
+    if w.cpu_hours > limit:
+        raise ValueError(f"the run would simulate {w.plant_s:.3g} robot-seconds, about "
+                         f"{w.cpu_hours:.3g} hours of one core (~{w.cpu_hours / workers:.3g} h "
+                         f"on {workers} workers), more than {limit:g} h: fewer samples, "
+                         "controllers or seconds, or --max-hours to allow it")  # fmt: skip
+    total = _memory() if local else 0.0
+    if total and workers * w.block_bytes > 0.5 * total:
+        raise ValueError(f"--jobs {workers}: {workers} blocks in memory at once need about "
+                         f"{workers * w.block_bytes / 2**30:.3g} GiB, more than half of this "
+                         f"machine's {total / 2**30:.3g} GiB: fewer jobs or a smaller "
+                         "block")  # fmt: skip
+
+
+def _memory() -> float:
+    try:
+        return float(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):  # not on this platform
+        return 0.0
 
 
 def max_jobs() -> int:
@@ -247,11 +318,14 @@ def run_campaign(
     scheduler: str | None = None,
     chunk: int | None = None,
     progress: ProgressFn | None = _default_progress,
+    max_hours: float | None = None,
 ) -> RunSummary:
     """Run (or continue) ``campaign`` into ``out``; see the module docstring.
 
     ``chunk``: samples per chunk (rounded up to whole blocks; default: about
     ``4 x workers`` chunks). ``jobs``: worker processes (default: the machine's CPUs).
+    ``max_hours``: the most hours of one core the run may be estimated to take
+    (:func:`check_work`; default :data:`MAX_HOURS`).
     Ctrl-C (``KeyboardInterrupt``) stops after saving nothing partial and returns
     ``status="interrupted"``; the next run continues.
     """
@@ -281,6 +355,8 @@ def run_campaign(
         else max(1, math.ceil(len(todo) / (_CHUNKS_PER_WORKER * workers)))
     )
     chunks = _chunks(todo, per)
+    if chunks:
+        check_work(campaign, workers, max_hours, local=scheduler is None)
     units = n_units(campaign)
 
     def size(b: int) -> int:  # units asked in block b (the last block is run whole, and the

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -81,6 +82,9 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
 @click.option("--segment", default=40, show_default=True, type=click.IntRange(5, 400),
               help="Samples per multiple-shooting segment.")
 @click.option("--force", is_flag=True, help="Write into a non-empty folder that is not mwip's.")
+@click.option("--max-rows", "max_rows", type=click.IntRange(3, 10**9), default=None,
+              help="Rows of the logs together, at most (default 500000, 42 min at 5 ms: a "
+              "fit of some 1.5 GB and 6 minutes; the fit takes ~3 kB and ~0.7 ms per row).")
 @click.option("--evidence", type=click.Choice(["book"]), default=None,
               help="Instead of logs: condition the book's robot on the book's Chapter 6 "
               "evidence (prior draws on Dask, resumable; docs/twin_fit.md).")
@@ -108,7 +112,8 @@ def twin_sensitivity(twin_file: Path | None, as_json: bool) -> None:
               "effective size is 100; 0: no stage 5).")
 def twin_fit(logs: tuple[str, ...], out: Path, twin_file: Path | None, free: str | None,
              fix: tuple[str, ...], validate: str | None, segment: int,
-             force: bool, evidence: str | None, samples: int | None, seed: int | None,
+             force: bool, max_rows: int | None, evidence: str | None, samples: int | None,
+             seed: int | None,
              jobs: int, duration: float, stage2: int | None,
              chain_steps: int | None, mixture_draws: int | None,
              envelope_draws: int | None) -> None:  # fmt: skip
@@ -156,8 +161,17 @@ def twin_fit(logs: tuple[str, ...], out: Path, twin_file: Path | None, free: str
     if names is not None and len(set(names)) != len(names):
         raise click.BadParameter("names a parameter twice", param_hint="--free")
 
-    read = [read_log(p) for p in logs]
-    held = read_log(validate) if validate is not None else None
+    from mwip.identify.logs import MAX_ROWS, LogError
+
+    limit = MAX_ROWS if max_rows is None else max_rows
+    read: list[Any] = []
+    for p in [*logs, *([validate] if validate is not None else [])]:
+        left = limit - sum(lg.n for lg in read)  # the logs together, counted while read
+        if left < 3:
+            raise LogError(f"log {p!r}: the logs before it hold {limit - left} rows, the "
+                           f"most for one fit (--max-rows {limit}); raise it or cut the logs")
+        read.append(read_log(p, max_rows=left))
+    held = read.pop() if validate is not None else None
     result = fit(read, base, free=names, fixed=fixed, segment=segment,
                  progress=lambda line: click.echo(line, err=True))  # fmt: skip
     if held is not None:
@@ -178,7 +192,7 @@ def twin_fit(logs: tuple[str, ...], out: Path, twin_file: Path | None, free: str
 
 
 #: options of each mode of ``twin fit``: refused in the other one
-_LOG_ONLY = ("twin_file", "free", "fix", "validate", "segment")
+_LOG_ONLY = ("twin_file", "free", "fix", "validate", "segment", "max_rows")
 _BOOK_ONLY = ("samples", "seed", "jobs", "duration", "stage2", "chain_steps", "mixture_draws",
               "envelope_draws")  # fmt: skip
 
@@ -249,12 +263,16 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
 @click.option("--static", default=2.0, show_default=True, type=float, help="Static hold (s).")
 @click.option("--step", default=0.25, show_default=True, type=float, help="Each duty step (s).")
 @click.option("--chirp", default=4.0, show_default=True, type=float, help="Chirp length (s).")
-def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float) -> None:
+@click.option("--max-samples", "max_samples", type=click.IntRange(1, 10**9), default=None,
+              help="Rows of the schedule, at most (default 2000000: some 90 MB of CSV).")
+def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float,
+                max_samples: int | None) -> None:  # fmt: skip
     """Write the excitation schedule to run on the robot (docs/twin_fit.md)."""
-    from mwip.identify.excite import schedule
+    from mwip.identify.excite import MAX_SAMPLES, schedule
     from mwip.io import write_text_atomic
 
-    t, duty, mode = schedule(Ts, static, step, chirp)
+    t, duty, mode = schedule(Ts, static, step, chirp,
+                             max_samples=MAX_SAMPLES if max_samples is None else max_samples)
     lines = ["t,duty_r,duty_l,mode"]
     lines += [f"{t[i]:.6f},{duty[i, 0]:.6f},{duty[i, 1]:.6f},{mode[i]}" for i in range(t.size)]
     write_text_atomic(out, "\n".join(lines) + "\n")
