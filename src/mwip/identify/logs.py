@@ -296,8 +296,11 @@ def read_log(path: str | Path, max_rows: int = MAX_ROWS) -> Log:
     if np.mean(np.abs(th) > 1.6) > 0.05:
         raise _err(p, "theta", f"|theta| > 1.6 rad in {int(np.sum(np.abs(th) > 1.6))} rows: "
                    "degrees instead of rad?")  # fmt: skip
-    if np.max(np.abs(cols["theta_rate"])) > 50.0:
-        raise _err(p, "theta_rate", "above 50 rad/s: deg/s instead of rad/s?")
+    _check_gyro(p, cols, mode, med)  # (names the unit by the pitch it should follow)
+    top = float(np.max(np.abs(cols["theta_rate"])))
+    if top > 50.0:
+        hint = "deg/s instead of rad/s?" if top < 50 * 57.3 else "mrad/s or deg/s instead of rad/s?"
+        raise _err(p, "theta_rate", f"up to {top:.4g}, above 50 rad/s: {hint}")
     inputs = "torque" if pair[0] == "u_r" else "duty"
     for name in pair:
         x = cols[name]
@@ -310,7 +313,6 @@ def read_log(path: str | Path, max_rows: int = MAX_ROWS) -> Log:
     if "accel_x" in cols:
         _check_accel(p, cols, mode)
     _check_wheels(p, cols, med)
-    _check_gyro(p, cols, mode, med)
     moving = [c for c in pair if np.ptp(cols[c]) > 0]
     if not moving and not np.all(mode == "static"):
         raise _err(p, pair[0], "every input is constant: nothing to identify (use mode "
@@ -392,16 +394,18 @@ def _check_gyro(p: str, cols: dict[str, NDArray[np.float64]], mode: NDArray[np.s
                            f"(theta_rate) turns over {w * Ts:g} s windows (balancing rows); "
                            f"expected 1: {hint}")  # fmt: skip
     stand = mode == "wheels-off-ground"
-    if stand.sum() >= 20:
-        wheel = np.abs(np.diff(0.5 * (cols["enc_r"] + cols["enc_l"]))) / Ts
-        on = stand[1:] & stand[:-1]
-        if on.sum() >= 20 and float(np.std(wheel[on])) > 1.0:
-            g = np.abs(gyro[1:][on])
-            c = float(np.corrcoef(g, wheel[on])[0, 1]) if np.std(g) > 0 else 0.0
-            if c > 0.9 and float(np.std(g)) > 0.5 * float(np.std(wheel[on])):
-                raise _err(p, "theta_rate", "on the stand (wheels-off-ground rows, the body "
-                           "held) it follows the wheels' speed: a wheel speed instead of the "
-                           "body's pitch rate (gyro)?")  # fmt: skip
+    on = stand[1:] & stand[:-1]
+    if on.sum() < 20:
+        return
+    g = np.abs(gyro[1:][on])
+    for name in ("enc_r", "enc_l"):
+        wheel = np.abs(np.diff(cols[name]))[on] / Ts
+        if float(np.std(wheel)) <= 1.0 or float(np.std(g)) <= 0.5 * float(np.std(wheel)):
+            continue
+        if float(np.corrcoef(g, wheel)[0, 1]) > 0.9:
+            raise _err(p, "theta_rate", "on the stand (wheels-off-ground rows, the body held) "
+                       f"it follows {name}'s speed: a wheel speed instead of the body's pitch "
+                       "rate (gyro)?")  # fmt: skip
 
 
 def window_starts(on: NDArray[np.bool_], length: int) -> list[int]:
