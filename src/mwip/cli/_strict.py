@@ -42,13 +42,25 @@ def _single_valued(p: click.Parameter) -> bool:
             and not p.is_flag and p.nargs == 1)  # fmt: skip
 
 
+def _non_finite(raw: Any) -> float | None:
+    """The non-finite number ``raw`` (text as typed) reads as, else ``None``."""
+    for item in raw if isinstance(raw, list | tuple) else (raw,):
+        try:
+            x = float(item)
+        except (TypeError, ValueError):
+            continue  # not a number at all: the option's own type says so
+        if not math.isfinite(x):
+            return x
+    return None
+
+
 def _checked(cmd: click.Command, parse: Any) -> Any:
     def parse_args(ctx: click.Context, args: list[str]) -> list[str]:
         if not isinstance(cmd, click.Group) and not ctx.resilient_parsing:
             try:
-                _, _, order = cmd.make_parser(ctx).parse_args(args=list(args))
+                opts, _, order = cmd.make_parser(ctx).parse_args(args=list(args))
             except click.UsageError:
-                order = []  # the real parse below says what is wrong
+                opts, order = {}, []  # the real parse below says what is wrong
             seen: set[str] = set()
             for p in order:
                 if _single_valued(p) and p.name is not None:
@@ -57,15 +69,10 @@ def _checked(cmd: click.Command, parse: Any) -> Any:
                         raise click.UsageError(f"{name} is given twice; give it once "
                                                "(it takes one value)", ctx=ctx)  # fmt: skip
                     seen.add(p.name)
-        rest = parse(ctx, args)
-        for p in cmd.get_params(ctx):
-            if isinstance(p.type, click.types.FloatParamType) and p.name in ctx.params:
-                value = ctx.params[p.name]
-                values = value if isinstance(value, tuple | list) else (value,)
-                for v in values:
-                    if isinstance(v, float) and not math.isfinite(v):
-                        raise click.BadParameter(f"must be a finite number, got {v!r}",
-                                                 ctx=ctx, param=p)  # fmt: skip
-        return rest
+                if (isinstance(p.type, click.types.FloatParamType) and p.name in opts
+                        and (bad := _non_finite(opts[p.name])) is not None):  # fmt: skip
+                    raise click.BadParameter(f"must be a finite number, got {bad!r}",
+                                             ctx=ctx, param=p)  # fmt: skip
+        return parse(ctx, args)
 
     return parse_args
