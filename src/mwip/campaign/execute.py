@@ -379,7 +379,8 @@ def run_campaign(
     interrupted = False
     try:
         if dask is not None:
-            _run_dask(campaign, chunks, *dask, finished)
+            with deaf_spawns():  # (a worker the nanny restarts is deaf to Ctrl-C too)
+                _run_dask(campaign, chunks, *dask, finished)
         else:
             for blocks in chunks:
                 finished(blocks, compute_chunk(campaign, blocks))
