@@ -498,8 +498,10 @@ def _connect(workers: int, scheduler: str | None) -> tuple[Any, Any]:
         except (OSError, TimeoutError) as exc:
             raise ValueError(f"--scheduler: cannot reach {scheduler!r}: {exc}") from None
     cluster = _quiet_workers(
-        lambda: LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        lambda: LocalCluster(  # (its HTTP server on a free port: port 8787 may be another
+            # run's, and Dask would warn of it)
+            n_workers=workers, threads_per_worker=1, processes=True,
+            dashboard_address="127.0.0.1:0",
         )
     )
     return Client(cluster), cluster
