@@ -139,7 +139,6 @@ CASES = [
     ("suggest", 14, "SIGKILL"),  # slot 4 with one of its three parameters drawn
     ("suggest", 32, "SIGINT"),  # slot 10 (TPE's model from here) with one parameter drawn
     ("evaluate", 9, "SIGKILL"),  # mid-trial: parameters drawn, the robots under way
-    ("evaluate", 21, "SIGINT"),
     ("tell", 7, "SIGKILL"),  # the result computed, not yet told
     ("state", 12, "SIGINT"),  # inside the database write of a trial's end
     ("write", 1, "SIGKILL"),  # every trial done, the results being written
