@@ -266,6 +266,9 @@ def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
             raise ValueError(f"[scenario] {key} must be a string, got {sc[key]!r}")
     kwargs: dict[str, Any] = dict(sc)
     kwargs["settings"] = dict(data.get("controller", {}))
+    from mwip.laws.settings_file import check_file_types  # K = "7,3": text, not a list
+
+    check_file_types(str(sc.get("controller", "lqr")), kwargs["settings"], "[controller]")
     kwargs["plant"] = _params_table("plant", data.get("plant", {}), REAL, p)
     kwargs["design"] = _params_table("design", data.get("design", {}), NOMINAL, p)
     kwargs["initial"] = dict(data.get("initial", {}))

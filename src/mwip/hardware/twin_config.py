@@ -196,7 +196,9 @@ def _value(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        from mwip.io import toml_str
+
+        return toml_str(v)
     if isinstance(v, int):
         return str(v)
     if isinstance(v, float):

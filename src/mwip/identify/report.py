@@ -33,17 +33,20 @@ def fitted_twin(result: FitResult, base: object | None = None) -> Any:
 
 
 def twin_text(result: FitResult, logs: Sequence[Log], base: object | None = None) -> str:
-    """``twin.toml``: provenance comments, then the fitted twin's tables."""
+    """``twin.toml``: provenance comments (file names escaped: a newline in a name cannot
+    start a TOML line), then the fitted twin's tables."""
     from mwip.hardware.twin_config import twin_to_toml
+    from mwip.io import toml_comment
 
-    lines = ["# Fitted by `mwip twin fit` (docs/twin_fit.md) from the logs (SHA-256):"]
+    lines = ["Fitted by `mwip twin fit` (docs/twin_fit.md) from the logs (SHA-256):"]
     for lg in logs:
-        lines.append(f"#   {lg.sha256}  {os.path.basename(lg.path)}")
-    lines.append(f"# free: {', '.join(result.free) or '(none)'}")
+        lines.append(f"  {lg.sha256}  {os.path.basename(lg.path)}")
+    lines.append(f"free: {', '.join(result.free) or '(none)'}")
     fx = ", ".join(f"{k}={v:g}" for k, v in result.fixed.items())
-    lines.append(f"# fixed: {fx or '(none)'}")
+    lines.append(f"fixed: {fx or '(none)'}")
     ni = [n for n, s in result.status.items() if s == "not informed"]
-    lines.append(f"# not informed (prior kept): {', '.join(ni) or '(none)'}")
+    lines.append(f"not informed (prior kept): {', '.join(ni) or '(none)'}")
+    lines = toml_comment("\n".join(lines)).split("\n")  # a name cannot end the comment
     lines.append("")
     return "\n".join(lines) + "\n" + twin_to_toml(fitted_twin(result, base))
 
