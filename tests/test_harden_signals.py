@@ -53,22 +53,41 @@ def test_python_m_mwip_and_the_console_script_share_the_entry():
     assert "mwip.console" in (ROOT / "src" / "mwip" / "__main__.py").read_text()
 
 
-def test_dask_workers_are_started_deaf_to_ctrl_c_and_quiet():
-    from mwip.campaign.execute import _quiet_workers
-
-    probe = ("import os, signal; print(signal.getsignal(signal.SIGINT) is signal.SIG_IGN, "
-             "os.environ.get('DASK_LOGGING__DISTRIBUTED'))")  # fmt: skip
-
-    def start():
-        return subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                              timeout=60).stdout.split()  # fmt: skip
-
-    before = os.environ.get("DASK_LOGGING__DISTRIBUTED")
-    assert _quiet_workers(start) == ["True", "error"]
-    assert os.environ.get("DASK_LOGGING__DISTRIBUTED") == before  # restored here
+def _probe_child(q) -> None:  # (module level: a spawned process imports it)
+    import os
     import signal
 
-    assert signal.getsignal(signal.SIGINT) is not signal.SIG_IGN  # restored here
+    q.put((signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, []),
+           os.environ.get("DASK_LOGGING__DISTRIBUTED")))  # fmt: skip
+
+
+def test_dask_workers_are_started_deaf_to_ctrl_c_and_quiet():
+    """Issue 39: the workers start with SIGINT blocked (they never see the terminal's
+    Ctrl-C) while this process keeps its own handler all along (a Ctrl-C during the start is
+    not dropped, as it was with SIG_IGN)."""
+    import multiprocessing
+    import signal
+
+    from mwip.campaign.execute import _quiet_workers
+
+    ctx = multiprocessing.get_context("spawn")
+    q = ctx.Queue()
+    handler_during: list = []
+
+    def start():
+        handler_during.append(signal.getsignal(signal.SIGINT))
+        p = ctx.Process(target=_probe_child, args=(q,))
+        p.start()
+        got = q.get(timeout=60)
+        p.join(60)
+        return got
+
+    before = os.environ.get("DASK_LOGGING__DISTRIBUTED")
+    handler = signal.getsignal(signal.SIGINT)
+    assert _quiet_workers(start) == (True, "error")
+    assert handler_during == [handler] and handler is not signal.SIG_IGN  # never ignored here
+    assert os.environ.get("DASK_LOGGING__DISTRIBUTED") == before  # restored here
+    assert signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, [])
 
 
 @pytest.fixture

@@ -12,7 +12,6 @@ animation ends. :func:`poster_frame` draws one frame (the last) as a PNG.
 from __future__ import annotations
 
 import base64
-import html
 import io
 import os
 import shutil
@@ -23,7 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mwip.io import write_atomic, write_text_atomic
+from mwip.io import html_text, write_atomic, write_text_atomic
 from mwip.plot.runs import Run, RunFolderError, records
 
 if TYPE_CHECKING:  # matplotlib: imported where a frame is drawn
@@ -84,11 +83,11 @@ def animate_run(run: Run, path: Path, *, fps: float = 20.0, speed: float = 1.0) 
     gif = _gif_bytes(frames, fps, loop=run.status == "ok")
     if ext == ".gif":
         return write_atomic(path, lambda fh: fh.write(gif))
-    title = html.escape(f"{run.study + ': ' if run.study else ''}{run.name}")
+    title = html_text(f"{run.study + ': ' if run.study else ''}{run.name}")
     page = (
         '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">'
         f"<title>{title}</title></head><body style='font-family:sans-serif'>"
-        f"<h1 style='font-size:1.2rem'>{title} ({html.escape(run.status)}, "
+        f"<h1 style='font-size:1.2rem'>{title} ({html_text(run.status)}, "
         f"{run.t_end:.3g} s, {speed:g}x)</h1>"
         f'<img alt="{title}" style="max-width:100%" src="data:image/gif;base64,'
         f'{base64.b64encode(gif).decode("ascii")}"></body></html>\n'

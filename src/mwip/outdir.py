@@ -144,11 +144,19 @@ def hold(out: Path, option: str = "--out") -> Iterator[Path]:
     holds it. A lock file that no live process holds (its writer was killed) is taken over. A
     folder created here is removed again if it is still empty at the end.
     """
+    import errno
     import fcntl
 
     out = Path(out)
     created = not out.exists()
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:  # a path that cannot be a folder is bad input; a full disk is not
+        if exc.errno not in (errno.ENOTDIR, errno.ENOENT, errno.EACCES, errno.EPERM,
+                             errno.EROFS, errno.ENAMETOOLONG, errno.EEXIST, errno.ELOOP):
+            raise
+        raise ValueError(f"{option}: cannot create the folder {str(out)!r}: "
+                         f"{exc.strerror or exc}") from None  # fmt: skip
     path = out / LOCK
     while True:
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)

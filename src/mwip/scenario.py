@@ -282,6 +282,9 @@ def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
         raise ValueError("[scenario] twin must be true or false (a twin file is now a robot "
                          "file: [scenario] robot)")  # fmt: skip
     kwargs["settings"] = dict(data.get("controller", {}))
+    from mwip.laws.settings_file import check_file_types  # K = "7,3": text, not a list
+
+    check_file_types(str(sc.get("controller", "lqr")), kwargs["settings"], "[controller]")
     kwargs["plant"] = _params_table("plant", data.get("plant", {}), body)
     kwargs["design"] = _params_table("design", data.get("design", {}), design)
     kwargs["initial"] = dict(data.get("initial", {}))

@@ -52,6 +52,9 @@ def resolve_entrants(names: Sequence[str], settings_files: Sequence[str | Path] 
             spec = get(sf.name)
         except ValueError as exc:
             raise ValueError(f"{where}: controller.name: {exc}") from None
+        from mwip.laws.settings_file import check_file_types
+
+        check_file_types(sf.name, sf.settings_dict(), where)
         try:
             spec.resolve(sf.settings_dict())
         except ValueError as exc:

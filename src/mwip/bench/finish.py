@@ -51,7 +51,8 @@ def notes(work: BenchRun) -> list[str]:
 
 
 def run_bench(work: BenchRun, out: Path, *, jobs: int | None = None,
-              scheduler: str | None = None, progress: Any = "default") -> BenchSummary:  # fmt: skip
+              scheduler: str | None = None, progress: Any = "default",
+              max_hours: float | None = None) -> BenchSummary:  # fmt: skip
     """Run or continue ``work`` into ``out``; then the scores and the page (module docstring)."""
     import pandas as pd
 
@@ -60,6 +61,7 @@ def run_bench(work: BenchRun, out: Path, *, jobs: int | None = None,
     from mwip.campaign.execute import run_campaign
 
     kw: dict[str, Any] = {} if progress == "default" else {"progress": progress}
+    kw["max_hours"] = max_hours
     res = run_campaign(cast(Any, work), Path(out), jobs=jobs, scheduler=scheduler, **kw)
     if res.status == "interrupted":
         return BenchSummary(res.status, res.blocks_run, res.blocks_total, 0, Path(out),

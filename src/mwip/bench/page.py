@@ -11,7 +11,6 @@
 
 from __future__ import annotations
 
-import html
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +19,7 @@ from matplotlib.figure import Figure
 
 from mwip.bench.scores import PERFORMANCE, POOLED, leaderboard
 from mwip.bench.spec import Bench
-from mwip.io import write_atomic, write_text_atomic
+from mwip.io import html_text, write_atomic, write_text_atomic
 
 __all__ = ["write_page"]
 
@@ -100,7 +99,7 @@ def write_page(out: Path, scores: Any, bench: Bench, labels: list[str],
     board = leaderboard(scores, bench)
     _png(out / "leaderboard.png", _heatmap(board, bench))
     _png(out / "levels.png", _levels_figure(scores, bench, labels))
-    e = html.escape
+    e = html_text
     parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{e(bench.title)}"
              f"</title><style>{_CSS}</style></head><body><h1>{e(bench.title)}</h1>"]
     n_runs = bench.samples * len(bench.levels)

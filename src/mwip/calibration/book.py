@@ -334,10 +334,17 @@ def calibrate_book(
     ``envelope_draws``: stage 5's alike (:class:`mwip.calibration.mixture.EnvelopePlan`; run
     only with stage 4; ``envelope_draws`` also turns revision 5's extension off); ``note``
     receives one line per stage-2 or stage-4 block and per stage-3 generation."""
+    import math
+
     import pandas as pd
 
     from mwip.calibration.sample import calibration_campaign
     from mwip.campaign.execute import run_campaign
+
+    if (isinstance(duration, bool) or not isinstance(duration, int | float)
+            or not (math.isfinite(duration) and 0.0 <= duration <= 15.0)):  # fmt: skip
+        raise ValueError(f"'duration' must be in [0, 15] s (0: the studies' own), got "
+                         f"{duration!r}")  # fmt: skip
     from mwip.io import write_json_atomic, write_text_atomic
 
     ev = load_evidence()

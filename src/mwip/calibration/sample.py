@@ -165,11 +165,20 @@ def evaluate(
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
-                                 initializer=_init_worker, initargs=(os.getpid(),)) as ex:
-            results = []
-            for r in ex.map(_evaluate_chunk, chunks):
-                results.append(r)
-                if progress is not None:
-                    progress(len(results), len(chunks))
+        from mwip.campaign.execute import deaf_spawns, kill_children
+
+        results = []
+        with deaf_spawns():  # the workers never see the terminal's Ctrl-C; this process does
+            ex = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
+                                     initializer=_init_worker, initargs=(os.getpid(),))
+            try:
+                for r in ex.map(_evaluate_chunk, chunks):
+                    results.append(r)
+                    if progress is not None:
+                        progress(len(results), len(chunks))
+            except KeyboardInterrupt:  # stop now: kill the workers, do not wait for them
+                kill_children()
+                ex.shutdown(wait=False, cancel_futures=True)
+                raise
+            ex.shutdown(wait=True)
     return {k: np.concatenate([r[k] for r in results]) for k in results[0]}

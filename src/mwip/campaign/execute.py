@@ -23,7 +23,14 @@ of :mod:`mwip.bench`; it lives above, so the engine never imports it).
 Engines. ``jobs = 1`` without a scheduler runs the chunks here, one after another (the bare
 batch engine). Otherwise a :class:`dask.distributed.LocalCluster` with ``jobs`` worker
 processes (one thread each), or the Dask cluster at ``scheduler`` (its workers need mwip
-installed; they send the rows back, so no shared file system is needed).
+installed; they send the rows back, so no shared file system is needed). A scheduler must
+accept the connection and send Dask's handshake within :data:`SCHEDULER_TIMEOUT_S`
+(:func:`check_scheduler`: a service that is not Dask is named so, exit 2).
+
+Ctrl-C. The worker processes start with SIGINT blocked (:func:`deaf_spawns`), so the
+terminal's Ctrl-C reaches only this process, never dropped (also while the cluster starts);
+the workers are then killed at once (:func:`kill_children`) and the run ends within a second,
+keeping the chunks written.
 """
 
 from __future__ import annotations
@@ -34,7 +41,8 @@ import re
 import sys
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -43,7 +51,9 @@ from mwip.campaign.spec import Campaign
 from mwip.io import write_json_atomic, write_parquet_atomic
 from mwip.outdir import LOCK
 
-__all__ = ["RunSummary", "compute_chunk", "run_campaign", "assemble", "done_blocks", "n_blocks"]
+__all__ = ["RunSummary", "compute_chunk", "run_campaign", "assemble", "done_blocks", "n_blocks",
+           "check_scheduler", "deaf_spawns", "kill_children", "SCHEDULER_TIMEOUT_S", "Work",
+           "work", "check_work", "MAX_HOURS"]
 
 _CHUNK_RE = re.compile(r"^blocks-(\d{6,})-(\d{6,})\.parquet$")
 #: chunks per worker the default chunk size aims at (load balance vs per-chunk overhead)
@@ -86,6 +96,76 @@ def n_blocks(campaign: Campaign) -> int:
                          f"{campaign.block} samples; at most {MAX_BLOCKS} (fewer samples or "
                          "larger blocks)")  # fmt: skip
     return blocks
+
+
+#: Plant-seconds a second of one core simulates (BENCHMARKS.md: ~500-700 on the twin's sensors
+#: and drive, ~10,000 on the plain plant): the estimate of a run's time.
+PLANT_S_PER_S = {"twin": 500.0, "ideal": 10_000.0}
+#: Estimated hours of one core a run may take (``max_hours``; ``--max-hours`` raises it).
+MAX_HOURS = 48.0
+
+
+@dataclass(frozen=True)
+class Work:
+    """A run's size, estimated before it starts: ``plant_s`` simulated robot-seconds (all
+    samples and controllers), ``cpu_hours`` at :data:`PLANT_S_PER_S`, ``block_bytes`` the
+    records of one engine batch (one per worker at a time)."""
+
+    plant_s: float
+    cpu_hours: float
+    block_bytes: float
+
+
+def work(campaign: Campaign) -> Work | None:
+    """The size of a robustness campaign or a benchmark (``None`` for other kinds: a claims
+    or calibration sample is a whole study run, bounded by the sample limits)."""
+    from mwip.budget import estimate
+
+    if campaign.kind == "robustness":
+        n_ctrl, duration = len(campaign.controllers), float(campaign.duration)
+        sensors, dt = str(campaign.sensors), 0.005
+    elif campaign.kind == "bench":
+        bench: Any = getattr(campaign, "bench", None)
+        n_ctrl, duration = len(getattr(campaign, "entrants", ())), float(bench.duration)
+        sensors, dt = "twin", 0.0005
+    else:
+        return None
+    plant_s = float(campaign.samples) * n_ctrl * duration
+    rate = PLANT_S_PER_S["twin" if sensors == "twin" else "ideal"]
+    block = estimate(duration, 0.005, dt, n=int(campaign.block)).bytes
+    return Work(plant_s, plant_s / rate / 3600.0, float(block))
+
+
+def check_work(campaign: Campaign, workers: int, max_hours: float | None = None,
+               local: bool = True) -> None:  # fmt: skip
+    """Refuse a run whose estimated time exceeds ``max_hours`` hours of one core (default
+    :data:`MAX_HOURS`), or (``local``: its workers on this machine) whose ``workers`` blocks
+    in memory at once exceed half this machine's memory (one-line ``ValueError``: what it
+    would need, what raises the limit)."""
+    w = work(campaign)
+    if w is None:
+        return
+    limit = MAX_HOURS if max_hours is None else float(max_hours)
+    if not (math.isfinite(limit) and limit > 0):
+        raise ValueError(f"--max-hours must be a positive number, got {max_hours!r}")
+    if w.cpu_hours > limit:
+        raise ValueError(f"the run would simulate {w.plant_s:.3g} robot-seconds, about "
+                         f"{w.cpu_hours:.3g} hours of one core (~{w.cpu_hours / workers:.3g} h "
+                         f"on {workers} workers), more than {limit:g} h: fewer samples, "
+                         "controllers or seconds, or --max-hours to allow it")  # fmt: skip
+    total = _memory() if local else 0.0
+    if total and workers * w.block_bytes > 0.5 * total:
+        raise ValueError(f"--jobs {workers}: {workers} blocks in memory at once need about "
+                         f"{workers * w.block_bytes / 2**30:.3g} GiB, more than half of this "
+                         f"machine's {total / 2**30:.3g} GiB: fewer jobs or a smaller "
+                         "block")  # fmt: skip
+
+
+def _memory() -> float:
+    try:
+        return float(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):  # not on this platform
+        return 0.0
 
 
 def max_jobs() -> int:
@@ -238,11 +318,14 @@ def run_campaign(
     scheduler: str | None = None,
     chunk: int | None = None,
     progress: ProgressFn | None = _default_progress,
+    max_hours: float | None = None,
 ) -> RunSummary:
     """Run (or continue) ``campaign`` into ``out``; see the module docstring.
 
     ``chunk``: samples per chunk (rounded up to whole blocks; default: about
     ``4 x workers`` chunks). ``jobs``: worker processes (default: the machine's CPUs).
+    ``max_hours``: the most hours of one core the run may be estimated to take
+    (:func:`check_work`; default :data:`MAX_HOURS`).
     Ctrl-C (``KeyboardInterrupt``) stops after saving nothing partial and returns
     ``status="interrupted"``; the next run continues.
     """
@@ -252,6 +335,9 @@ def run_campaign(
                          f"got {jobs!r}")  # fmt: skip
     if chunk is not None and chunk < 1:
         raise ValueError(f"--chunk must be an integer >= 1, got {chunk!r}")
+    if scheduler is not None and not (isinstance(scheduler, str) and scheduler.strip()):
+        raise ValueError("--scheduler: the address is empty; give tcp://HOST:PORT (or leave "
+                         "--scheduler out: a local cluster)")  # fmt: skip
     out = Path(out)
     _check_out(campaign, out)
     total = n_blocks(campaign)
@@ -269,6 +355,8 @@ def run_campaign(
         else max(1, math.ceil(len(todo) / (_CHUNKS_PER_WORKER * workers)))
     )
     chunks = _chunks(todo, per)
+    if chunks:
+        check_work(campaign, workers, max_hours, local=scheduler is None)
     units = n_units(campaign)
 
     def size(b: int) -> int:  # units asked in block b (the last block is run whole, and the
@@ -277,7 +365,8 @@ def run_campaign(
 
     samples_total = sum(size(b) for b in range(total))
     samples_done = [sum(size(b) for b in done & set(range(total)))]
-    dask = _connect(workers, scheduler) if chunks and (scheduler or workers > 1) else None
+    dask = (_connect(workers, scheduler) if chunks and (scheduler is not None or workers > 1)
+            else None)  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "campaign.json", _record(campaign))
 
@@ -290,7 +379,8 @@ def run_campaign(
     interrupted = False
     try:
         if dask is not None:
-            _run_dask(campaign, chunks, *dask, finished)
+            with deaf_spawns():  # (a worker the nanny restarts is deaf to Ctrl-C too)
+                _run_dask(campaign, chunks, *dask, finished)
         else:
             for blocks in chunks:
                 finished(blocks, compute_chunk(campaign, blocks))
@@ -308,9 +398,92 @@ def run_campaign(
     )
 
 
+#: Seconds a Dask scheduler has to accept the connection and send its handshake.
+SCHEDULER_TIMEOUT_S = 10.0
+#: The largest first message a scheduler's handshake plausibly is (bytes).
+_HANDSHAKE_MAX = 1 << 20
+
+
+def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT_S) -> None:
+    """Check that a Dask scheduler answers at ``address`` (``tcp://HOST:PORT`` or
+    ``HOST:PORT``) before a client connects: the TCP connection and the scheduler's
+    handshake (the first message a Dask server sends on every connection: its Python and
+    pickle versions) must come within ``timeout`` s, and be a Dask message. One-line
+    ``ValueError`` naming ``--scheduler`` otherwise (unreachable, no answer, not a Dask
+    scheduler). Other transports (``tls://``, ``ucx://``, ...) are left to the client's own
+    timeout."""
+    import socket
+    import struct
+
+    if not isinstance(address, str) or not address.strip():
+        raise ValueError("--scheduler: the address is empty; give tcp://HOST:PORT (or leave "
+                         "--scheduler out: a local cluster)")  # fmt: skip
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+        from distributed.protocol import loads
+        from distributed.protocol.utils import unpack_frames
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ValueError("campaigns on Dask need the extra: pip install 'mwip[campaign]'") from exc
+    try:
+        scheme, loc = parse_address(address.strip())
+        from distributed.comm.registry import backends
+
+        if scheme not in backends:
+            raise ValueError(f"unknown scheme {scheme!r}; known: {', '.join(sorted(backends))}")
+        if scheme != "tcp":
+            return
+        host, port = parse_host_port(loc)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"--scheduler: {address!r} is not an address tcp://HOST:PORT "
+                         f"({exc})") from None  # fmt: skip
+    deadline = time.monotonic() + timeout
+    where = f"--scheduler: {address!r}"
+    try:
+        sock = socket.create_connection((host, int(port)), timeout=timeout)
+    except TimeoutError:
+        raise ValueError(f"{where} accepted no connection within {timeout:g} s") from None
+    except OSError as exc:
+        raise ValueError(f"{where}: cannot reach it ({exc.strerror or exc})") from None
+
+    def recv(n: int) -> bytes:
+        data = b""
+        while len(data) < n:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise TimeoutError
+            sock.settimeout(left)
+            chunk = sock.recv(min(n - len(data), 1 << 16))
+            if not chunk:
+                raise ConnectionError("closed the connection")
+            data += chunk
+        return data
+
+    not_dask = f"{where} is not a Dask scheduler"
+    try:
+        head = recv(8)
+        (size,) = struct.unpack("<Q", head)
+        if not 0 < size <= _HANDSHAKE_MAX:
+            raise ValueError(f"{not_dask} (it answered {head!r}...)")
+        body = recv(size)
+        try:
+            msg = loads(unpack_frames(body), deserialize=False)
+        except Exception:  # noqa: BLE001 - any garbage
+            raise ValueError(f"{not_dask} (its answer is not a Dask message)") from None
+        if not (isinstance(msg, dict) and "pickle-protocol" in msg):
+            raise ValueError(f"{not_dask} (its first message is not a Dask handshake)")
+    except TimeoutError:
+        raise ValueError(f"{where} gave no Dask handshake within {timeout:g} s (not a Dask "
+                         "scheduler, or too busy)") from None  # fmt: skip
+    except (ConnectionError, OSError) as exc:
+        raise ValueError(f"{not_dask} (it {exc})") from None
+    finally:
+        sock.close()
+
+
 def _connect(workers: int, scheduler: str | None) -> tuple[Any, Any]:
-    """A Dask client: on the cluster at ``scheduler``, or on a new LocalCluster of
-    ``workers`` processes (one thread each). Returns ``(client, cluster or None)``."""
+    """A Dask client: on the cluster at ``scheduler`` (checked first,
+    :func:`check_scheduler`), or on a new LocalCluster of ``workers`` processes (one thread
+    each). Returns ``(client, cluster or None)``."""
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:  # pragma: no cover - depends on the environment
@@ -319,36 +492,100 @@ def _connect(workers: int, scheduler: str | None) -> tuple[Any, Any]:
 
     logging.getLogger("distributed").setLevel(logging.ERROR)
     if scheduler is not None:
+        check_scheduler(scheduler, timeout=SCHEDULER_TIMEOUT_S)
         try:
-            return Client(scheduler, timeout=10), None
+            return Client(scheduler, timeout=SCHEDULER_TIMEOUT_S), None
         except (OSError, TimeoutError) as exc:
             raise ValueError(f"--scheduler: cannot reach {scheduler!r}: {exc}") from None
     cluster = _quiet_workers(
-        lambda: LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        lambda: LocalCluster(  # (its HTTP server on a free port: port 8787 may be another
+            # run's, and Dask would warn of it)
+            n_workers=workers, threads_per_worker=1, processes=True,
+            dashboard_address="127.0.0.1:0",
         )
     )
     return Client(cluster), cluster
 
 
-def _quiet_workers(start: Callable[[], Any]) -> Any:
-    """``start()`` with SIGINT ignored and Dask's log at ``error``, both inherited by the
-    worker processes it spawns: Ctrl-C (sent to the whole terminal process group) reaches only
-    this process, which stops them in order (:func:`_run_dask`'s ``finally``), instead of each
-    worker printing a ``KeyboardInterrupt`` traceback and warnings about its cancelled task."""
+@contextmanager
+def deaf_spawns() -> Iterator[None]:
+    """Processes that :mod:`multiprocessing` spawns meanwhile (from any thread: Dask starts
+    its workers from its event loop's thread) start with SIGINT blocked, so the terminal's
+    Ctrl-C never reaches them; this process's own handling of SIGINT is untouched (its mask
+    is changed only in the spawning thread, around the spawn: a Ctrl-C then waits there for
+    microseconds and is delivered, never lost)."""
     import signal
-    import threading
+    from multiprocessing import util
 
+    real = util.spawnv_passfds
+
+    def spawn(path: Any, args: Any, passfds: Any) -> int:
+        if any("resource_tracker" in str(a) for a in args):  # after a Ctrl-C (its workers
+            # killed) it would warn of their semaphores in lines of its own; it removes them
+            args = [args[0], "-W", "ignore::UserWarning", *args[1:]]
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            return real(path, args, passfds)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+    util.spawnv_passfds = spawn
+    try:
+        yield
+    finally:
+        util.spawnv_passfds = real
+
+
+def kill_children() -> None:
+    """Kill this process's worker processes at once (SIGKILL), Dask's log silenced: after
+    Ctrl-C nothing of theirs is worth a graceful stop (their chunks are lost either way).
+    Every child process is killed, also one spawned a moment ago and not yet handed its
+    work (it would print an ``EOFError`` when this process ends), but multiprocessing's
+    resource tracker, which removes the workers' semaphores once this process is gone."""
+    import logging
+    import multiprocessing
+
+    for name in ("distributed", "asyncio", "tornado"):  # the loop's threads see them die
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+    kids: list[Any] = []
+    try:
+        import psutil  # (a dependency of Dask's distributed)
+
+        kids = [k for k in psutil.Process().children(recursive=True)
+                if not any("resource_tracker" in a for a in _cmdline(k))]  # fmt: skip
+    except Exception:  # noqa: BLE001 - psutil missing or a process gone meanwhile
+        kids = list(multiprocessing.active_children())
+    for k in kids:
+        try:
+            k.kill()  # (reaped by Dask's threads or at exit: not waited for here)
+        except Exception:  # noqa: BLE001 - gone already
+            pass
+
+
+def _cmdline(proc: Any) -> list[str]:
+    try:
+        return list(proc.cmdline())
+    except Exception:  # noqa: BLE001 - gone, or not ours to read
+        return []
+
+
+def _quiet_workers(start: Callable[[], Any]) -> Any:
+    """``start()`` with the worker processes it spawns deaf to Ctrl-C (:func:`deaf_spawns`:
+    SIGINT blocked in them) and Dask's log at ``error`` (inherited): Ctrl-C (sent to the
+    whole terminal process group) reaches only this process, which stops them
+    (:func:`_run_dask`'s ``finally``), instead of each worker printing a ``KeyboardInterrupt``
+    traceback and warnings about its cancelled task. A Ctrl-C while the cluster starts is
+    never dropped: it interrupts the start, whose processes are killed."""
     env_key = "DASK_LOGGING__DISTRIBUTED"
     env_old = os.environ.get(env_key)
     os.environ[env_key] = "error"
-    main = threading.current_thread() is threading.main_thread()
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:
-        return start()
+        with deaf_spawns():
+            return start()
+    except KeyboardInterrupt:
+        kill_children()
+        raise
     finally:
-        if main:
-            signal.signal(signal.SIGINT, old)
         if env_old is None:
             os.environ.pop(env_key, None)
         else:
@@ -367,6 +604,7 @@ def _run_dask(
     from dask.distributed import as_completed
 
     futures: list[Any] = []
+    interrupted = False
     try:
         # the campaign travels inside each task (a few kB), not as scattered data: a scattered
         # value is a dependency with a content-hashed key, and the next run on the same
@@ -381,9 +619,33 @@ def _run_dask(
             futures.append(fut)
         for fut in as_completed(futures):
             finished(where[fut.key], fut.result())
+    except KeyboardInterrupt:
+        interrupted = True
+        raise
     finally:
-        for fut in futures:
-            fut.cancel()
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        if interrupted and cluster is not None:  # Ctrl-C: stop now, not in order
+            kill_children()
+            _close_quietly(client, cluster)
+        else:
+            for fut in futures:
+                fut.cancel()
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+def _close_quietly(client: Any, cluster: Any, wait: float = 0.3) -> None:
+    """Close a client and a cluster whose workers are gone, in the background: waited for at
+    most ``wait`` s (the command ends at once after Ctrl-C)."""
+    import contextlib
+    import threading
+
+    def close() -> None:
+        with contextlib.suppress(Exception):
+            client.close(timeout=1)
+        with contextlib.suppress(Exception):
+            cluster.close(timeout=1)
+
+    t = threading.Thread(target=close, name="mwip-dask-close", daemon=True)
+    t.start()
+    t.join(wait)

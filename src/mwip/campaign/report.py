@@ -17,7 +17,6 @@ its interval (:mod:`mwip.campaign.claims`).
 
 from __future__ import annotations
 
-import html
 import json
 import math
 from pathlib import Path
@@ -29,7 +28,7 @@ from matplotlib.figure import Figure
 from mwip.campaign.metrics import METRICS
 from mwip.campaign.spec import INITIAL_KEYS
 from mwip.campaign.stats import wilson
-from mwip.io import write_atomic, write_text_atomic
+from mwip.io import html_text, write_atomic, write_text_atomic
 from mwip.params import PARAM_FIELDS
 
 __all__ = ["league_table", "write_campaign_report", "success_by_bins", "plane_rates"]
@@ -233,10 +232,10 @@ def _league_html(rows: list[dict[str, Any]]) -> str:
     head = ["controller", "n", "success (95 % interval)", "fell"] + [
         f"{m} ({_UNITS[m]}) median / p95" for m in _NUMERIC
     ]
-    out = ["<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>"]
+    out = ["<table><tr>" + "".join(f"<th>{html_text(h)}</th>" for h in head) + "</tr>"]
     for r in rows:
         cells = [
-            html.escape(str(r["controller"])),
+            html_text(str(r["controller"])),
             str(r["n"]),
             f"{100 * r['rate']:.1f} % ({100 * r['lo']:.1f}-{100 * r['hi']:.1f} %)",
             str(r["fell"]),
@@ -274,8 +273,8 @@ def write_campaign_report(out: str | Path) -> Path:
                          "`mwip campaign run` into a new folder")  # fmt: skip
     title = str(camp.get("title", "")) or out.name
     parts = [
-        f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
-        f"</title><style>{_CSS}</style></head><body><h1>{html.escape(title)}</h1>"
+        f"<!doctype html><html><head><meta charset='utf-8'><title>{html_text(title)}"
+        f"</title><style>{_CSS}</style></head><body><h1>{html_text(title)}</h1>"
     ]
     if "claim" in df:
         parts.append(_claims_html(df))
@@ -295,7 +294,7 @@ def write_campaign_report(out: str | Path) -> Path:
             parts.append("<h2>Success against each uncertain input</h2>")
             for col in inputs:
                 name = _fig_bins(df, col, out / f"fig-success-{col}.png")
-                parts.append(f"<h3>{html.escape(col)}</h3><img src='{name}' alt='{col}'>")
+                parts.append(f"<h3>{html_text(col)}</h3><img src='{name}' alt='{col}'>")
         src = rec.get("campaign", {})
         unc = src.get("robot", {}).get("uncertainty", {})
         grid = [k for k, v in unc.items() if isinstance(v, dict) and "grid" in v]
@@ -327,8 +326,8 @@ def _claims_html(df: Any) -> str:
     ]
     for r in table.values():
         rows.append(
-            f"<tr><td>{html.escape(r.study)}</td><td>{html.escape(r.claim)}</td>"
-            f"<td>{html.escape(r.book)}</td><td>{100 * r.fraction:.0f} %</td>"
+            f"<tr><td>{html_text(r.study)}</td><td>{html_text(r.claim)}</td>"
+            f"<td>{html_text(r.book)}</td><td>{100 * r.fraction:.0f} %</td>"
             f"<td>{100 * r.lo:.0f}-{100 * r.hi:.0f} %</td><td>{r.n}</td></tr>"
         )
     return "\n".join(rows + ["</table>"])

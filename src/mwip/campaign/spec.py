@@ -507,9 +507,11 @@ def load_campaign(name_or_path: str) -> Campaign:
                 f"campaign {name_or_path!r} is neither a built-in campaign "
                 f"({', '.join(builtin_names())}) nor a file"
             )
-        text = path.read_text(encoding="utf-8")
+        from mwip.io import read_toml  # size, encoding, BOM and syntax: one line each
+
+        return parse_campaign(read_toml(path, "campaign"))
     try:
         data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
+    except tomllib.TOMLDecodeError as exc:  # pragma: no cover - a packaging error
         raise ValueError(f"campaign {name_or_path!r} is not valid TOML: {exc}") from None
     return parse_campaign(data)

@@ -22,6 +22,8 @@ from typing import Any
 
 import click
 
+from mwip.cli._strict import strict_options as _strict_options
+
 __all__ = ["main", "cli", "entry"]
 
 
@@ -47,6 +49,7 @@ def _register(group: click.Group) -> None:
 
 
 _register(cli)
+_strict_options(cli)  # an option given twice, a non-finite number: refused (cli/_strict.py)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -80,10 +80,10 @@ def _main(group: click.Group, argv: list[str] | None) -> int:
         return 2 if exc.errno in bad_path else 1
     except SystemExit as exc:
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    except (MemoryError, RecursionError) as exc:
+    except (MemoryError, RecursionError) as exc:  # the input asks for too much: bad input
         click.echo(f"mwip: error: {type(exc).__name__}: the input asks for more than this "
                    "machine can give; reduce the sizes or durations", err=True)  # fmt: skip
-        return 1
+        return 2
     except Exception as exc:  # noqa: BLE001 - a bug: one line, the traceback on request
         if os.environ.get("MWIP_TRACEBACK"):
             raise

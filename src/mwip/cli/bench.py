@@ -7,12 +7,14 @@ from pathlib import Path
 
 import click
 
+from mwip.cli._common import NonEmptyPath
+
 __all__ = ["bench"]
 
 
 @click.command("bench")
 @click.argument("controllers", nargs=-1, metavar="[CONTROLLER...]")
-@click.option("--out", type=click.Path(path_type=Path), default=None,
+@click.option("--out", type=NonEmptyPath(path_type=Path), default=None,
               help="Results folder (created; a rerun continues an interrupted run).")
 @click.option("--settings", "settings_files", multiple=True, metavar="FILE",
               help="Enter a controller with the settings of FILE ([controller] name, "
@@ -28,12 +30,16 @@ __all__ = ["bench"]
               "this process. Does not change the scores.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on an existing Dask cluster (e.g. tcp://host:8786).")
+@click.option("--max-hours", "max_hours", type=float, default=None,
+              help="Refuse a benchmark estimated to take more than this many hours of one "
+              "core (default 48; ~500 robot-seconds a second on the twin).")
 @click.option("--definition", default=None, metavar="FILE",
               help="A benchmark definition (default: the built-in one; print it with --show).")
 @click.option("--show", is_flag=True, help="Print the built-in definition and exit.")
 def bench(controllers: tuple[str, ...], out: Path | None, settings_files: tuple[str, ...],
           scenario_files: tuple[str, ...], quick: bool, samples: int | None, jobs: int | None,
-          scheduler: str | None, definition: str | None, show: bool) -> None:  # fmt: skip
+          scheduler: str | None, max_hours: float | None, definition: str | None,
+          show: bool) -> None:  # fmt: skip
     """Score each CONTROLLER (default: every registered one) on the robustness axes.
 
     Every entrant runs on the identified twin over the axes of the definition (model
@@ -73,7 +79,7 @@ def bench(controllers: tuple[str, ...], out: Path | None, settings_files: tuple[
     from mwip.outdir import hold
 
     click.get_current_context().with_resource(hold(out))  # a second run here is refused
-    res = run_bench(work, out, jobs=jobs, scheduler=scheduler)
+    res = run_bench(work, out, jobs=jobs, scheduler=scheduler, max_hours=max_hours)
     if res.status == "interrupted":
         click.echo(f"mwip: interrupted; {res.blocks_run} blocks saved this run in {out}; "
                    "run the same command to continue", err=True)  # fmt: skip

@@ -55,6 +55,14 @@ def show_cmd(name: str | None) -> None:
     help="Run on an existing Dask cluster (e.g. tcp://host:8786).",
 )
 @click.option(
+    "--max-hours",
+    "max_hours",
+    type=float,
+    default=None,
+    help="Refuse a run estimated to take more than this many hours of one core (default 48; "
+    "the estimate: ~500 robot-seconds a second on the twin, ~10,000 on the plain plant).",
+)
+@click.option(
     "--chunk",
     type=int,
     default=None,
@@ -67,6 +75,7 @@ def run_cmd(
     jobs: int | None,
     scheduler: str | None,
     chunk: int | None,
+    max_hours: float | None,
 ) -> None:
     """Run (or continue) campaign NAME (built-in) or FILE.toml into --out."""
     from mwip.campaign.execute import max_jobs, run_campaign
@@ -90,7 +99,8 @@ def run_cmd(
     n_blocks(camp)  # the sizes are refused before anything is created
     if not out.exists() or out.is_dir():  # (else run_campaign names the problem)
         click.get_current_context().with_resource(hold(out))  # a second run here is refused
-    res = run_campaign(camp, out, jobs=jobs, scheduler=scheduler, chunk=chunk)
+    res = run_campaign(camp, out, jobs=jobs, scheduler=scheduler, chunk=chunk,
+                       max_hours=max_hours)
     if res.status == "finished-before":
         click.echo(f"campaign already finished: {res.path} ({res.rows} rows); nothing to do")
     elif res.status == "interrupted":

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 
@@ -71,7 +70,9 @@ def check_smc_cmd(
                                  param_hint="--theta-max")  # fmt: skip
     rep = check_smc_design(lam, params_value(params_name, "--params"), theta_max, damping=damping)
     if as_json:
-        click.echo(json.dumps(rep.to_dict(), indent=2))
+        from mwip.io import json_text
+
+        click.echo(json_text(rep.to_dict(), indent=2))
     else:
         click.echo(f"lambdas {lam}, |theta| <= {theta_max:g} rad, "
                    f"{'with' if damping else 'without'} wheel damping:")  # fmt: skip

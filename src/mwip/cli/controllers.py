@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Any
 
@@ -48,7 +47,9 @@ def controllers(name: str | None, as_json: bool) -> None:
             }
             for s in specs
         }  # fmt: skip
-        click.echo(json.dumps(doc, indent=2))
+        from mwip.io import json_text
+
+        click.echo(json_text(doc, indent=2))
         return
     for s in specs:
         twin = " [twin]" if s.robot else ""

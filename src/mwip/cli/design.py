@@ -3,7 +3,6 @@ Theorem 3.2, the IT2 PDC LMIs of Lemmas 5.1/5.2), printed as text or JSON."""
 
 from __future__ import annotations
 
-import json
 from typing import TYPE_CHECKING, Any
 
 import click
@@ -68,7 +67,9 @@ def design_lqr_cmd(Ts: float | None, params_name: str, as_json: bool) -> None:
            "state": ["theta", "alpha", "theta_dot", "v", "alpha_dot"], "input": ["u_r", "u_l"],
            "sampled" if Ts is None else "continuous": block(other)}  # fmt: skip
     if as_json:
-        click.echo(json.dumps(doc, indent=2))
+        from mwip.io import json_text
+
+        click.echo(json_text(doc, indent=2))
         return
     for d in (main_d, other):
         kind = "continuous (book)" if d.Ts is None else f"sampled, Ts = {d.Ts:g} s"
@@ -150,7 +151,9 @@ def design_hodo_cmd(
         )
         doc["note"] = note
     if as_json:
-        click.echo(json.dumps(doc, indent=2))
+        from mwip.io import json_text
+
+        click.echo(json_text(doc, indent=2))
         return
     click.echo(f"order {order}, {doc['problem']}, solver {d.solver}: {d.status}")
     if d.scalar_gains is not None:
@@ -257,7 +260,9 @@ def design_it2(
         "book_G2": list(BOOK_G2),
     }
     if as_json:
-        return doc, json.dumps(doc, indent=2)
+        from mwip.io import json_text
+
+        return doc, json_text(doc, indent=2)
     with np.printoptions(precision=5, suppress=False, linewidth=100):
         lines = [
             f"IT2 PDC design (Lemma 5.1/5.2), epsilon={epsilon:g}, rho={rho:g}, "

@@ -125,6 +125,7 @@ def export_c(
     build and what each step costs on the board; nothing is written unless it succeeds.
     """
     import math
+    import os
 
     from mwip import outdir
     from mwip.export.c_code import ExportError, generate_c
@@ -208,6 +209,12 @@ def export_c(
         cctrl = CController(code, static=bool(getattr(build(), "static", False)))
     except NoCompiler as exc:
         raise click.UsageError(f"--verify: {exc}") from None
+    except RuntimeError as exc:  # the compiler ($CC) failed: one line, its first words
+        lines = [x.strip() for x in str(exc).splitlines() if x.strip()]
+        said = f": {lines[1]}" if len(lines) > 1 else " (it printed nothing)"
+        raise click.ClickException(f"--verify: the C compiler failed{said}; check $CC "
+                                   f"({os.environ.get('CC') or 'unset'}) or install gcc; the "
+                                   f"C files in {str(out)!r} are written") from None  # fmt: skip
     tw = rb.twin if twin else None
     rep = run_verify(build(), cctrl, plant=plant, q0=(0.0, theta0, 0.0), duration=duration,
                      twin=tw)  # fmt: skip

@@ -8,7 +8,6 @@ the kernels' sources (~10 s); ``build`` does it now (e.g. after installing, so t
 
 from __future__ import annotations
 
-import json
 import time
 
 import click
@@ -30,7 +29,9 @@ def status_cmd(as_json: bool) -> None:
 
     info = aot.status()
     if as_json:
-        click.echo(json.dumps(info, indent=2))
+        from mwip.io import json_text
+
+        click.echo(json_text(info, indent=2))
         return
     if info["built"]:
         state = "built (verified against its manifest)"

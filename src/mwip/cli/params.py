@@ -3,7 +3,6 @@ the derived coefficients of (2.32)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
@@ -36,7 +35,9 @@ def params_show(which: str, as_json: bool, damping: str) -> None:
     if as_json:
         doc = {"params": p.to_dict(), "units": UNITS, "derived": derived,
                "damping": damping if book else "file (rotational coefficients)"}  # fmt: skip
-        click.echo(json.dumps(doc, indent=2))
+        from mwip.io import json_text
+
+        click.echo(json_text(doc, indent=2))
         return
     units = {**UNITS, "m11": "kg m^2", "m12": "kg m^2", "m22": "kg m^2", "m33": "kg m^2",
              "Ibl": "kg m^2", "Gb": "N m", "steady_speed_cap": "rad/s (Gb / (2 Dw))"}  # fmt: skip

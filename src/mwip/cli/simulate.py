@@ -8,7 +8,6 @@ that came from an option is reported under that option's name (``--duration``, `
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
@@ -292,7 +291,9 @@ def _report(sc: Any, res: Any, out: Path | None, plot: bool, as_json: bool) -> N
 
         written = write_simulate_extras(res, sc.plant, out, plot=plot, torque_limit=limit)
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        from mwip.io import json_text
+
+        click.echo(json_text(summary, indent=2))
     else:
         st, umax = summary["settling_time"], summary["max_abs_u"]  # None: not finite
         click.echo(

@@ -38,7 +38,8 @@ __all__ = ["tune"]
     default=None,
     metavar="URL",
     help="An Optuna RDB URL (sqlite:///..., postgresql://...) shared by several "
-    "`mwip tune` processes (default: sqlite in OUT).",
+    "`mwip tune` processes (default: sqlite in OUT). The connection and the database's "
+    "handshake must answer within 10 s.",
 )
 @click.option(
     "--sampler",
@@ -63,7 +64,16 @@ def tune(controller: str, out: Path, objective: str, trials: int, storage: str |
     """Tune CONTROLLER's settings for robustness: every trial evaluates candidate settings on a
     batch of robots (a campaign's distribution, on the twin or the plain plant); writes
     OUT/best.toml (`mwip simulate --controller C --settings OUT/best.toml`)."""
-    from mwip.tune.run import execute, plan
+    import sys
 
-    p = plan(controller, out, objective, trials, storage, sampler, seed, force)
-    execute(p, log=lambda text: click.echo(text, err=True))
+    try:
+        from mwip.tune.run import execute, plan
+
+        p = plan(controller, out, objective, trials, storage, sampler, seed, force)
+        execute(p, log=lambda text: click.echo(text, err=True))
+    except KeyboardInterrupt:
+        # one line, no traceback (Optuna's or ours); the trials finished so far are in the
+        # study and every file in OUT is as it was: the same command continues
+        click.echo(f"mwip tune: interrupted; the finished trials are kept, {str(out)!r} is as "
+                   "it was; run the same command to continue", err=True)  # fmt: skip
+        sys.exit(130)

@@ -11,8 +11,9 @@ Hardware modules are imported per command.
 
 from __future__ import annotations
 
-import json
+import math
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -44,13 +45,15 @@ def twin_sensitivity(robot_file: Path | None, as_json: bool) -> None:
 
     tables = sensitivity_tables(robot_option(robot_file))
     if as_json:
-        click.echo(json.dumps(tables, indent=1))
+        from mwip.io import json_text
+
+        click.echo(json_text(tables, indent=1))
     else:
         click.echo(tables_markdown(tables))
 
 
 @twin.command("fit")
-@click.argument("logs", nargs=-1, required=False, type=click.Path(path_type=Path))
+@click.argument("logs", nargs=-1, required=False, type=click.Path())
 @click.option("--out", "out", required=True, type=click.Path(path_type=Path),
               help="Output folder (robot.toml, fit.json, fit.png); new, empty or mwip's own.")
 @ROBOT_OPTION
@@ -59,11 +62,14 @@ def twin_sensitivity(robot_file: Path | None, as_json: bool) -> None:
               help="Comma-separated parameters to fit (default: those the logs inform).")
 @click.option("--fix", "fix", multiple=True, metavar="NAME=VALUE",
               help="Hold a parameter at a value (repeatable).")
-@click.option("--validate", "validate", type=click.Path(path_type=Path), default=None,
+@click.option("--validate", "validate", type=click.Path(), default=None,
               help="A held-out log: prediction error of the fit against the prior centre's.")
-@click.option("--segment", default=40, show_default=True, type=int,
+@click.option("--segment", default=40, show_default=True, type=click.IntRange(5, 400),
               help="Samples per multiple-shooting segment.")
 @click.option("--force", is_flag=True, help="Write into a non-empty folder that is not mwip's.")
+@click.option("--max-rows", "max_rows", type=click.IntRange(3, 10**9), default=None,
+              help="Rows of the logs together, at most (default 500000, 42 min at 5 ms: a "
+              "fit of some 1.5 GB and 6 minutes; the fit takes ~3 kB and ~0.7 ms per row).")
 @click.option("--evidence", type=click.Choice(["book"]), default=None,
               help="Instead of logs: condition the book's robot on the book's Chapter 6 "
               "evidence (prior draws on Dask, resumable; docs/twin_fit.md).")
@@ -89,9 +95,10 @@ def twin_sensitivity(robot_file: Path | None, as_json: bool) -> None:
               default=None, help="--evidence: twins of stage 5's envelope draws, without "
               "revision 5's extension (default: the declaration's 20000, extended until the "
               "effective size is 100; 0: no stage 5).")
-def twin_fit(logs: tuple[Path, ...], out: Path, robot_file: Path | None, free: str | None,
-             fix: tuple[str, ...], validate: Path | None, segment: int,
-             force: bool, evidence: str | None, samples: int | None, seed: int | None,
+def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: str | None,
+             fix: tuple[str, ...], validate: str | None, segment: int,
+             force: bool, max_rows: int | None, evidence: str | None, samples: int | None,
+             seed: int | None,
              jobs: int, duration: float, stage2: int | None,
              chain_steps: int | None, mixture_draws: int | None,
              envelope_draws: int | None) -> None:  # fmt: skip
@@ -99,6 +106,7 @@ def twin_fit(logs: tuple[Path, ...], out: Path, robot_file: Path | None, free: s
     book's robot from the book's evidence."""
     from mwip import outdir
 
+    _one_mode(click.get_current_context(), evidence is not None)
     if evidence is not None:
         if logs:
             raise click.UsageError("give LOG files or --evidence book, not both")
@@ -107,7 +115,7 @@ def twin_fit(logs: tuple[Path, ...], out: Path, robot_file: Path | None, free: s
         return
     if not logs:
         raise click.UsageError("missing LOG files (or --evidence book)")
-    from mwip.identify.bounds import centre
+    from mwip.identify.bounds import NAMES, centre
     from mwip.identify.fit import fit, predict_error
     from mwip.identify.logs import read_log
     from mwip.identify.report import write_outputs
@@ -118,16 +126,38 @@ def twin_fit(logs: tuple[Path, ...], out: Path, robot_file: Path | None, free: s
     fixed: dict[str, float] = {}
     for item in fix:
         name, sep, val = item.partition("=")
-        if not sep:
+        name = name.strip()
+        if not sep or not name:
             raise click.BadParameter(f"{item!r} is not NAME=VALUE", param_hint="--fix")
+        if name in fixed:
+            raise click.BadParameter(f"{name!r} is fixed twice", param_hint="--fix")
         try:
-            fixed[name.strip()] = float(val)
+            fixed[name] = float(val)
         except ValueError:
             raise click.BadParameter(f"{item!r}: {val!r} is not a number",
                                      param_hint="--fix") from None  # fmt: skip
+        if not math.isfinite(fixed[name]):
+            raise click.BadParameter(f"{item!r}: the value must be a finite number",
+                                     param_hint="--fix")  # fmt: skip
     names = None if free is None else [n.strip() for n in free.split(",") if n.strip()]
-    read = [read_log(p) for p in logs]
-    held = read_log(validate) if validate is not None else None
+    if names is not None and not names:
+        raise click.BadParameter(f"is an empty list ({free!r}); give NAME[,NAME...] of "
+                                 f"{', '.join(NAMES)}, or leave it out (those the logs "
+                                 "inform)", param_hint="--free")  # fmt: skip
+    if names is not None and len(set(names)) != len(names):
+        raise click.BadParameter("names a parameter twice", param_hint="--free")
+
+    from mwip.identify.logs import MAX_ROWS, LogError
+
+    limit = MAX_ROWS if max_rows is None else max_rows
+    read: list[Any] = []
+    for p in [*logs, *([validate] if validate is not None else [])]:
+        left = limit - sum(lg.n for lg in read)  # the logs together, counted while read
+        if left < 3:
+            raise LogError(f"log {p!r}: the logs before it hold {limit - left} rows, the "
+                           f"most for one fit (--max-rows {limit}); raise it or cut the logs")
+        read.append(read_log(p, max_rows=left))
+    held = read.pop() if validate is not None else None
     result = fit(read, base, free=names, fixed=fixed, segment=segment,
                  progress=lambda line: click.echo(line, err=True))  # fmt: skip
     if held is not None:
@@ -145,6 +175,30 @@ def twin_fit(logs: tuple[Path, ...], out: Path, robot_file: Path | None, free: s
     click.echo(f"wrote {', '.join(str(f) for f in files)}")
     for flag in result.flags:
         click.echo(f"note: {flag}")
+
+
+#: options of each mode of ``twin fit``: refused in the other one
+_LOG_ONLY = ("robot_file", "free", "fix", "validate", "segment", "max_rows")
+_BOOK_ONLY = ("samples", "seed", "jobs", "duration", "stage2", "chain_steps", "mixture_draws",
+              "envelope_draws")  # fmt: skip
+
+
+def _one_mode(ctx: click.Context, book: bool) -> None:
+    """Refuse an option given on the command line that the mode does not use (one line)."""
+    from click.core import ParameterSource
+
+    given = [p for p in ctx.command.params
+             if p.name in (_LOG_ONLY if book else _BOOK_ONLY)
+             and ctx.get_parameter_source(p.name) in (ParameterSource.COMMANDLINE,
+                                                      ParameterSource.ENVIRONMENT)]  # fmt: skip
+    if given:
+        names = ", ".join(max(p.opts, key=len) for p in given if isinstance(p, click.Option))
+        if book:
+            raise click.UsageError(f"{names}: not used by --evidence book (it conditions the "
+                                   "book's robot on the book's evidence; no logs, no base "
+                                   "twin); leave them out")  # fmt: skip
+        raise click.UsageError(f"{names}: only used with --evidence book; leave them out when "
+                               "fitting LOG files")  # fmt: skip
 
 
 def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, jobs: int,
@@ -195,12 +249,16 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
 @click.option("--static", default=2.0, show_default=True, type=float, help="Static hold (s).")
 @click.option("--step", default=0.25, show_default=True, type=float, help="Each duty step (s).")
 @click.option("--chirp", default=4.0, show_default=True, type=float, help="Chirp length (s).")
-def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float) -> None:
+@click.option("--max-samples", "max_samples", type=click.IntRange(1, 10**9), default=None,
+              help="Rows of the schedule, at most (default 2000000: some 90 MB of CSV).")
+def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float,
+                max_samples: int | None) -> None:  # fmt: skip
     """Write the excitation schedule to run on the robot (docs/twin_fit.md)."""
-    from mwip.identify.excite import schedule
+    from mwip.identify.excite import MAX_SAMPLES, schedule
     from mwip.io import write_text_atomic
 
-    t, duty, mode = schedule(Ts, static, step, chirp)
+    t, duty, mode = schedule(Ts, static, step, chirp,
+                             max_samples=MAX_SAMPLES if max_samples is None else max_samples)
     lines = ["t,duty_r,duty_l,mode"]
     lines += [f"{t[i]:.6f},{duty[i, 0]:.6f},{duty[i, 1]:.6f},{mode[i]}" for i in range(t.size)]
     write_text_atomic(out, "\n".join(lines) + "\n")

@@ -18,22 +18,59 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["schedule", "STEP_LEVELS"]
+__all__ = ["schedule", "schedule_length", "STEP_LEVELS", "MAX_SAMPLES"]
+
+#: Rows of a schedule, at most (``max_samples``; ``mwip twin excite --max-samples``): 2
+#: million rows are some 90 MB of CSV, 2.8 hours at 5 ms.
+MAX_SAMPLES = 2_000_000
 
 #: Duty levels of the steps (each held ``step`` seconds, then back to 0).
 STEP_LEVELS = (0.03, -0.05, 0.08, -0.12, 0.2, -0.3, 0.5, -0.7, 0.9, -0.9, 0.015, -0.025)
 
 
+def _number(name: str, v: object, lo: float, hi: float, lo_open: bool = False) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating):
+        raise TypeError(f"{name!r} must be a number, got {type(v).__name__} {v!r}")
+    x = float(v)
+    ok = np.isfinite(x) and (x > lo if lo_open else x >= lo) and x <= hi
+    if not ok:
+        raise ValueError(f"{name!r} must be in {'(' if lo_open else '['}{lo:g}, {hi:g}], "
+                         f"got {v!r}")  # fmt: skip
+    return x
+
+
+def schedule_length(Ts: float = 0.005, static: float = 2.0, step: float = 0.25,
+                    chirp: float = 4.0) -> int:  # fmt: skip
+    """The rows :func:`schedule` makes (checked arguments; nothing is allocated)."""
+    Ts = _number("Ts", Ts, 0.0, 0.1, lo_open=True)
+    static, step, chirp = (_number(n, v, 0.0, 600.0) for n, v in
+                           (("static", static), ("step", step), ("chirp", chirp)))  # fmt: skip
+    nstep = max(int(round(step / Ts)), 1)
+    return int(round(static / Ts)) + 2 * len(STEP_LEVELS) * nstep + int(round(chirp / Ts))
+
+
 def schedule(
     Ts: float = 0.005, static: float = 2.0, step: float = 0.25, chirp: float = 4.0,
-    amplitude: float = 0.35, f0: float = 0.5, f1: float = 15.0,
+    amplitude: float = 0.35, f0: float = 0.5, f1: float = 15.0, *,
+    max_samples: int = MAX_SAMPLES,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.str_]]:  # fmt: skip
-    """``(t, duty (n, 2), mode (n,))`` of the excitation."""
-    if not (0 < Ts <= 0.1):
-        raise ValueError(f"'Ts' must be in (0, 0.1] s, got {Ts!r}")
-    for name, v in (("static", static), ("step", step), ("chirp", chirp)):
-        if not (np.isfinite(v) and 0 <= v <= 600):
-            raise ValueError(f"{name!r} must be in [0, 600] s, got {v!r}")
+    """``(t, duty (n, 2), mode (n,))`` of the excitation; at most ``max_samples`` rows (the
+    size is checked before anything is allocated). Bad arguments: ``TypeError`` /
+    ``ValueError`` naming them (``amplitude`` in (0, 1] duty, ``0 < f0 < f1 <= 1000`` Hz)."""
+    if isinstance(max_samples, bool) or not isinstance(max_samples, int) or max_samples < 1:
+        raise ValueError(f"'max_samples' must be an integer >= 1, got {max_samples!r}")
+    n = schedule_length(Ts, static, step, chirp)
+    amplitude = _number("amplitude", amplitude, 0.0, 1.0, lo_open=True)
+    f1 = _number("f1", f1, 0.0, 1000.0, lo_open=True)
+    f0 = _number("f0", f0, 0.0, f1, lo_open=True)
+    if f0 >= f1:
+        raise ValueError(f"'f0' must be below 'f1' = {f1:g} Hz, got {f0!r}")
+    if n > max_samples:
+        raise ValueError(f"the schedule would have {n} rows (Ts {Ts:g} s, {static:g} + "
+                         f"{2 * len(STEP_LEVELS)} x {step:g} + {chirp:g} s), more than "
+                         f"{max_samples} (--max-samples raises it; a longer Ts or shorter "
+                         "parts make it shorter)")  # fmt: skip
+    Ts, static, step, chirp = float(Ts), float(static), float(step), float(chirp)
     ns = int(round(static / Ts))
     parts: list[NDArray[np.float64]] = [np.zeros(ns)]
     nstep = max(int(round(step / Ts)), 1)

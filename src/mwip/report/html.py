@@ -17,13 +17,12 @@ opens the full-size file.
 
 from __future__ import annotations
 
-import html
 import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from mwip.io import write_text_atomic
+from mwip.io import html_text, write_text_atomic
 from mwip.report.claims import (
     CAUSES,
     NO_CAUSE,
@@ -88,7 +87,7 @@ CLAIMS_CAMPAIGN = "claims-campaign"
 
 
 def _e(x: Any) -> str:
-    return html.escape(str(x), quote=True)
+    return html_text(x)
 
 
 def _img(path: Path, href: str, caption: str | None = None) -> str:

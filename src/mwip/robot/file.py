@@ -347,8 +347,10 @@ def load_robot(path: str | os.PathLike[str], base: Robot | None = None, *,
 
 # ------------------------------------------------------------------------------ writing
 def _toml_string(s: str) -> str:
-    """A TOML basic string: JSON's escapes (valid TOML) plus DEL."""
-    return json.dumps(s, ensure_ascii=False).replace("\x7f", "\\u007f")
+    """A TOML basic string (:func:`mwip.io.toml_str`)."""
+    from mwip.io import toml_str
+
+    return toml_str(s)
 
 
 def _toml_value(v: Any) -> str:
@@ -400,6 +402,10 @@ def robot_to_toml(robot: Robot) -> str:
     def put(table: str, key: str, value: Any) -> None:
         text = f"{key} = {_toml_value(value)}"
         note = _comment(robot, f"{table}.{key}", unknowns, sources)
+        if note:  # a control character in a source cannot end the comment early
+            from mwip.io import toml_comment
+
+            note = toml_comment(note.replace("\n", " "))[2:]
         out.append(f"{text:<34} # {note}" if note else text)
 
     put("robot", "elements", [e for e in ELEMENTS if e in tw.active])

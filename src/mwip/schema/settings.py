@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mwip.io import read_toml, write_text_atomic
+from mwip.io import read_toml, toml_comment, toml_key, toml_str, write_text_atomic
 
 __all__ = ["SettingsFile", "parse_settings", "read_settings_file", "settings_text",
            "write_settings_file"]
@@ -97,7 +97,7 @@ def _toml(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return toml_str(v)
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_toml(x) for x in v) + "]"
     return repr(float(v)) if isinstance(v, float) else str(int(v))
@@ -106,15 +106,19 @@ def _toml(v: Any) -> str:
 def settings_text(name: str, settings: dict[str, Any], comment: str = "",
                   label: str | None = None) -> str:  # fmt: skip
     """The file's text for controller ``name`` and ``settings`` (``comment``: lines put first,
-    each prefixed with ``# ``). Floats are written with ``repr`` (read back exactly)."""
-    lines = [f"# {c}" if c else "#" for c in comment.splitlines()]
+    each prefixed with ``# ``, control characters escaped). Floats are written with ``repr``
+    (read back exactly); names and words are escaped (:mod:`mwip.io`); the text is checked to
+    read back as the same file."""
+    lines = toml_comment(comment.removesuffix("\n")).split("\n") if comment else []
     lines += ["[controller]", f"name = {_toml(name)}"]
     if label is not None:
         lines.append(f"label = {_toml(label)}")
     lines += ["", "[settings]"]
-    lines += [f"{k} = {_toml(v)}" for k, v in sorted(settings.items()) if v is not None]
+    lines += [f"{toml_key(k)} = {_toml(v)}" for k, v in sorted(settings.items()) if v is not None]
     text = "\n".join(lines) + "\n"
-    parse_settings(tomllib.loads(text), "settings_text")  # round trip
+    back = parse_settings(tomllib.loads(text), "settings_text")  # round trip
+    if back.name != name.strip() or back.label != label:
+        raise ValueError(f"settings_text: controller name {name!r} does not read back")
     return text
 
 

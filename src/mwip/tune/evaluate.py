@@ -64,8 +64,29 @@ def robot_set(
     """The robots of ``campaign`` (built-in name, file or :class:`Campaign`) with ``seed``;
     ``plant``: ``twin`` (the twin's sensors and drive), ``plain`` (ideal both) or
     ``campaign`` (as the campaign says)."""
+    import math
+
     from mwip.campaign.spec import load_campaign
 
+    if not isinstance(campaign, str | Campaign):
+        raise TypeError(f"'campaign' must be a campaign name, file or Campaign, got "
+                        f"{type(campaign).__name__}")  # fmt: skip
+    for name, v in (("samples", samples), ("chunk", chunk), ("seed", seed)):
+        if isinstance(v, bool) or not isinstance(v, int | np.integer):
+            raise TypeError(f"{name!r} must be an integer, got {v!r}")
+    if not 1 <= samples <= 10**7:
+        raise ValueError(f"'samples' must be in [1, 10000000], got {samples!r}")
+    if not 1 <= chunk <= samples:
+        raise ValueError(f"'chunk' must be in [1, samples = {samples}], got {chunk!r}")
+    if not 0 <= seed < 2**63:
+        raise ValueError(f"'seed' must be in [0, 2^63), got {seed!r}")
+    for name, x, hi in (("duration", duration, 3600.0), ("success_theta", success_theta, 1.5)):
+        if x is None:
+            continue
+        if isinstance(x, bool) or not isinstance(x, int | float | np.floating):
+            raise TypeError(f"{name!r} must be a number, got {x!r}")
+        if not (math.isfinite(x) and 0 < x <= hi):
+            raise ValueError(f"{name!r} must be in (0, {hi:g}], got {x!r}")
     camp = load_campaign(campaign) if isinstance(campaign, str) else campaign
     if camp.kind != "robustness":
         raise ValueError(f"objective robots.campaign must be a robustness campaign, got kind "

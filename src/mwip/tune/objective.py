@@ -196,6 +196,9 @@ def parse_objective(data: dict[str, Any], name: str = "file") -> Objective:
     raw_terms = obj.get("terms", [])
     if not isinstance(raw_terms, list):
         raise ValueError("objective objective.terms must be a list of [[objective.terms]] tables")
+    if "terms" in obj and not raw_terms:
+        raise ValueError("objective objective.terms is an empty list; give [[objective.terms]] "
+                         "tables, or leave it out (success alone)")  # fmt: skip
     terms: list[Term] = []
     for i, t in enumerate(raw_terms):
         where = f"objective.terms[{i}]"
@@ -249,6 +252,9 @@ def parse_objective(data: dict[str, Any], name: str = "file") -> Objective:
     ranges = spc.get("ranges", {})
     if not isinstance(ranges, dict):
         raise ValueError("objective space.ranges must be a table")
+    if "ranges" in spc and not ranges:
+        raise ValueError("objective space.ranges is an empty table; give a setting's range or "
+                         "leave it out")  # fmt: skip
     return Objective(
         name, title, mode, success_theta, limit, limit_raw == "drive", tuple(terms), campaign,
         plant, samples, chunk, seed, duration, v_samples, v_seed,
@@ -274,7 +280,12 @@ def load_objective(name_or_path: str) -> Objective:
     if not Path(name_or_path).is_file():
         raise ValueError(f"--objective: {name_or_path!r} is neither a built-in objective "
                          f"({', '.join(builtin_objectives())}) nor a file")  # fmt: skip
-    return parse_objective(read_toml(name_or_path, "objective file"), Path(name_or_path).stem)
+    data = read_toml(name_or_path, "objective file")
+    if not data:
+        raise ValueError(f"objective file {name_or_path!r} is empty; give at least its "
+                         "[objective] and [robots] tables (docs/tune.md; a built-in one: "
+                         f"{', '.join(builtin_objectives())})")  # fmt: skip
+    return parse_objective(data, Path(name_or_path).stem)
 
 
 def successes(obj: Objective, met: dict[str, NDArray], drive: str = "ideal") -> NDArray[np.bool_]:

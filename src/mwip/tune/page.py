@@ -11,13 +11,14 @@
 
 from __future__ import annotations
 
-import html
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from mwip.io import html_text
 
 __all__ = ["write_page", "pareto_front"]
 
@@ -135,7 +136,7 @@ def _fmt(x: Any) -> str:
         return "n/a" if not math.isfinite(x) else f"{x:.4g}"
     if isinstance(x, list | tuple):
         return "[" + ", ".join(_fmt(v) for v in x) + "]"
-    return html.escape(str(x))
+    return html_text(str(x))
 
 
 def write_page(
@@ -158,9 +159,9 @@ def write_page(
     made = (_history(trials, out), _importance(importances, out), _pareto(trials, labels, out),
             _validation(validation, out))  # fmt: skip
     figs = [f for f in made if f]
-    rows = "".join(f"<tr><th>{html.escape(str(k))}</th><td>{_fmt(v)}</td></tr>"
+    rows = "".join(f"<tr><th>{html_text(str(k))}</th><td>{_fmt(v)}</td></tr>"
                    for k, v in summary.items())  # fmt: skip
-    best = "".join(f"<tr><th>{html.escape(k)}</th><td>{_fmt(v)}</td></tr>"
+    best = "".join(f"<tr><th>{html_text(k)}</th><td>{_fmt(v)}</td></tr>"
                    for k, v in best_settings.items())  # fmt: skip
     val_rows = ""
     for s, e in validation.items():
@@ -168,23 +169,23 @@ def write_page(
             r = e[who]
             terms = "; ".join(f"{k} {_fmt(v['mean'])} {_fmt(v['interval'])}"
                               for k, v in r["terms"].items())  # fmt: skip
-            val_rows += (f"<tr><td>{html.escape(s)}</td><td>{who}</td>"
+            val_rows += (f"<tr><td>{html_text(s)}</td><td>{who}</td>"
                          f"<td>{r['successes']}/{r['robots']} = {100 * r['success_rate']:.1f} % "
                          f"[{100 * r['success_interval'][0]:.1f}, "
                          f"{100 * r['success_interval'][1]:.1f}]</td>"
                          f"<td>{_fmt(r['cost'])}</td><td>{terms}</td></tr>")  # fmt: skip
         d = e["difference"]
-        val_rows += (f"<tr><td>{html.escape(s)}</td><td>tuned - book</td>"
+        val_rows += (f"<tr><td>{html_text(s)}</td><td>tuned - book</td>"
                      f"<td>{100 * d['success_rate']:+.1f} points "
                      f"[{100 * d['interval'][0]:+.1f}, {100 * d['interval'][1]:+.1f}]</td>"
                      "<td></td><td></td></tr>")  # fmt: skip
     imgs = "".join(f'<p><img src="{f}" alt="{f}"></p>' for f in figs)
     text = f"""<!doctype html>
-<html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
+<html><head><meta charset="utf-8"><title>{html_text(title)}</title>
 <style>body{{font-family:sans-serif;max-width:60em;margin:2em auto}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:.2em .5em;text-align:left}}
 img{{max-width:100%}}</style></head><body>
-<h1>{html.escape(title)}</h1>
+<h1>{html_text(title)}</h1>
 <table>{rows}</table>
 <h2>Best settings (best.toml)</h2><table>{best}</table>
 <h2>Validation</h2>

@@ -7,10 +7,13 @@ study and writes, each atomically:
 
 - ``DIR/best.toml``: the best trial's settings (:mod:`mwip.schema.settings`); pareto
   mode: the front member with the fewest failures, then the lowest first term;
-- ``DIR/trials.csv``: every trial (number, state, values, parameters);
+- ``DIR/trials.csv``: every finished trial, by slot (number = the slot, state, values,
+  success rate, parameters; :mod:`mwip.tune.study`): the same for a run killed and run again
+  as for the uninterrupted run;
 - ``DIR/validation.json``: :func:`mwip.tune.validate.validate`;
 - ``DIR/tune.json``: the run's identity (controller, objective, sampler, seed, study name,
-  storage) and summary; a different run into the same ``DIR`` is refused;
+  storage) and summary; a different run into the same ``DIR`` is refused; a rerun of a
+  finished run writes nothing;
 - ``DIR/index.html`` and its figures (:mod:`mwip.tune.page`).
 """
 
@@ -66,7 +69,7 @@ def plan(
     """Validate a run (module docstring); nothing is written."""
     from mwip.laws.registry import get
     from mwip.outdir import check
-    from mwip.tune.study import SAMPLERS, open_storage, require_optuna
+    from mwip.tune.study import SAMPLERS, close_storage, open_storage, require_optuna
 
     require_optuna()
     if isinstance(trials, bool) or not isinstance(trials, int) or not 1 <= trials <= MAX_TRIALS:
@@ -107,7 +110,7 @@ def plan(
                              f"sampler {old.get('sampler')}, seed {old.get('seed')}); give "
                              "another folder")  # fmt: skip
     if storage is not None:
-        open_storage(storage)  # reachable? (before anything is written)
+        close_storage(open_storage(storage))  # reachable? (before anything is written)
         url = storage
     else:
         url = f"sqlite:///{(out / 'study.db').absolute()}"
@@ -172,24 +175,38 @@ def population(sampler: str, n_dims: int) -> int:
 
 
 def _trial_rows(study: Any, p: Plan) -> list[dict[str, Any]]:
+    """The finished slots, in slot order (:func:`mwip.tune.study.finished_trials`): number =
+    the slot, whatever trials were interrupted or failed on the way."""
+    from mwip.tune.study import finished_trials, slot_of
+
     rows = []
-    for t in study.get_trials(deepcopy=False):
+    for t in finished_trials(study):
         bound = t.intermediate_values[t.last_step] if t.last_step is not None else None
-        rows.append({"number": t.number, "state": t.state.name,
+        rows.append({"number": slot_of(t), "state": t.state.name,
                      "values": list(t.values) if t.values is not None else None,
                      "objectives": t.user_attrs.get("objectives"),
                      "success_rate": t.user_attrs.get("success_rate"), "bound": bound,
-                     "params": dict(t.params), "retry_of": t.user_attrs.get("retry_of"),
+                     "params": dict(t.params),
                      "baseline": bool(t.user_attrs.get("baseline", False))})  # fmt: skip
     return rows
 
 
 def _best(study: Any, p: Plan) -> Any:
+    """The best finished trial: scalar mode the lowest cost (ties: the lowest slot); pareto
+    mode the front member with the fewest failures, then the lowest first term, then slot."""
+    from optuna.trial import TrialState
+
+    from mwip.tune.page import pareto_front
+    from mwip.tune.study import finished_trials, slot_of
+
+    done = [t for t in finished_trials(study) if t.state == TrialState.COMPLETE]
+    if not done:
+        raise RuntimeError("no trial finished with a cost (every one was pruned)")
     if p.objective.mode == "scalar":
-        return study.best_trial
-    front = study.best_trials
+        return min(done, key=lambda t: (t.values[0], slot_of(t)))
+    front = [done[i] for i in pareto_front([t.values for t in done])]
     return min(front, key=lambda t: (t.values[0], t.values[1] if len(t.values) > 1 else 0.0,
-                                     t.number))  # fmt: skip
+                                     slot_of(t)))  # fmt: skip
 
 
 def _csv(rows: list[dict[str, Any]], p: Plan) -> str:
@@ -201,15 +218,20 @@ def _csv(rows: list[dict[str, Any]], p: Plan) -> str:
     n_val = p.objective.n_objectives
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["number", "state", *[f"value{i}" for i in range(n_val)], "success_rate",
-                "retry_of", *names])  # fmt: skip
+                *names])  # fmt: skip
     for r in rows:
         vals = r["values"] or [None] * n_val
         params = r["params"]
-        w.writerow([r["number"], r["state"], *[("" if v is None else repr(v)) for v in vals],
-                    "" if r["success_rate"] is None else repr(r["success_rate"]),
-                    "" if r["retry_of"] is None else r["retry_of"],
-                    *[repr(params[n]) if n in params else "" for n in names]])  # fmt: skip
+        w.writerow([r["number"], r["state"], *[_num(v) for v in vals], _num(r["success_rate"]),
+                    *[_num(params.get(n)) for n in names]])  # fmt: skip
     return buf.getvalue()
+
+
+def _num(v: Any) -> str:
+    """A CSV cell: ``repr`` of a finite number (read back exactly), empty otherwise."""
+    if v is None or isinstance(v, bool) or not isinstance(v, int | float):
+        return ""
+    return repr(v) if math.isfinite(v) else ""
 
 
 def _importances(study: Any) -> dict[str, float]:
@@ -228,82 +250,117 @@ def _importances(study: Any) -> dict[str, float]:
         return {}
 
 
+#: The files of a finished run (besides the study and tune.json).
+OUTPUTS = ("best.toml", "trials.csv", "validation.json", "index.html")
+
+
+def _record(out: Path) -> dict[str, Any] | None:
+    try:
+        doc = json.loads((out / "tune.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return doc if isinstance(doc, dict) else None
+
+
 def execute(p: Plan, log: Callable[[str], None] = print) -> dict[str, Any]:
-    """Run (or continue) the plan; returns the summary written to ``tune.json``."""
-    from mwip.io import write_json_atomic, write_text_atomic
+    """Run (or continue) the plan; returns the summary written to ``tune.json``.
+
+    A rerun of a finished run (the study holds ``--trials`` finished slots and every output
+    file is there) writes nothing. Ctrl-C (``KeyboardInterrupt``) leaves every file as it was
+    (the trials finished so far are in the study) and propagates; the database is closed on
+    every way out (SQLite: no ``-wal``/``-shm`` left). A database error is an ``OSError``
+    (a full disk, a file over its size limit) or a one-line ``RuntimeError``.
+    """
     from mwip.outdir import claim, hold
+    from mwip.tune.study import as_os_error, close_storage, open_storage, storage_errors
+
+    claim(p.out, "tune")
+    with hold(p.out):
+        storage = open_storage(p.storage_url)
+        try:
+            return _execute(p, storage, log)
+        except storage_errors() as exc:
+            raise as_os_error(exc, str(p.out / "study.db") if not p.user_storage
+                              else p.storage_url) from None  # fmt: skip
+        finally:
+            close_storage(storage)
+
+
+def _execute(p: Plan, storage: Any, log: Callable[[str], None]) -> dict[str, Any]:
+    from mwip.io import write_json_atomic, write_text_atomic
     from mwip.schema.settings import write_settings_file
     from mwip.tune.page import write_page
-    from mwip.tune.study import finished, make_sampler, open_storage, open_study, optimise
+    from mwip.tune.study import finished, make_sampler, open_study, optimise, slot_of
     from mwip.tune.validate import validate
 
     t0 = time.perf_counter()
-    claim(p.out, "tune")
-    with hold(p.out):
+    old = _record(p.out)
+    if old is None or old.get("identity") != p.identity:
         write_json_atomic(p.out / "tune.json", {"identity": p.identity, "study": p.study_name,
                                                 "storage": p.storage_url})  # fmt: skip
-        storage = open_storage(p.storage_url)
-        obj = p.objective
-        directions = ["minimize"] * obj.n_objectives
-        sampler = make_sampler(p.sampler, p.seed, p.space, obj.n_objectives)
-        study = open_study(storage, p.study_name, directions, sampler)
-        before = finished(study)
-        if before >= p.trials:
+    obj = p.objective
+    directions = ["minimize"] * obj.n_objectives
+    sampler = make_sampler(p.sampler, p.seed, p.space, obj.n_objectives)
+    study = open_study(storage, p.study_name, directions, sampler)
+    before = finished(study)
+    summary_before = (old or {}).get("summary")
+    if before >= p.trials:
+        if (isinstance(summary_before, dict)
+                and summary_before.get("trials_finished") == before
+                and all((p.out / f).is_file() for f in OUTPUTS)):  # fmt: skip
             log(f"mwip tune: the study already holds {before} finished trials "
-                f"(--trials {p.trials}); nothing to run")  # fmt: skip
-        elif before:
-            log(f"mwip tune: continuing the study at {before} of {p.trials} finished trials")
+                f"(--trials {p.trials}); nothing to run, {p.out} is up to date")  # fmt: skip
+            return dict(summary_before)
+        log(f"mwip tune: the study already holds {before} finished trials "
+            f"(--trials {p.trials}); nothing to run")  # fmt: skip
+    elif before:
+        log(f"mwip tune: continuing the study at {before} of {p.trials} finished trials")
 
-        def progress(t: Any, done: int, total: int) -> None:
-            what = (f"cost {t.values[0]:.5g}" if t.values is not None else
-                    f"pruned at {t.last_step} of {p.robots.n_blocks} chunks")  # fmt: skip
-            rate = t.user_attrs.get("success_rate")
-            ok = "" if rate is None else f", success {100 * rate:.1f} %"
-            log(f"trial {t.number}: {what}{ok}  [{done}/{total}]")
+    def progress(t: Any, done: int, total: int) -> None:
+        what = (f"cost {t.values[0]:.5g}" if t.state.name == "COMPLETE" else
+                f"pruned at {t.last_step} of {p.robots.n_blocks} chunks")  # fmt: skip
+        rate = t.user_attrs.get("success_rate")
+        ok = "" if rate is None else f", success {100 * rate:.1f} %"
+        log(f"trial {slot_of(t)}: {what}{ok}  [{done}/{total}]")
 
-        ran = optimise(study, p.space, _objective_fn(p), p.trials,
-                       exclusive=not p.user_storage, progress=progress,
-                       batch=population(p.sampler, len(p.space.dims)),
-                       objective_batch=_objective_batch(p))  # fmt: skip
-        tuning_s = time.perf_counter() - t0
-        best = _best(study, p)
-        settings = p.space.settings(best.params)
-        header = (f"mwip tune {p.controller} --objective {obj.name} --sampler {p.sampler} "
-                  f"--seed {p.seed}: trial {best.number} of {finished(study)}, "
-                  f"{'cost' if obj.mode == 'scalar' else 'objectives'} "
-                  f"{', '.join(f'{v:.6g}' for v in best.values)}, success "
-                  f"{100 * best.user_attrs.get('success_rate', math.nan):.1f} % on "
-                  f"{p.robots.samples} robots")  # fmt: skip
-        write_settings_file(p.out / "best.toml", p.controller, settings, header)
-        rows = _trial_rows(study, p)
-        write_text_atomic(p.out / "trials.csv", _csv(rows, p))
-        log(f"mwip tune: validating on {p.robots.samples} tuning and {p.validation.samples} "
-            "new robots")  # fmt: skip
-        val = validate(p.controller, settings, obj, {"tuning": p.robots,
-                                                      "validation": p.validation})  # fmt: skip
-        write_json_atomic(p.out / "validation.json", val)
-        labels = ["failure rate", *[t.metric for t in obj.terms]]
-        summary = {"controller": p.controller, "objective": obj.name, "mode": obj.mode,
-                   "sampler": p.sampler, "seed": p.seed, "study": p.study_name,
-                   "storage": p.storage_url, "trials_finished": finished(study),
-                   "trials_run_now": ran, "best_trial": best.number,
-                   "best_values": list(best.values),
-                   "best_success_rate": best.user_attrs.get("success_rate"),
-                   "robots": p.robots.samples, "plant": p.robots.campaign.sensors,
-                   "tuning_wall_s": tuning_s}  # fmt: skip
-        write_page(p.out, title=f"mwip tune {p.controller}: {obj.title or obj.name}",
-                   summary=summary, trials=rows, labels=labels,
-                   importances=_importances(study), validation=val,
-                   best_settings=settings)  # fmt: skip
-        write_json_atomic(
-            p.out / "tune.json",
-            {
-                "identity": p.identity,
-                "study": p.study_name,
-                "storage": p.storage_url,
-                "summary": summary,
-            },
-        )
-        log(f"wrote {p.out / 'best.toml'}, {p.out / 'index.html'}, {p.out / 'trials.csv'}, "
-            f"{p.out / 'validation.json'}")  # fmt: skip
-        return summary
+    ran = optimise(study, p.space, _objective_fn(p), p.trials,
+                   exclusive=not p.user_storage, progress=progress,
+                   batch=population(p.sampler, len(p.space.dims)),
+                   objective_batch=_objective_batch(p))  # fmt: skip
+    tuning_s = time.perf_counter() - t0
+    best = _best(study, p)
+    n_done = finished(study)
+    settings = p.space.settings(best.params)
+    header = (f"mwip tune {p.controller} --objective {obj.name} --sampler {p.sampler} "
+              f"--seed {p.seed}: trial {slot_of(best)} of {n_done}, "
+              f"{'cost' if obj.mode == 'scalar' else 'objectives'} "
+              f"{', '.join(f'{v:.6g}' for v in best.values)}, success "
+              f"{100 * best.user_attrs.get('success_rate', math.nan):.1f} % on "
+              f"{p.robots.samples} robots")  # fmt: skip
+    rows = _trial_rows(study, p)
+    log(f"mwip tune: validating on {p.robots.samples} tuning and {p.validation.samples} "
+        "new robots")  # fmt: skip
+    val = validate(p.controller, settings, obj, {"tuning": p.robots,
+                                                  "validation": p.validation})  # fmt: skip
+    labels = ["failure rate", *[t.metric for t in obj.terms]]
+    summary = {"controller": p.controller, "objective": obj.name, "mode": obj.mode,
+               "sampler": p.sampler, "seed": p.seed, "study": p.study_name,
+               "storage": p.storage_url, "trials_finished": n_done,
+               "trials_run_now": ran, "best_trial": slot_of(best),
+               "best_values": list(best.values),
+               "best_success_rate": best.user_attrs.get("success_rate"),
+               "robots": p.robots.samples, "plant": p.robots.campaign.sensors,
+               "tuning_wall_s": tuning_s}  # fmt: skip
+    importances = _importances(study)
+    # everything is computed: the files follow, each atomically, the record last
+    write_settings_file(p.out / "best.toml", p.controller, settings, header)
+    write_text_atomic(p.out / "trials.csv", _csv(rows, p))
+    write_json_atomic(p.out / "validation.json", val)
+    write_page(p.out, title=f"mwip tune {p.controller}: {obj.title or obj.name}",
+               summary=summary, trials=rows, labels=labels, importances=importances,
+               validation=val, best_settings=settings)  # fmt: skip
+    write_json_atomic(p.out / "tune.json", {"identity": p.identity, "study": p.study_name,
+                                            "storage": p.storage_url, "summary": summary})
+    log(f"wrote {p.out / 'best.toml'}, {p.out / 'index.html'}, {p.out / 'trials.csv'}, "
+        f"{p.out / 'validation.json'}")  # fmt: skip
+    return summary

@@ -153,7 +153,22 @@ def build_space(
     ranges: Mapping[str, Any] | None = None,
     ratio: float = 4.0,
 ) -> Space:
-    """The search space of ``spec`` (module docstring); one-line ``ValueError`` on bad input."""
+    """The search space of ``spec`` (module docstring); one-line ``ValueError`` on bad input
+    (``TypeError`` for an argument of the wrong kind, naming it)."""
+    if not isinstance(spec, ControllerSpec):
+        raise TypeError(f"'spec' must be a ControllerSpec (mwip.laws.registry.get(name)), got "
+                        f"{type(spec).__name__}")  # fmt: skip
+    if tune is not None and (isinstance(tune, str) or not isinstance(tune, Sequence)
+                             or not all(isinstance(x, str) for x in tune)):  # fmt: skip
+        raise TypeError(f"'tune' must be a list of setting names, got {tune!r}")
+    if tune is not None and not tune:
+        raise ValueError("'tune' is an empty list; give setting names, or None (the defaults)")
+    if ranges is not None and not isinstance(ranges, Mapping):
+        raise TypeError(f"'ranges' must be a mapping of setting name -> range, got {ranges!r}")
+    if isinstance(ratio, bool) or not isinstance(ratio, int | float):
+        raise TypeError(f"'ratio' must be a number > 1, got {ratio!r}")
+    if not (math.isfinite(ratio) and 1.0 < ratio <= 1e6):
+        raise ValueError(f"'ratio' must be in (1, 1e6], got {ratio!r}")
     ranges = dict(ranges or {})
     names = list(tune) if tune is not None else default_tuned(spec)
     for key in list(names) + list(ranges):
