@@ -18,7 +18,7 @@ from pathlib import Path
 
 import click
 
-from mwip.cli._common import TWIN_OPTION, load_twin_option
+from mwip.cli._common import FILE_FORCE, TWIN_OPTION, file_ok, load_twin_option, record_file
 
 __all__ = ["twin"]
 
@@ -117,6 +117,10 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
     if evidence is not None:
         if logs:
             raise click.UsageError("give LOG files or --evidence book, not both")
+        from mwip.cli._common import need_extra
+
+        need_extra("campaign", "mwip twin fit --evidence book",  # (a campaign's engine)
+                   None if jobs > 1 else ("pyarrow", "pandas"))  # fmt: skip
         _fit_book(out, force, samples, seed, jobs, duration, stage2, chain_steps,
                   mixture_draws, envelope_draws)
         return
@@ -209,13 +213,17 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
 @click.option("--static", default=2.0, show_default=True, type=float, help="Static hold (s).")
 @click.option("--step", default=0.25, show_default=True, type=float, help="Each duty step (s).")
 @click.option("--chirp", default=4.0, show_default=True, type=float, help="Chirp length (s).")
-def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float) -> None:
+@FILE_FORCE
+def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float,
+                force: bool) -> None:  # fmt: skip
     """Write the excitation schedule to run on the robot (docs/twin_fit.md)."""
     from mwip.identify.excite import schedule
     from mwip.io import write_text_atomic
 
+    file_ok(out, force)
     t, duty, mode = schedule(Ts, static, step, chirp)
     lines = ["t,duty_r,duty_l,mode"]
     lines += [f"{t[i]:.6f},{duty[i, 0]:.6f},{duty[i, 1]:.6f},{mode[i]}" for i in range(t.size)]
     write_text_atomic(out, "\n".join(lines) + "\n")
+    record_file(out)
     click.echo(f"wrote {out} ({t.size} samples, {t[-1] + Ts:g} s)")
