@@ -46,8 +46,11 @@ from mwip.outdir import LOCK
 __all__ = ["RunSummary", "compute_chunk", "run_campaign", "assemble", "done_blocks", "n_blocks"]
 
 _CHUNK_RE = re.compile(r"^blocks-(\d{6,})-(\d{6,})\.parquet$")
-#: chunks per worker the default chunk size aims at (load balance vs per-chunk overhead)
-_CHUNKS_PER_WORKER = 4
+#: the most chunks the default chunk size makes (one block each up to this many blocks):
+#: a chunk is one task and one file, cheap beside a block's runs, and each finished chunk is
+#: a line of progress (issue 40: a report within the first block, not after a quarter of
+#: the work)
+_MAX_CHUNKS = 256
 
 
 @dataclass(frozen=True)
@@ -205,11 +208,13 @@ def _finished(campaign: Campaign, out: Path) -> bool:
     return bool(data.get("finished_samples") == campaign.samples)
 
 
-def _chunks(todo: list[int], size: int) -> list[list[int]]:
-    """Runs of consecutive blocks, at most ``size`` each."""
+def _chunks(todo: list[int], size: int, first: int = 0) -> list[list[int]]:
+    """Runs of consecutive blocks, at most ``size`` each; the ``first`` chunks of one block
+    (each worker's first report comes after one block)."""
     out: list[list[int]] = []
     for b in todo:
-        if out and b == out[-1][-1] + 1 and len(out[-1]) < size:
+        limit = 1 if len(out) <= first else size
+        if out and b == out[-1][-1] + 1 and len(out[-1]) < limit:
             out[-1].append(b)
         else:
             out.append([b])
@@ -220,14 +225,39 @@ ProgressFn = Callable[[int, int, float], None]
 
 
 def _default_progress(done: int, total: int, elapsed: float) -> None:
-    frac = done / total if total else 1.0
-    eta = elapsed / frac - elapsed if frac > 0 else float("nan")
-    width = 30
-    bar = "#" * int(width * frac) + "-" * (width - int(width * frac))
-    eta_text = "--" if not math.isfinite(eta) else f"{eta:.0f} s"
-    end = "\r" if sys.stderr.isatty() and done < total else "\n"
-    sys.stderr.write(f"[{bar}] {done}/{total} samples  {elapsed:.0f} s  ETA {eta_text}{end}")
-    sys.stderr.flush()
+    """The progress line on stderr (redrawn in place on a terminal): samples done, time so
+    far and the estimated time left (:class:`_Progress` estimates from this run's work)."""
+    _Progress(0)(done, total, elapsed)
+
+
+class _Progress:
+    """:func:`_default_progress` for one run: its estimate of the time left counts only the
+    samples run now (``start``: those done before, by an earlier run) and is printed once it
+    can be (after the first chunk)."""
+
+    def __init__(self, start: int) -> None:
+        self.start = start
+
+    def __call__(self, done: int, total: int, elapsed: float) -> None:
+        frac = done / total if total else 1.0
+        now = done - self.start
+        eta = elapsed * (total - done) / now if now > 0 else float("nan")
+        width = 30
+        bar = "#" * int(width * frac) + "-" * (width - int(width * frac))
+        eta_text = "--" if not math.isfinite(eta) else _duration(eta)
+        end = "\r" if sys.stderr.isatty() and done < total else "\n"
+        sys.stderr.write(f"[{bar}] {done}/{total} samples  {_duration(elapsed)}  "
+                         f"left about {eta_text}{end}")  # fmt: skip
+        sys.stderr.flush()
+
+
+def _duration(seconds: float) -> str:
+    """``42 s``, ``3.5 min``, ``2.1 h``."""
+    if seconds < 100:
+        return f"{seconds:.0f} s"
+    if seconds < 6000:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.1f} h"
 
 
 def run_campaign(
@@ -241,8 +271,8 @@ def run_campaign(
 ) -> RunSummary:
     """Run (or continue) ``campaign`` into ``out``; see the module docstring.
 
-    ``chunk``: samples per chunk (rounded up to whole blocks; default: about
-    ``4 x workers`` chunks). ``jobs``: worker processes (default: the machine's CPUs).
+    ``chunk``: samples per chunk (rounded up to whole blocks; default: one block per chunk,
+    at most :data:`_MAX_CHUNKS` chunks, each worker's first chunk one block). ``jobs``: worker processes (default: the machine's CPUs).
     Ctrl-C (``KeyboardInterrupt``) stops after saving nothing partial and returns
     ``status="interrupted"``; the next run continues.
     """
@@ -266,9 +296,9 @@ def run_campaign(
     per = (
         math.ceil(chunk / campaign.block)
         if chunk is not None
-        else max(1, math.ceil(len(todo) / (_CHUNKS_PER_WORKER * workers)))
+        else max(1, math.ceil(len(todo) / _MAX_CHUNKS))
     )
-    chunks = _chunks(todo, per)
+    chunks = _chunks(todo, per, first=0 if chunk is not None else workers)
     units = n_units(campaign)
 
     def size(b: int) -> int:  # units asked in block b (the last block is run whole, and the
@@ -277,6 +307,10 @@ def run_campaign(
 
     samples_total = sum(size(b) for b in range(total))
     samples_done = [sum(size(b) for b in done & set(range(total)))]
+    if progress is _default_progress:
+        progress = _Progress(samples_done[0])
+    if progress is not None and chunks:  # at once: what there is to do (then after each chunk)
+        progress(samples_done[0], samples_total, time.perf_counter() - t0)
     dask = _connect(workers, scheduler) if chunks and (scheduler or workers > 1) else None
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "campaign.json", _record(campaign))

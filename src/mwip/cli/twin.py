@@ -161,6 +161,9 @@ def twin_fit(logs: tuple[Path, ...], out: Path, twin_file: Path | None, free: st
     outdir.claim(target, "twin fit")
     files = write_outputs(target, result, read, base)
     click.echo(f"wrote {', '.join(str(f) for f in files)}")
+    enc = (result.residuals or {}).get("enc") or {}
+    if enc.get("rms") is not None:  # the units of the progress lines
+        click.echo(f"encoder residual RMS {enc['rms']:.3g} rad (fit.json: residuals)")
     for flag in result.flags:
         click.echo(f"note: {flag}")
 
@@ -176,6 +179,14 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
     from mwip.calibration.book import calibrate_book
 
     target = outdir.check(out, force, command="twin fit")
+    if (samples, stage2, chain_steps, mixture_draws, envelope_draws) == (None,) * 5:
+        slower = "" if jobs >= 2 else f"; slower with --jobs {jobs}"
+        click.echo("mwip: --evidence book at the declared sizes evaluates about 100,000 twins "
+                   "in five stages: about 2 hours with --jobs 2 on a 2-core machine "
+                   f"(BENCHMARKS.md){slower}", err=True)  # fmt: skip
+        click.echo("mwip: it is resumable (Ctrl-C, then the same command continues); a first "
+                   "look: --samples 20 --stage2-draws 0 --chain-steps 0 --mixture-draws 0",
+                   err=True)  # fmt: skip
     outdir.claim(target, "twin fit")
     res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration,
                          proposal_draws=stage2, chains=None if chain_steps == 0 else True,

@@ -2,8 +2,8 @@
 
 ``twin.toml`` is the base twin with the fitted values (:mod:`mwip.hardware.twin_config`),
 preceded by a date-free provenance comment block (the logs' SHA-256, the free and fixed
-lists), so the same logs give the same file. ``drive.emf_compensation`` is written as
-``drive.emf_compensation`` is the fitted fraction (``fit.json`` has it too).
+lists), so the same logs give the same file. ``drive.emf_compensation`` is the fitted
+fraction (``fit.json`` has it too).
 """
 
 from __future__ import annotations
