@@ -272,7 +272,8 @@ def run_campaign(
     """Run (or continue) ``campaign`` into ``out``; see the module docstring.
 
     ``chunk``: samples per chunk (rounded up to whole blocks; default: one block per chunk,
-    at most :data:`_MAX_CHUNKS` chunks, each worker's first chunk one block). ``jobs``: worker processes (default: the machine's CPUs).
+    at most :data:`_MAX_CHUNKS` chunks, each worker's first chunk one block). ``jobs``:
+    worker processes (default: the machine's CPUs).
     Ctrl-C (``KeyboardInterrupt``) stops after saving nothing partial and returns
     ``status="interrupted"``; the next run continues.
     """

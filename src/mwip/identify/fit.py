@@ -37,7 +37,6 @@ information matrix, residual RMS per signal and whiteness
 from __future__ import annotations
 
 import math
-
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
