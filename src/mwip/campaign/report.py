@@ -231,11 +231,12 @@ def torque_note() -> str:
     from mwip.hardware.identified import wheel_torque_limit
 
     return ("peak_torque: the largest |torque| applied to a wheel in a run (N m per wheel; "
-            "median / p95 over the runs that did not fall): what the controller asked of the "
-            "robot, not limited by a drive on the plain plant. The robot's drive (the default "
-            "twin's RE25 through its gearbox at its current limit, `mwip twin show`) gives at "
-            f"most {wheel_torque_limit():.3g} N m per wheel, the \"drive limit\" of `mwip "
-            "simulate` and the run figures: a run whose peak_torque exceeds it asked for more "
+            "median / p95 over the runs that did not fall). On the plain plant that is the "
+            "controller's command, which no drive limits; on the twin, what its drive delivered. "
+            "The robot's drive (the default twin's RE25 through its gearbox at its current "
+            f"limit, `mwip twin show`) gives at most {wheel_torque_limit():.3g} N m per wheel: "
+            "the \"drive limit\" that `mwip simulate` compares its commanded max |u| with and "
+            "the run figures draw. A plain-plant run whose peak_torque exceeds it asked for more "
             "than the robot could give.")  # fmt: skip
 
 
