@@ -89,4 +89,8 @@ def main(iterations: int = 40) -> dict[str, float]:
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--iterations", type=int, default=40)
-    main(ap.parse_args().iterations)
+    try:
+        main(ap.parse_args().iterations)
+    except KeyboardInterrupt:  # Ctrl-C: one line, exit 130
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)

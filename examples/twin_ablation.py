@@ -3,7 +3,8 @@ Chapter 6 evidence, `mwip twin show`; or --twin FILE's): the ideal robot first, 
 twin's elements added one at a time.
 
 Shows how a study calls :func:`mwip.hardware.ablation.run_ablation` with its own controller
-factories, settings and claims. Run (about a minute per study, four studies)::
+factories, settings and claims. Run (four studies; about 10 s in all with warm caches on the
+2-core machine, BENCHMARKS.md "Silence")::
 
     python examples/twin_ablation.py [--twin FILE] [--out DIR] [--quick] [--alone] [--force]
 
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -142,7 +144,7 @@ def main() -> None:
     twin = load_twin(args.twin) if args.twin else default_twin()
     which = f"the twin of {args.twin}" if args.twin else "the default twin"
     runs = "quick" if args.quick else "full"
-    print(f"ablation on {which}: 4 studies, about a minute each ({runs} runs)", flush=True)
+    print(f"ablation on {which}: 4 studies, {runs} runs", flush=True)
     flat: dict[str, float] = {}
     text = []
     quick, al = args.quick, args.alone
@@ -171,4 +173,8 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except KeyboardInterrupt:  # Ctrl-C: one line, exit 130 (nothing written yet)
+        print("interrupted; nothing written", file=sys.stderr)
+        sys.exit(130)

@@ -8,8 +8,9 @@ mistyped name (``--out README.md``) is refused with one line, and the file stays
 A file counts as mwip's when
 
 - it does not exist yet;
-- it lies in an mwip output folder (one carrying :data:`mwip.outdir.MARKER`): mwip replaces
-  the entries it writes there; or
+- it lies in an mwip output folder (one carrying :data:`mwip.outdir.MARKER`, the file's own
+  folder or one of the two above it: ``OUT/<study>/plot/<run>.png``): mwip replaces the
+  entries it writes there; or
 - mwip wrote it and it is unchanged since: every file written through :func:`record` is
   noted with its size and SHA-256 in the record :data:`RECORD` in mwip's cache folder
   (:func:`mwip.cache.cache_dir`). Deleting the cache only means that the next write over such
@@ -71,7 +72,7 @@ def is_mwip_file(path: Path | str) -> bool:
     from mwip.outdir import is_owned
 
     path = Path(path)
-    if is_owned(path.parent):
+    if any(is_owned(folder) for folder in path.absolute().parents[:3]):
         return True
     seen = _load().get(_key(path))
     return seen is not None and seen == _fingerprint(path)

@@ -28,13 +28,15 @@ installed; they send the rows back, so no shared file system is needed).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
 import sys
+import threading
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -233,12 +235,21 @@ def _default_progress(done: int, total: int, elapsed: float) -> None:
 class _Progress:
     """:func:`_default_progress` for one run: its estimate of the time left counts only the
     samples run now (``start``: those done before, by an earlier run) and is printed once it
-    can be (after the first chunk)."""
+    can be (after the first chunk). On a terminal, :meth:`ticking` redraws the line every
+    :data:`_TICK` s while no chunk finishes (a chunk can take longer than that: the line's
+    clock and estimate still move)."""
 
     def __init__(self, start: int) -> None:
         self.start = start
+        self.last: tuple[int, int, float] | None = None  # done, total, perf_counter() of t0
+        self.lock = threading.Lock()
 
     def __call__(self, done: int, total: int, elapsed: float) -> None:
+        with self.lock:
+            self.last = (done, total, time.perf_counter() - elapsed)
+            self._draw(done, total, elapsed)
+
+    def _draw(self, done: int, total: int, elapsed: float) -> None:
         frac = done / total if total else 1.0
         now = done - self.start
         eta = elapsed * (total - done) / now if now > 0 else float("nan")
@@ -249,6 +260,35 @@ class _Progress:
         sys.stderr.write(f"[{bar}] {done}/{total} samples  {_duration(elapsed)}  "
                          f"left about {eta_text}{end}")  # fmt: skip
         sys.stderr.flush()
+
+    @contextlib.contextmanager
+    def ticking(self) -> Iterator[None]:
+        """Redraw the line every :data:`_TICK` s in a thread while the block runs (only on a
+        terminal: a log file gets a line per chunk)."""
+        if not sys.stderr.isatty():
+            yield
+            return
+        stop = threading.Event()
+
+        def tick() -> None:
+            while not stop.wait(_TICK):
+                with self.lock:
+                    if self.last is not None and self.last[0] < self.last[1] and not stop.is_set():
+                        done, total, t0 = self.last
+                        self._draw(done, total, time.perf_counter() - t0)
+
+        thread = threading.Thread(target=tick, name="mwip-progress", daemon=True)
+        thread.start()
+        try:
+            yield
+        finally:
+            stop.set()
+            with self.lock:  # a redraw in progress ends before the caller writes again
+                pass
+
+
+#: Seconds between redraws of the progress line on a terminal while no chunk finishes.
+_TICK = 5.0
 
 
 def _duration(seconds: float) -> str:
@@ -323,12 +363,14 @@ def run_campaign(
             progress(samples_done[0], samples_total, time.perf_counter() - t0)
 
     interrupted = False
+    ticking = progress.ticking() if isinstance(progress, _Progress) else contextlib.nullcontext()
     try:
-        if dask is not None:
-            _run_dask(campaign, chunks, *dask, finished)
-        else:
-            for blocks in chunks:
-                finished(blocks, compute_chunk(campaign, blocks))
+        with ticking:
+            if dask is not None:
+                _run_dask(campaign, chunks, *dask, finished)
+            else:
+                for blocks in chunks:
+                    finished(blocks, compute_chunk(campaign, blocks))
     except KeyboardInterrupt:
         interrupted = True
     ran = len(done_blocks(out) - done)
