@@ -350,7 +350,8 @@ def run_campaign(
     samples_done = [sum(size(b) for b in done & set(range(total)))]
     if progress is _default_progress:
         progress = _Progress(samples_done[0])
-    if progress is not None and chunks:  # at once: what there is to do (then after each chunk)
+    if isinstance(progress, _Progress) and chunks:  # at once: what there is to do (a given
+        # progress function is called after each chunk only, as before)
         progress(samples_done[0], samples_total, time.perf_counter() - t0)
     dask = _connect(workers, scheduler) if chunks and (scheduler or workers > 1) else None
     out.mkdir(parents=True, exist_ok=True)
