@@ -12,6 +12,8 @@ designed for the 5 ms sample period is the baseline; a good learned policy appro
 from __future__ import annotations
 
 import argparse
+import sys
+import time
 
 import gymnasium
 import numpy as np
@@ -40,12 +42,19 @@ def linear(W: np.ndarray):
 
 
 def random_search(iterations: int, seed: int = 0, directions: int = 8, step: float = 0.3,
-                  noise: float = 0.3) -> np.ndarray:  # fmt: skip
-    """Basic random search on u = W x from W = 0."""
+                  noise: float = 0.3, verbose: bool = True) -> np.ndarray:  # fmt: skip
+    """Basic random search on u = W x from W = 0 (``verbose``: a line per iteration on
+    stderr, with the time left)."""
     rng = np.random.default_rng(seed)
     W = np.zeros((2, 5))
     scale = np.array([20.0, 2.0, 2.0, 2.0, 2.0])  # theta matters most: search in scaled units
+    t0 = time.perf_counter()
     for it in range(iterations):
+        if verbose and it:
+            spent = time.perf_counter() - t0
+            left = spent / it * (iterations - it)
+            print(f"iteration {it}/{iterations}: {spent:.0f} s, about {left:.0f} s left",
+                  file=sys.stderr, flush=True)  # fmt: skip
         deltas = rng.standard_normal((directions, 2, 5))
         plus = [episode_returns(linear(W + noise * d * scale), 1000 * it + j, 8).mean()
                 for j, d in enumerate(deltas)]  # fmt: skip
@@ -59,7 +68,11 @@ def random_search(iterations: int, seed: int = 0, directions: int = 8, step: flo
 
 def main(iterations: int = 40) -> dict[str, float]:
     K = design_lqr(NOMINAL, Ts=0.005).K
+    print(f"random search: {iterations} iterations of {2 * 8} rollouts of 8 robots for 10 s "
+          "(the first one compiles the environment's loop)", file=sys.stderr, flush=True)
     W = random_search(iterations)
+    print("evaluating LQR, the learned and a random policy on 32 robots", file=sys.stderr,
+          flush=True)  # fmt: skip
     rng = np.random.default_rng(7)
     results = {
         "lqr": episode_returns(linear(-K), seed=123).mean(),
@@ -76,4 +89,8 @@ def main(iterations: int = 40) -> dict[str, float]:
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--iterations", type=int, default=40)
-    main(ap.parse_args().iterations)
+    try:
+        main(ap.parse_args().iterations)
+    except KeyboardInterrupt:  # Ctrl-C: one line, exit 130
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)

@@ -1,11 +1,15 @@
-"""Ablation of the Chapter 6 studies on the twin: ideal robot, then each element in turn.
+"""Ablation of the Chapter 6 studies on the default twin (the book's robot identified from its
+Chapter 6 evidence, `mwip twin show`; or --twin FILE's): the ideal robot first, then the
+twin's elements added one at a time.
 
 Shows how a study calls :func:`mwip.hardware.ablation.run_ablation` with its own controller
-factories, settings and claims. Run (about a minute per study)::
+factories, settings and claims. Run (four studies; about 10 s in all with warm caches on the
+2-core machine, BENCHMARKS.md "Silence")::
 
-    PYTHONPATH=src python examples/twin_ablation.py [--twin FILE] [--out DIR] [--quick] [--alone]
+    python examples/twin_ablation.py [--twin FILE] [--out DIR] [--quick] [--alone] [--force]
 
-``--alone``: each element alone on the ideal robot instead of added in turn.
+``--alone``: each element alone on the ideal robot instead of added in turn. ``--out``: a new
+or empty folder, or one this script wrote (default ``ablation``; another only with --force).
 
 Writes ``DIR/ablation.json`` (flat ``ablation.<element>.<run>.case<k>.<quantity>``) and
 ``DIR/ablation.md`` (the tables).
@@ -15,15 +19,19 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from mwip import outdir
 from mwip.hardware.ablation import Ablation, rms_metrics, run_ablation
+from mwip.hardware.identified import default_twin
 from mwip.hardware.twin import Twin
 from mwip.hardware.twin_config import load_twin
+from mwip.io import write_text_atomic
 from mwip.metrics import rms
 from mwip.studies import exp_asta, exp_hodosmc, settings
 from mwip.studies.exp_hodosmc import obstacle_settling_time
@@ -124,12 +132,19 @@ def asta(twin: Twin, quick: bool, alone: bool = False) -> Ablation:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--twin", type=Path, default=None)
-    ap.add_argument("--out", type=Path, default=Path("/tmp/twin-ablation"))
+    ap.add_argument("--out", type=Path, default=Path("ablation"))
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--alone", action="store_true")
+    ap.add_argument("--force", action="store_true", help="write into a folder not mwip's")
     args = ap.parse_args()
-    twin = load_twin(args.twin) if args.twin else Twin()
-    args.out.mkdir(parents=True, exist_ok=True)
+    try:
+        outdir.check(args.out, args.force)
+    except ValueError as exc:
+        ap.error(str(exc))
+    twin = load_twin(args.twin) if args.twin else default_twin()
+    which = f"the twin of {args.twin}" if args.twin else "the default twin"
+    runs = "quick" if args.quick else "full"
+    print(f"ablation on {which}: 4 studies, {runs} runs", flush=True)
     flat: dict[str, float] = {}
     text = []
     quick, al = args.quick, args.alone
@@ -150,10 +165,16 @@ def main() -> None:
         for q in quantities:
             text.append(f"## {name}: {ab.table(q)}\n")
         print(name, "done", flush=True)
-    (args.out / "ablation.json").write_text(json.dumps(flat, indent=1))
-    (args.out / "ablation.md").write_text("\n".join(text))
+    outdir.claim(args.out)
+    write_text_atomic(args.out / "ablation.json", json.dumps(flat, indent=1))
+    write_text_atomic(args.out / "ablation.md", "\n".join(text))
     print("\n".join(text))
+    print(f"wrote {args.out / 'ablation.json'}, {args.out / 'ablation.md'}")
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except KeyboardInterrupt:  # Ctrl-C: one line, exit 130 (nothing written yet)
+        print("interrupted; nothing written", file=sys.stderr)
+        sys.exit(130)

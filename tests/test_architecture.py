@@ -23,7 +23,8 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 FLOORS: tuple[tuple[str, ...], ...] = (
     # ground: core types, parameters, the results schema, files, caches, small utilities
     ("mwip.lazy", "mwip.core", "mwip.params", "mwip.damping", "mwip.validate",
-     "mwip.io", "mwip.cache", "mwip.budget", "mwip.outdir", "mwip.metrics", "mwip.schema",
+     "mwip.io", "mwip.cache", "mwip.budget", "mwip.outdir", "mwip.outfile", "mwip.metrics",
+     "mwip.schema",
      "mwip.jit_cache", "mwip.numerics", "mwip.notice"),
     # the plant
     ("mwip.models",),

@@ -114,9 +114,14 @@ def test_the_fit_says_how_far_it_has_come() -> None:
     t, duty, mode = excite.schedule(static=0.3, step=0.07, chirp=0.6)
     lg = _log(synth.stand_log(synth.draw_truth(3), duty, mode, seed=3))
     lines: list[str] = []
-    fit([lg], progress=lines.append)
+    res = fit([lg], progress=lines.append)
     assert lines and all(line.startswith("fit: stage ") for line in lines)
-    assert "model evaluations, residual RMS" in lines[0]
+    assert "model evaluations; encoder residual RMS, best so far: " in lines[0]
+    # issue 40: in the final residual's units (rad), never below it within a stage's lines
+    best = [float(line.split("best so far: ")[1].split()[0]) for line in lines
+            if line.startswith("fit: stage 1") and line.endswith(" rad")]  # fmt: skip
+    assert best and best == sorted(best, reverse=True)
+    assert best[-1] >= 0.5 * res.residuals["enc"]["rms"]
 
 
 def _stand_base() -> object:

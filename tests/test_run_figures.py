@@ -71,7 +71,7 @@ def test_torque_beyond_the_limit_is_flagged_in_the_summary(tmp_path, capsys):
     assert main([*args, "--out", str(tmp_path / "o"), "--plot"]) == 0
     out = capsys.readouterr().out
     limit = wheel_torque_limit()  # the identified default twin's (0.72 N m)
-    assert f"x the drive's limit of {limit:.3g} N m per wheel" in out
+    assert f"x the drive limit of {limit:.3g} N m per wheel" in out
     doc = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert doc["over_torque_limit"] is True and doc["torque_limit"] == pytest.approx(limit)
     assert doc["max_abs_u"] > 10 * doc["torque_limit"]

@@ -4,6 +4,8 @@ designs whose solver is slow to load (the IT2 PDC LMIs, :func:`mwip.fuzzy.pdc.de
 Everything here is derived data: an entry is named by a hash of all its inputs (the source
 files of the code that computes it, the library versions, the arguments), so an edit gives a
 new name and a stale entry is never read; deleting the folder only costs a recomputation.
+Besides, :data:`mwip.outfile.RECORD` notes the single files mwip wrote (deleting it only means
+that replacing one of them asks for ``--force``).
 A design read back is checked again by its own verification before use.
 
 Folder: ``$MWIP_CACHE_DIR``, else ``$XDG_CACHE_HOME/mwip``, else ``~/.cache/mwip``.

@@ -110,6 +110,13 @@ def write_page(out: Path, scores: Any, bench: Bench, labels: list[str],
                  "Intervals: Wilson 95 %. Definitions: docs/bench.md.</p>")
     parts += [f"<p class='note'>{e(x)}</p>" for x in notes]
     parts.append("<h2>Leaderboard</h2><img src='leaderboard.png' alt='leaderboard'>")
+    from mwip.hardware.identified import wheel_torque_limit
+
+    parts.append(f"<p class='note'>peak_torque: the largest |torque| the twin's drive applied "
+                 "to a wheel in a run (N m per wheel, mwip.campaign.metrics); the identified "
+                 f"twin's drive gives at most {wheel_torque_limit():.3g} N m per wheel (the "
+                 "\"drive limit\" of `mwip simulate`, which compares the commanded torque "
+                 "with it, and of the run figures).</p>")  # fmt: skip
     head = "".join(f"<th>{e(a.name)}</th>" for a in bench.axes)
     perf = "".join(f"<th>{e(m)} ({_UNITS[m]})</th>" for m in PERFORMANCE)
     parts.append(f"<table><tr><th>#</th><th class='l'>entrant</th><th>score</th>{head}{perf}"

@@ -207,6 +207,9 @@ def run_chains(
     moved = np.zeros((C, plan.steps), dtype=bool)
     inside_all = np.zeros((C, plan.steps), dtype=bool)
     props = []
+    from mwip.calibration.clock import StepClock
+
+    clock = StepClock(plan.steps)
     for g in range(plan.steps):
         if g in updates:  # the states of the window before shape the steps
             lo = g - plan.adapt_every
@@ -238,6 +241,7 @@ def run_chains(
             if path is not None:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 write_parquet_atomic(path, df)
+            clock.ran(g)
         ok = df["moved"].to_numpy(dtype=bool)
         inside_all[:, g] = df["inside"].to_numpy(dtype=bool)
         moved[:, g] = ok
@@ -254,10 +258,12 @@ def run_chains(
             log_s += (float(ok.mean()) - plan.accept) / np.sqrt(j)
         props.append(df[df["inside"]])
         if note is not None:
-            note(f"chains: generation {g + 1}/{plan.steps}, {int(ok.sum())}/{C} moved")
+            note(f"chains: generation {g + 1}/{plan.steps}, {int(ok.sum())}/{C} moved"
+                 f"{clock.left(g)}")
     proposals = pd.concat(props, ignore_index=True) if props else pd.DataFrame()
     return ChainResult(
         names=tuple(names), x=np.transpose(history[plan.burn:], (1, 0, 2)).copy(),
         cols=kept_cols, proposals=proposals, moved=moved, inside=inside_all,
         scale=float(np.exp(log_s)), burn=plan.burn, plan=plan,
     )  # fmt: skip
+

@@ -134,10 +134,12 @@ def sample_blocks(
     are the caller's)."""
     import pandas as pd
 
+    from mwip.calibration.clock import StepClock
     from mwip.io import write_parquet_atomic
 
     parts = []
     n_blocks = -(-draws // block) if draws else 0
+    clock = StepClock(n_blocks)
     for b in range(first, n_blocks):
         idx = range(b * block, min((b + 1) * block, draws))
         path = store / f"block-{b:03d}.parquet" if store is not None else None
@@ -153,6 +155,7 @@ def sample_blocks(
                 path.parent.mkdir(parents=True, exist_ok=True)
                 write_parquet_atomic(path, df)
             parts.append(df)
+            clock.ran(b)
         if note is not None:
-            note(f"{label}: block {b + 1}/{n_blocks} done ({len(idx)} twins)")
+            note(f"{label}: block {b + 1}/{n_blocks} done ({len(idx)} twins){clock.left(b)}")
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()

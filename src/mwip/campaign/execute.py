@@ -35,14 +35,16 @@ keeping the chunks written.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
 import sys
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -56,8 +58,11 @@ __all__ = ["RunSummary", "compute_chunk", "run_campaign", "assemble", "done_bloc
            "work", "check_work", "MAX_HOURS"]
 
 _CHUNK_RE = re.compile(r"^blocks-(\d{6,})-(\d{6,})\.parquet$")
-#: chunks per worker the default chunk size aims at (load balance vs per-chunk overhead)
-_CHUNKS_PER_WORKER = 4
+#: the most chunks the default chunk size makes (one block each up to this many blocks):
+#: a chunk is one task and one file, cheap beside a block's runs, and each finished chunk is
+#: a line of progress (issue 40: a report within the first block, not after a quarter of
+#: the work)
+_MAX_CHUNKS = 256
 
 
 @dataclass(frozen=True)
@@ -285,11 +290,13 @@ def _finished(campaign: Campaign, out: Path) -> bool:
     return bool(data.get("finished_samples") == campaign.samples)
 
 
-def _chunks(todo: list[int], size: int) -> list[list[int]]:
-    """Runs of consecutive blocks, at most ``size`` each."""
+def _chunks(todo: list[int], size: int, first: int = 0) -> list[list[int]]:
+    """Runs of consecutive blocks, at most ``size`` each; the ``first`` chunks of one block
+    (each worker's first report comes after one block)."""
     out: list[list[int]] = []
     for b in todo:
-        if out and b == out[-1][-1] + 1 and len(out[-1]) < size:
+        limit = 1 if len(out) <= first else size
+        if out and b == out[-1][-1] + 1 and len(out[-1]) < limit:
             out[-1].append(b)
         else:
             out.append([b])
@@ -300,14 +307,77 @@ ProgressFn = Callable[[int, int, float], None]
 
 
 def _default_progress(done: int, total: int, elapsed: float) -> None:
-    frac = done / total if total else 1.0
-    eta = elapsed / frac - elapsed if frac > 0 else float("nan")
-    width = 30
-    bar = "#" * int(width * frac) + "-" * (width - int(width * frac))
-    eta_text = "--" if not math.isfinite(eta) else f"{eta:.0f} s"
-    end = "\r" if sys.stderr.isatty() and done < total else "\n"
-    sys.stderr.write(f"[{bar}] {done}/{total} samples  {elapsed:.0f} s  ETA {eta_text}{end}")
-    sys.stderr.flush()
+    """The progress line on stderr (redrawn in place on a terminal): samples done, time so
+    far and the estimated time left (:class:`_Progress` estimates from this run's work)."""
+    _Progress(0)(done, total, elapsed)
+
+
+class _Progress:
+    """:func:`_default_progress` for one run: its estimate of the time left counts only the
+    samples run now (``start``: those done before, by an earlier run) and is printed once it
+    can be (after the first chunk). On a terminal, :meth:`ticking` redraws the line every
+    :data:`_TICK` s while no chunk finishes (a chunk can take longer than that: the line's
+    clock and estimate still move)."""
+
+    def __init__(self, start: int) -> None:
+        self.start = start
+        self.last: tuple[int, int, float] | None = None  # done, total, perf_counter() of t0
+        self.lock = threading.Lock()
+
+    def __call__(self, done: int, total: int, elapsed: float) -> None:
+        with self.lock:
+            self.last = (done, total, time.perf_counter() - elapsed)
+            self._draw(done, total, elapsed)
+
+    def _draw(self, done: int, total: int, elapsed: float) -> None:
+        frac = done / total if total else 1.0
+        now = done - self.start
+        eta = elapsed * (total - done) / now if now > 0 else float("nan")
+        width = 30
+        bar = "#" * int(width * frac) + "-" * (width - int(width * frac))
+        eta_text = "--" if not math.isfinite(eta) else _duration(eta)
+        end = "\r" if sys.stderr.isatty() and done < total else "\n"
+        sys.stderr.write(f"[{bar}] {done}/{total} samples  {_duration(elapsed)}  "
+                         f"left about {eta_text}{end}")  # fmt: skip
+        sys.stderr.flush()
+
+    @contextlib.contextmanager
+    def ticking(self) -> Iterator[None]:
+        """Redraw the line every :data:`_TICK` s in a thread while the block runs (only on a
+        terminal: a log file gets a line per chunk)."""
+        if not sys.stderr.isatty():
+            yield
+            return
+        stop = threading.Event()
+
+        def tick() -> None:
+            while not stop.wait(_TICK):
+                with self.lock:
+                    if self.last is not None and self.last[0] < self.last[1] and not stop.is_set():
+                        done, total, t0 = self.last
+                        self._draw(done, total, time.perf_counter() - t0)
+
+        thread = threading.Thread(target=tick, name="mwip-progress", daemon=True)
+        thread.start()
+        try:
+            yield
+        finally:
+            stop.set()
+            with self.lock:  # a redraw in progress ends before the caller writes again
+                pass
+
+
+#: Seconds between redraws of the progress line on a terminal while no chunk finishes.
+_TICK = 5.0
+
+
+def _duration(seconds: float) -> str:
+    """``42 s``, ``3.5 min``, ``2.1 h``."""
+    if seconds < 100:
+        return f"{seconds:.0f} s"
+    if seconds < 6000:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.1f} h"
 
 
 def run_campaign(
@@ -322,10 +392,10 @@ def run_campaign(
 ) -> RunSummary:
     """Run (or continue) ``campaign`` into ``out``; see the module docstring.
 
-    ``chunk``: samples per chunk (rounded up to whole blocks; default: about
-    ``4 x workers`` chunks). ``jobs``: worker processes (default: the machine's CPUs).
-    ``max_hours``: the most hours of one core the run may be estimated to take
-    (:func:`check_work`; default :data:`MAX_HOURS`).
+    ``chunk``: samples per chunk (rounded up to whole blocks; default: one block per chunk,
+    at most :data:`_MAX_CHUNKS` chunks, each worker's first chunk one block). ``jobs``:
+    worker processes (default: the machine's CPUs). ``max_hours``: the most hours of one core
+    the run may be estimated to take (:func:`check_work`; default :data:`MAX_HOURS`).
     Ctrl-C (``KeyboardInterrupt``) stops after saving nothing partial and returns
     ``status="interrupted"``; the next run continues.
     """
@@ -352,9 +422,9 @@ def run_campaign(
     per = (
         math.ceil(chunk / campaign.block)
         if chunk is not None
-        else max(1, math.ceil(len(todo) / (_CHUNKS_PER_WORKER * workers)))
+        else max(1, math.ceil(len(todo) / _MAX_CHUNKS))
     )
-    chunks = _chunks(todo, per)
+    chunks = _chunks(todo, per, first=0 if chunk is not None else workers)
     if chunks:
         check_work(campaign, workers, max_hours, local=scheduler is None)
     units = n_units(campaign)
@@ -365,6 +435,11 @@ def run_campaign(
 
     samples_total = sum(size(b) for b in range(total))
     samples_done = [sum(size(b) for b in done & set(range(total)))]
+    if progress is _default_progress:
+        progress = _Progress(samples_done[0])
+    if isinstance(progress, _Progress) and chunks:  # at once: what there is to do (a given
+        # progress function is called after each chunk only, as before)
+        progress(samples_done[0], samples_total, time.perf_counter() - t0)
     dask = (_connect(workers, scheduler) if chunks and (scheduler is not None or workers > 1)
             else None)  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
@@ -377,13 +452,15 @@ def run_campaign(
             progress(samples_done[0], samples_total, time.perf_counter() - t0)
 
     interrupted = False
+    ticking = progress.ticking() if isinstance(progress, _Progress) else contextlib.nullcontext()
     try:
-        if dask is not None:
-            with deaf_spawns():  # (a worker the nanny restarts is deaf to Ctrl-C too)
-                _run_dask(campaign, chunks, *dask, finished)
-        else:
-            for blocks in chunks:
-                finished(blocks, compute_chunk(campaign, blocks))
+        with ticking:
+            if dask is not None:
+                with deaf_spawns():  # (a worker the nanny restarts is deaf to Ctrl-C too)
+                    _run_dask(campaign, chunks, *dask, finished)
+            else:
+                for blocks in chunks:
+                    finished(blocks, compute_chunk(campaign, blocks))
     except KeyboardInterrupt:
         interrupted = True
     ran = len(done_blocks(out) - done)
@@ -507,7 +584,7 @@ def _connect(workers: int, scheduler: str | None) -> tuple[Any, Any]:
     return Client(cluster), cluster
 
 
-@contextmanager
+@contextlib.contextmanager
 def deaf_spawns() -> Iterator[None]:
     """Processes that :mod:`multiprocessing` spawns meanwhile (from any thread: Dask starts
     its workers from its event loop's thread) start with SIGINT blocked, so the terminal's

@@ -31,7 +31,8 @@ from mwip.campaign.stats import wilson
 from mwip.io import html_text, write_atomic, write_text_atomic
 from mwip.params import PARAM_FIELDS
 
-__all__ = ["league_table", "write_campaign_report", "success_by_bins", "plane_rates"]
+__all__ = ["league_table", "write_campaign_report", "success_by_bins", "plane_rates",
+           "torque_note"]
 
 _NUMERIC = [m for m in METRICS if m not in ("status", "success")]
 _UNITS = {
@@ -224,6 +225,21 @@ def _fig_plane(df: Any, x: str, y: str, path: Path) -> str:
     return _save(fig, path)
 
 
+def torque_note() -> str:
+    """What ``peak_torque`` is, beside the drive limit ``mwip simulate`` and the run figures
+    name (the two torques of a run; the limit is the default twin's)."""
+    from mwip.hardware.identified import wheel_torque_limit
+
+    return ("peak_torque: the largest |torque| applied to a wheel in a run (N m per wheel; "
+            "median / p95 over the runs that did not fall). On the plain plant that is the "
+            "controller's command, which no drive limits; on the twin, what its drive delivered. "
+            "The robot's drive (the default twin's RE25 through its gearbox at its current "
+            f"limit, `mwip twin show`) gives at most {wheel_torque_limit():.3g} N m per wheel: "
+            "the \"drive limit\" that `mwip simulate` compares its commanded max |u| with and "
+            "the run figures draw. A plain-plant run whose peak_torque exceeds it asked for more "
+            "than the robot could give.")  # fmt: skip
+
+
 def _fmt(x: float) -> str:
     return "" if not math.isfinite(x) else f"{x:.3g}"
 
@@ -287,7 +303,7 @@ def write_campaign_report(out: str | Path) -> Path:
             "(fall time: over those that fell).</p>"
         )
         rows = league_table(df)
-        parts.append("<h2>League table</h2>" + _league_html(rows))
+        parts.append("<h2>League table</h2>" + _league_html(rows) + f"<p>{torque_note()}</p>")
         parts.append(f"<img src='{_fig_league(rows, out / 'fig-league.png')}' alt='league'>")
         inputs = _varying(df, list(PARAM_FIELDS) + [f"{k}0" for k in INITIAL_KEYS])
         if inputs:

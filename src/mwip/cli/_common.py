@@ -24,16 +24,22 @@ if TYPE_CHECKING:
 __all__ = [
     "DAMPING",
     "FORCE",
+    "FILE_FORCE",
     "ROBOT_OPTION",
     "gone_option",
     "NonEmptyPath",
     "in_range",
     "robot_option",
     "out_ok",
+    "file_ok",
+    "record_file",
     "params_value",
     "progress",
     "split_sets",
     "cut",
+    "EXTRAS",
+    "extra_message",
+    "need_extra",
 ]
 
 
@@ -83,6 +89,31 @@ def out_ok(out: Path, force: bool, command: str | None = None) -> Path:
         return check(out, force, command=command)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
+
+
+FILE_FORCE = click.option(
+    "--force",
+    is_flag=True,
+    help="Replace the output file even if it exists and mwip did not write it.",
+)
+
+
+def file_ok(path: Path, force: bool, option: str = "--out") -> Path:
+    """``path`` if mwip may write that one file (:mod:`mwip.outfile`: new, mwip's own, or
+    ``force``), else exit 2 naming ``option`` and --force."""
+    from mwip.outfile import check
+
+    try:
+        return check(path, force, option)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+
+
+def record_file(path: Path) -> None:
+    """Note the file just written as mwip's (a rerun may replace it without --force)."""
+    from mwip.outfile import record
+
+    record(path)
 
 
 DAMPING = click.option(
@@ -188,6 +219,43 @@ def progress(n: int, label: str, long: bool = False) -> Iterator[Callable[[int],
         return
     with click.progressbar(length=n, label=label, file=sys.stderr) as bar:
         yield bar.update
+
+
+#: pyproject.toml's optional extras and the packages (import names) each one brings.
+EXTRAS: dict[str, tuple[str, ...]] = {
+    "campaign": ("dask", "distributed", "pyarrow", "pandas"),
+    "tune": ("optuna", "cmaes"),
+    "gym": ("gymnasium",),
+    "control": ("control",),
+    "pandas": ("pandas",),
+}
+
+
+def _installed(module: str) -> bool:
+    """Whether ``module`` can be imported (found without importing it)."""
+    import importlib.util
+
+    if module in sys.modules:
+        return sys.modules[module] is not None
+    try:
+        return importlib.util.find_spec(module) is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def extra_message(missing: list[str], extra: str, what: str = "this command") -> str:
+    """One line: ``what`` needs the optional ``extra`` (``missing`` packages) and how to
+    install it."""
+    return (f"{what} needs the optional extra '{extra}' ({', '.join(missing)} not installed): "
+            f"pip install -e '.[{extra}]' in mwip's folder (or pip install 'mwip[{extra}]')")
+
+
+def need_extra(extra: str, what: str, modules: tuple[str, ...] | None = None) -> None:
+    """Exit 2 with one line naming ``extra`` unless its packages (``modules``: those of them
+    that ``what`` uses) are installed."""
+    missing = [m for m in (EXTRAS[extra] if modules is None else modules) if not _installed(m)]
+    if missing:
+        raise click.UsageError(extra_message(missing, extra, what))
 
 
 def cut(text: str, limit: int = 400) -> str:

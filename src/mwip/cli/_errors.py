@@ -53,6 +53,11 @@ def _main(group: click.Group, argv: list[str] | None) -> int:
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
     except click.UsageError as exc:
+        if type(exc).__name__ == "NoArgsIsHelpError" and exc.ctx is not None:
+            # bare `mwip` or a bare group (`mwip twin`): its help on stdout, exit 0 (the
+            # convention of git, pip and click before 8.2)
+            click.echo(exc.ctx.get_help())
+            return 0
         click.echo(f"mwip: error: {_cut(exc.format_message())}", err=True)
         return 2
     except click.ClickException as exc:  # a failure that is not bad input (e.g. a solver)
@@ -80,6 +85,19 @@ def _main(group: click.Group, argv: list[str] | None) -> int:
         return 2 if exc.errno in bad_path else 1
     except SystemExit as exc:
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    except ImportError as exc:  # an optional package missing: which extra brings it
+        from mwip.cli._common import EXTRAS, extra_message
+
+        root = (exc.name or "").partition(".")[0]
+        extra = next((e for e, mods in EXTRAS.items() if root in mods and e != "pandas"), None)
+        if isinstance(exc, ModuleNotFoundError) and root and (extra or root == "pandas"):
+            click.echo(f"mwip: error: {extra_message([root], extra or 'pandas')}", err=True)
+            return 2
+        if os.environ.get("MWIP_TRACEBACK"):
+            raise
+        click.echo(f"mwip: internal error: {type(exc).__name__}: {_one_line(exc)} "
+                   "(set MWIP_TRACEBACK=1 to see where)", err=True)  # fmt: skip
+        return 1
     except (MemoryError, RecursionError) as exc:  # the input asks for too much: bad input
         click.echo(f"mwip: error: {type(exc).__name__}: the input asks for more than this "
                    "machine can give; reduce the sizes or durations", err=True)  # fmt: skip

@@ -129,7 +129,8 @@ def execute(
                              robot=robot)  # fmt: skip
     import shutil
 
-    width = max(100, shutil.get_terminal_size((120, 40)).columns)
+    cols = shutil.get_terminal_size((120, 40)).columns
+    width = max(40, cols) if verbose else max(100, cols)  # -v wraps every claim to the terminal
     compare = find_compare(out) if summary else None
     cmp = load_comparison(compare) if compare is not None else None
     lines = summary_lines(load_results(out, names), width=width, verbose=verbose,
@@ -137,10 +138,14 @@ def execute(
     for line in lines if summary else [f"{out.name}: {lines[0]}"]:
         click.echo(line, err=not summary)
     from mwip.report.html import twin_headline
+    from mwip.studies.registry import declared
 
-    if summary and (twin_line := twin_headline(record)):
+    # the across-twins verdicts are about every Chapter 6 study: said when all of them ran
+    chapter6 = {s.name for s in declared() if s.place[0] == 6}
+    if summary and chapter6 <= set(names) and (twin_line := twin_headline(record)):
         click.echo(twin_line)
-    click.echo(f"{len(names) - len(failed)}/{len(names)} studies done in "
+    plural = "study" if len(names) == 1 else "studies"
+    click.echo(f"{len(names) - len(failed)}/{len(names)} {plural} done in "
                f"{record['wall_s']:.1f} s; report: {out / 'index.html'}",
                err=not summary)  # fmt: skip
     if failed:

@@ -53,6 +53,10 @@ def bench(controllers: tuple[str, ...], out: Path | None, settings_files: tuple[
     if show:
         click.echo(builtin_text(), nl=False)
         return
+    from mwip.cli._common import need_extra
+
+    need_extra("campaign", "mwip bench",  # (Dask unless in this process; Parquet)
+               ("pyarrow", "pandas") if jobs == 1 and scheduler is None else None)  # fmt: skip
     if out is None:
         raise click.UsageError("Missing option '--out'.")
     if not str(out).strip():

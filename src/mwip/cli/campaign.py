@@ -78,6 +78,10 @@ def run_cmd(
     max_hours: float | None,
 ) -> None:
     """Run (or continue) campaign NAME (built-in) or FILE.toml into --out."""
+    from mwip.cli._common import need_extra
+
+    need_extra("campaign", "mwip campaign run",  # (Dask unless in this process; Parquet)
+               ("pyarrow", "pandas") if jobs == 1 and scheduler is None else None)  # fmt: skip
     from mwip.campaign.execute import max_jobs, run_campaign
     from mwip.campaign.spec import load_campaign
 
@@ -121,6 +125,9 @@ def run_cmd(
 @click.argument("out", type=click.Path(path_type=Path))
 def report_cmd(out: Path) -> None:
     """Write OUT/report.html and its PNGs from OUT/results.parquet."""
+    from mwip.cli._common import need_extra
+
+    need_extra("campaign", "mwip campaign report", ("pyarrow", "pandas"))
     from mwip.campaign.report import write_campaign_report
 
     if not (out / "results.parquet").exists():

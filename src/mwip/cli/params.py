@@ -7,7 +7,14 @@ from pathlib import Path
 
 import click
 
-from mwip.cli._common import DAMPING, NonEmptyPath, params_value
+from mwip.cli._common import (
+    DAMPING,
+    FILE_FORCE,
+    NonEmptyPath,
+    file_ok,
+    params_value,
+    record_file,
+)
 
 __all__ = ["params"]
 
@@ -61,12 +68,17 @@ def params_show(which: str, as_json: bool, damping: str) -> None:
 @click.argument("which")
 @click.argument("path", type=NonEmptyPath(dir_okay=False, path_type=Path))
 @DAMPING
-def params_save(which: str, path: Path, damping: str) -> None:
+@FILE_FORCE
+def params_save(which: str, path: Path, damping: str, force: bool) -> None:
     """Write parameters (real or nominal) to a TOML file to edit for your own robot.
 
     The file holds Db, Dw as rotational coefficients (N m s/rad), as the equations use them.
+    An existing PATH that mwip did not write is refused unless --force.
     """
     from mwip.params import save_params
 
-    save_params(params_value(which, "WHICH", damping=damping), path)
+    params = params_value(which, "WHICH", damping=damping)
+    file_ok(path, force, "PATH")
+    save_params(params, path)
+    record_file(path)
     click.echo(f"wrote {path}")

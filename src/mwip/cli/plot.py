@@ -14,6 +14,8 @@ from pathlib import Path
 
 import click
 
+from mwip.cli._common import FILE_FORCE, file_ok, record_file
+
 __all__ = ["plot_cmd", "animate_cmd"]
 
 _RUN_DIR = click.argument("run_dir", type=click.Path(path_type=Path))
@@ -32,7 +34,8 @@ _RUN = click.option(
     default=None,
     help="FILE.png (default: RUN_DIR/plot/<run>.png, apart from a study's own figures).",
 )
-def plot_cmd(run_dir: Path, run_name: str | None, out: Path | None) -> None:
+@FILE_FORCE
+def plot_cmd(run_dir: Path, run_name: str | None, out: Path | None, force: bool) -> None:
     """Draw a run: pitch, wheel speed and reference, yaw, wheel torques (commanded and
     applied), the estimated disturbance where an observer runs, the path and the status.
 
@@ -49,10 +52,12 @@ def plot_cmd(run_dir: Path, run_name: str | None, out: Path | None) -> None:
         raise click.UsageError(str(exc)) from None
     if out is None:
         out = (run_dir if run_dir.is_dir() else run_dir.parent) / "plot" / f"{run.name}.png"
+    file_ok(out, force)
     from mwip.plot.run_figure import write_run_figure
 
     title = f"{run.study}: {run.name}" if run.study else run.name
     write_run_figure(run, out, title=title)
+    record_file(out)
     click.echo(f"wrote {out} ({run.name}: {run.status}, {run.t_end:.3g} s)")
 
 
@@ -69,8 +74,9 @@ def plot_cmd(run_dir: Path, run_name: str | None, out: Path | None) -> None:
               help="Frames per second of the video, in [1, 60].")  # fmt: skip
 @click.option("--speed", type=float, default=1.0, show_default=True,
               help="Speed-up over real time, in [0.05, 100].")  # fmt: skip
+@FILE_FORCE
 def animate_cmd(run_dir: Path, run_name: str | None, out: Path | None, fps: float,
-                speed: float) -> None:  # fmt: skip
+                speed: float, force: bool) -> None:  # fmt: skip
     """Animate a run: the robot to scale (side view) beside its path (top view), with a time
     cursor on theta and the wheel torques.
 
@@ -95,7 +101,9 @@ def animate_cmd(run_dir: Path, run_name: str | None, out: Path | None, fps: floa
         if out is None:
             folder = run_dir if run_dir.is_dir() else run_dir.parent
             out = folder / f"{run.name}.gif"
+        file_ok(out, force)
         animate_run(run, out, fps=fps, speed=speed)
+        record_file(out)
     except RunFolderError as exc:
         raise click.UsageError(str(exc)) from None
     except AnimationError as exc:  # the encoder's failure, not the input's

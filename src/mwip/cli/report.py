@@ -58,14 +58,20 @@ def report(out: Path, compare: Path | None, claims_campaign: Path | None, verbos
     for problem in cmp.unreadable if cmp is not None else ():
         click.echo(f"mwip: notice: --compare: {cut(problem, 200)}; that study is left out of "
                    "the comparison", err=True)  # fmt: skip
+    import shutil
+
     results = load_results(out, names)
-    for line in summary_lines(results, verbose=verbose,
+    cols = shutil.get_terminal_size((100, 40)).columns
+    width = max(40, cols) if verbose else max(100, cols)  # -v wraps every claim to the terminal
+    for line in summary_lines(results, width=width, verbose=verbose,
                               damping=load_run_record(out).get("damping"),
                               compare=cmp):  # fmt: skip
         click.echo(line)
     from mwip.report.html import twin_headline
+    from mwip.studies.registry import declared
 
-    if twin_line := twin_headline(load_run_record(out)):
+    chapter6 = {s.name for s in declared() if s.place[0] == 6}  # the line is about them all
+    if chapter6 <= set(names) and (twin_line := twin_headline(load_run_record(out))):
         click.echo(twin_line)
     click.echo(f"report: {path}")
     bad = [r.error for r in results if r.doc is None and r.error and "metrics.json" in r.error]

@@ -302,9 +302,11 @@ def _report(sc: Any, res: Any, out: Path | None, plot: bool, as_json: bool) -> N
             f"max |u|: {'n/a' if umax is None else f'{umax:.4g} N m'}"
         )
         if over:
-            click.echo(f"torque: max |u| {peak:.4g} N m is {peak / limit:.1f}x the drive's limit "
-                       f"of {limit:.3g} N m per wheel (RE25 at its current limit, `mwip robot "
-                       "show`): the robot could not follow this run")  # fmt: skip
+            click.echo(f"torque: the controller commanded up to {peak:.4g} N m (max |u|), "
+                       f"{peak / limit:.1f}x the drive limit of {limit:.3g} N m per wheel (the "
+                       "RE25 through its gearbox at its current limit, `mwip robot show`): the "
+                       "robot could not follow this run (a twin's drive applies at most the "
+                       "limit; campaigns' peak_torque is the torque applied)")  # fmt: skip
         if out is not None:
             click.echo(f"wrote {out / 'timeseries.csv'}, {out / 'timeseries.npz'}, "
                        f"{out / 'summary.json'}, {', '.join(map(str, written))}")  # fmt: skip

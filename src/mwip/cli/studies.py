@@ -7,7 +7,15 @@ from pathlib import Path
 
 import click
 
-from mwip.cli._common import DAMPING, FORCE, NonEmptyPath, out_ok
+from mwip.cli._common import (
+    DAMPING,
+    FILE_FORCE,
+    FORCE,
+    NonEmptyPath,
+    file_ok,
+    out_ok,
+    record_file,
+)
 from mwip.cli._studies import (
     GONE,
     JOBS,
@@ -99,9 +107,11 @@ def run_cmd(
     "--out",
     type=NonEmptyPath(dir_okay=False, path_type=Path),
     default=None,
-    help="Write the study file here (default: print it).",
+    help="Write the study file here (default: print it); an existing file that mwip did not "
+    "write is refused unless --force.",
 )
-def scenario(study: str, out: Path | None) -> None:
+@FILE_FORCE
+def scenario(study: str, out: Path | None, force: bool) -> None:
     """Print (or write) the study file of STUDY: which study, the robot, and all its settings.
 
     Copy it, edit it, run it with `mwip run --scenario FILE.toml`.
@@ -119,5 +129,7 @@ def scenario(study: str, out: Path | None) -> None:
     if out is None:
         click.echo(text, nl=False)
     else:
+        file_ok(out, force)
         write_text_atomic(out, text)
+        record_file(out)
         click.echo(f"wrote {out}")

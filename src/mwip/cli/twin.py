@@ -17,7 +17,14 @@ from typing import Any
 
 import click
 
-from mwip.cli._common import ROBOT_OPTION, gone_option, robot_option
+from mwip.cli._common import (
+    FILE_FORCE,
+    ROBOT_OPTION,
+    file_ok,
+    gone_option,
+    record_file,
+    robot_option,
+)
 
 __all__ = ["twin"]
 
@@ -110,6 +117,10 @@ def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: st
     if evidence is not None:
         if logs:
             raise click.UsageError("give LOG files or --evidence book, not both")
+        from mwip.cli._common import need_extra
+
+        need_extra("campaign", "mwip twin fit --evidence book",  # (a campaign's engine)
+                   None if jobs > 1 else ("pyarrow", "pandas"))  # fmt: skip
         _fit_book(out, force, samples, seed, jobs, duration, stage2, chain_steps,
                   mixture_draws, envelope_draws)
         return
@@ -173,6 +184,9 @@ def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: st
     outdir.claim(target, "twin fit")
     files = write_outputs(target, result, read, robot)
     click.echo(f"wrote {', '.join(str(f) for f in files)}")
+    enc = (result.residuals or {}).get("enc") or {}
+    if enc.get("rms") is not None:  # the units of the progress lines
+        click.echo(f"encoder residual RMS {enc['rms']:.3g} rad (fit.json: residuals)")
     for flag in result.flags:
         click.echo(f"note: {flag}")
 
@@ -212,6 +226,14 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
     from mwip.calibration.book import calibrate_book
 
     target = outdir.check(out, force, command="twin fit")
+    if (samples, stage2, chain_steps, mixture_draws, envelope_draws) == (None,) * 5:
+        slower = "" if jobs >= 2 else f"; slower with --jobs {jobs}"
+        click.echo("mwip: --evidence book at the declared sizes evaluates about 100,000 twins "
+                   "in five stages: about 2 hours with --jobs 2 on a 2-core machine "
+                   f"(BENCHMARKS.md){slower}", err=True)  # fmt: skip
+        click.echo("mwip: it is resumable (Ctrl-C, then the same command continues); a first "
+                   "look: --samples 20 --stage2-draws 0 --chain-steps 0 --mixture-draws 0",
+                   err=True)  # fmt: skip
     outdir.claim(target, "twin fit")
     res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration,
                          proposal_draws=stage2, chains=None if chain_steps == 0 else True,
@@ -251,15 +273,18 @@ def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, job
 @click.option("--chirp", default=4.0, show_default=True, type=float, help="Chirp length (s).")
 @click.option("--max-samples", "max_samples", type=click.IntRange(1, 10**9), default=None,
               help="Rows of the schedule, at most (default 2000000: some 90 MB of CSV).")
+@FILE_FORCE
 def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float,
-                max_samples: int | None) -> None:  # fmt: skip
+                max_samples: int | None, force: bool) -> None:  # fmt: skip
     """Write the excitation schedule to run on the robot (docs/twin_fit.md)."""
     from mwip.identify.excite import MAX_SAMPLES, schedule
     from mwip.io import write_text_atomic
 
+    file_ok(out, force)
     t, duty, mode = schedule(Ts, static, step, chirp,
                              max_samples=MAX_SAMPLES if max_samples is None else max_samples)
     lines = ["t,duty_r,duty_l,mode"]
     lines += [f"{t[i]:.6f},{duty[i, 0]:.6f},{duty[i, 1]:.6f},{mode[i]}" for i in range(t.size)]
     write_text_atomic(out, "\n".join(lines) + "\n")
+    record_file(out)
     click.echo(f"wrote {out} ({t.size} samples, {t[-1] + Ts:g} s)")

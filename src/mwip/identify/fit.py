@@ -36,6 +36,7 @@ information matrix, residual RMS per signal and whiteness
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -352,10 +353,14 @@ class _Problem:
 
 
 class _Progress:
-    """Counts the model evaluations of a stage and says every 100 how far it has come."""
+    """Counts the model evaluations of a stage and says every 100 how far it has come: the
+    lowest encoder residual RMS so far over all segments, in rad (the units of the final
+    ``residuals.enc.rms`` of fit.json; an evaluation of some segments only, or of a trial
+    step, is not comparable and is not shown)."""
 
     def __init__(self, stage: str, progress: Callable[[str], None] | None) -> None:
         self.stage, self.progress, self.n = stage, progress, 0
+        self.best = math.inf
 
     def wrap(self, prob: _Problem) -> Residual:
         """``prob.segment_residual``, counted."""
@@ -365,9 +370,12 @@ class _Progress:
         def fun(x: NDArray, z: NDArray, idx: Any = slice(None)) -> NDArray:
             r = prob.segment_residual(x, z, idx)
             self.n += 1
+            if isinstance(idx, slice) and idx == slice(None) and r.size:
+                self.best = min(self.best, float(np.sqrt(np.mean(r**2))) * _RES)
             if self.n % 100 == 0 and self.progress is not None:
-                self.progress(f"fit: {self.stage}: {self.n} model evaluations, residual RMS "
-                              f"{float(np.sqrt(np.mean(r**2))):.4g}")  # fmt: skip
+                best = "-" if not math.isfinite(self.best) else f"{self.best:.3g} rad"
+                self.progress(f"fit: {self.stage}: {self.n} model evaluations; encoder "
+                              f"residual RMS, best so far: {best}")  # fmt: skip
             return r
 
         return fun

@@ -60,8 +60,11 @@ def torque_limit(run: Run) -> float:
     return float(wheel_torque_limit())
 
 
-def _min_span(ax: Axes, unit: str, *series: Any, axis: str = "y") -> None:
-    """Widen ``ax``'s ``axis`` range to :data:`MIN_SPAN` ``[unit]`` about the data's middle."""
+def _min_span(ax: Axes, unit: str, *series: Any, axis: str = "y", fix: bool = True) -> None:
+    """Widen ``ax``'s ``axis`` range to :data:`MIN_SPAN` ``[unit]`` about the data's middle:
+    by fixing the limits, or (not ``fix``: an axes of equal aspect, whose limits matplotlib
+    adjusts itself and would otherwise warn "Ignoring fixed y limits") by widening the data
+    limits that autoscaling follows."""
     vals = np.concatenate([np.ravel(np.asarray(a, dtype=float)) for a in series])
     vals = vals[np.isfinite(vals)]
     span = MIN_SPAN[unit]
@@ -69,7 +72,14 @@ def _min_span(ax: Axes, unit: str, *series: Any, axis: str = "y") -> None:
     if hi - lo < span:
         mid = 0.5 * (lo + hi)
         mid = 0.0 if abs(mid) < 1e-9 * span else mid
-        (ax.set_ylim if axis == "y" else ax.set_xlim)(mid - span / 2, mid + span / 2)
+        if fix:
+            (ax.set_ylim if axis == "y" else ax.set_xlim)(mid - span / 2, mid + span / 2)
+            return
+        box = ax.dataLim
+        at = box.x0 if axis == "y" else box.y0
+        ends = [(at, mid - span / 2), (at, mid + span / 2)]
+        ax.update_datalim(ends if axis == "y" else [(e, a) for a, e in ends])
+        ax.autoscale_view()
 
 
 def disturbance_estimates(run: Run) -> dict[str, np.ndarray]:
@@ -159,8 +169,8 @@ def run_figure(run: Run, title: str | None = None) -> Figure:
               label="end")  # fmt: skip
     a_xy.set_xlabel("x (m)")
     a_xy.set_ylabel("y (m)")
-    _min_span(a_xy, "m", x[:, 6], axis="x")
-    _min_span(a_xy, "m", x[:, 7])
+    _min_span(a_xy, "m", x[:, 6], axis="x", fix=False)
+    _min_span(a_xy, "m", x[:, 7], fix=False)
     a_xy.set_aspect("equal", adjustable="datalim")
     a_xy.grid(True, alpha=0.3)
     a_xy.legend(loc="best", fontsize=10)

@@ -37,7 +37,7 @@ from mwip.report.posters import POSTER_DIR, ensure_posters
 from mwip.report.results import StudyResult, load_results, load_run_record
 from mwip.report.summary import format_number, headline
 
-__all__ = ["render_html", "write_report"]
+__all__ = ["render_html", "write_report", "runs_outcome", "twin_headline"]
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0;color:#1d2329;
@@ -272,6 +272,31 @@ def _book_claims_section(
     )
 
 
+def runs_outcome(doc: dict[str, Any]) -> str:
+    """One sentence on how this run's runs ended, generated from the runs table of
+    ``metrics.json`` (``runs``: status and end time of each), so that the words beside the
+    table cannot contradict it: ``"All 6 runs stand for their whole duration (10 s)."`` or
+    ``"4 of 6 runs stand for their whole duration; fell: smc.case2 at 0.53 s, ..."``."""
+    runs = {k: v for k, v in (doc.get("runs") or {}).items() if isinstance(v, dict)}
+    if not runs:
+        return ""
+    ok = [k for k, v in runs.items() if v.get("status") == "ok"]
+    ends = sorted({format_number(runs[k].get("t_end")) for k in ok})
+    span = f" ({ends[0]} s)" if len(ends) == 1 and ends[0] != "n/a" else ""
+    if len(ok) == len(runs):
+        n = len(runs)
+        return (f"All {n} runs stand for their whole duration{span}." if n > 1
+                else f"The run stands for its whole duration{span}.")
+    others = []
+    for status in sorted({str(v.get("status")) for k, v in runs.items() if k not in ok}):
+        which = [f"{k} at {format_number(v.get('t_end'))} s" for k, v in runs.items()
+                 if str(v.get("status")) == status]  # fmt: skip
+        others.append(f"{status}: {', '.join(which)}")
+    head = (f"{len(ok)} of {len(runs)} runs stand for their whole duration{span}" if ok
+            else f"None of the {len(runs)} runs stands for its whole duration")
+    return f"{head}; {'; '.join(others)}."
+
+
 def _runs_table(doc: dict[str, Any]) -> str:
     runs = doc.get("runs", {})
     body = "".join(
@@ -466,9 +491,13 @@ def _study_section(res: StudyResult, compare: Comparison | None, note: Note = _n
     if res.doc:
         parts.append("<h3>Published vs ours</h3>" + _comparison_table(res))
         parts.append(_ablation(res))
-    if info.get("gaps"):
+    outcome = runs_outcome(res.doc) if res.doc else ""
+    if info.get("gaps") or outcome:
         doc_ref = f" (details: {_e(info['docs'])})" if info.get("docs") else ""
-        parts.append(f"<h3>Gaps explained</h3><p>{_e(info['gaps'])}{doc_ref}</p>")
+        this = (f'<p class="outcome"><b>This run{_e(on)}:</b> {_e(outcome)} (the runs table '
+                "below; generated from it)</p>") if outcome else ""  # fmt: skip
+        gaps = f"<p>{_e(info['gaps'])}{doc_ref}</p>" if info.get("gaps") else ""
+        parts.append(f"<h3>Gaps explained</h3>{this}{gaps}")
     if res.doc:
         settings = json.dumps(res.doc.get("settings", {}), indent=1, sort_keys=True)
         parts.append(

@@ -64,24 +64,39 @@ def headline(results: list[StudyResult], damping: str | None = None,
 
 def _claim_line(c: dict[str, Any], width: int, indent: str,
                 compare: Comparison | None, study: str) -> list[str]:  # fmt: skip
+    """A claim of the verbose summary: its mark and full text, then its deciding numbers
+    ``<key=value, ...>`` and the other reading's verdict, wrapped to ``width`` (never cut),
+    then for a failing book claim its cause and evidence."""
+    import textwrap
+
     mark = "[ok]" if c.get("holds") else "[no]"
     kind = "" if is_book(c) else "(ours) "
-    vals = _clip(f"  <{_values(c)}>", width // 2) if c.get("values") else ""
+    vals = f"  <{_values(c)}>" if c.get("values") else ""
     other = ""
     if compare is not None and (v := compare.verdict(study, c)) is not None:
         other = f" [{compare.damping or 'other'}: {'ok' if v else 'no'}]"
-    lines = [_clip(f"{indent}{mark} {kind}{c.get('text', '')}", width - len(vals) - len(other))
-             + vals + other]  # fmt: skip
+    text = f"{mark} {kind}{c.get('text', '')}{vals}{other}"
+    lines = textwrap.wrap(text, width=max(width, 40), initial_indent=indent,
+                          subsequent_indent=indent + "     ", break_on_hyphens=False,
+                          drop_whitespace=True, replace_whitespace=False)  # fmt: skip
     if is_book(c) and not c.get("holds"):
-        lines += _why(c, width, indent + "     ")
+        lines += _why(c, width, indent + "     ", wrap=True)
     return lines
 
 
-def _why(c: dict[str, Any], width: int, indent: str) -> list[str]:
-    """One line: ``[cause] evidence`` (the deciding numbers where there is no evidence)."""
+def _why(c: dict[str, Any], width: int, indent: str, wrap: bool = False) -> list[str]:
+    """One line: ``[cause] evidence`` (the deciding numbers where there is no evidence);
+    ``wrap``: all of it, wrapped to ``width``."""
+    import textwrap
+
     cause = f"[{c['cause']}] " if c.get("cause") else ""
     why = c.get("evidence") or _values(c)
-    return [_clip(f"{indent}{cause}{why}", width)] if cause or why else []
+    if not (cause or why):
+        return []
+    if wrap:
+        return textwrap.wrap(f"{cause}{why}", width=max(width, 40), initial_indent=indent,
+                             subsequent_indent=indent, break_on_hyphens=False)  # fmt: skip
+    return [_clip(f"{indent}{cause}{why}", width)]
 
 
 def summary_lines(
@@ -133,5 +148,6 @@ def summary_lines(
     tail = f"extras of ours (not the book's claims): {n['extra_held']} of {n['extra']} hold"
     if n["unlabelled"]:
         tail += f" ({n['unlabelled']} claims carry no 'book' field and are counted here)"
-    lines.append(_clip(f"{tail}; {len(results)} studies", width))
+    count = f"{len(results)} stud{'y' if len(results) == 1 else 'ies'}"
+    lines.append(_clip(f"{tail}; {count}", width))
     return lines
