@@ -1,12 +1,13 @@
 """Ablation of the Chapter 6 studies on the default twin (the book's robot identified from its
-Chapter 6 evidence, `mwip twin show`; or --twin FILE's): the ideal robot first, then the
-twin's elements added one at a time.
+Chapter 6 evidence, `mwip robot show`; or the robot of --robot FILE, a robot file: its twin,
+its body and its design model): the ideal robot first, then the twin's elements added one at
+a time.
 
 Shows how a study calls :func:`mwip.hardware.ablation.run_ablation` with its own controller
 factories, settings and claims. Run (four studies; about 10 s in all with warm caches on the
 2-core machine, BENCHMARKS.md "Silence")::
 
-    python examples/twin_ablation.py [--twin FILE] [--out DIR] [--quick] [--alone] [--force]
+    python examples/twin_ablation.py [--robot FILE] [--out DIR] [--quick] [--alone] [--force]
 
 ``--alone``: each element alone on the ideal robot instead of added in turn. ``--out``: a new
 or empty folder, or one this script wrote (default ``ablation``; another only with --force).
@@ -30,7 +31,6 @@ from mwip import outdir
 from mwip.hardware.ablation import Ablation, rms_metrics, run_ablation
 from mwip.hardware.identified import default_twin
 from mwip.hardware.twin import Twin
-from mwip.hardware.twin_config import load_twin
 from mwip.io import write_text_atomic
 from mwip.metrics import rms
 from mwip.studies import exp_asta, exp_hodosmc, settings
@@ -47,7 +47,9 @@ def _ordered(key: str, kinds: tuple[str, ...]) -> Callable[[Mapping[str, float]]
     return test
 
 
-def hodosmc(study: str, twin: Twin, quick: bool, alone: bool = False) -> Ablation:
+def hodosmc(
+    study: str, twin: Twin, quick: bool, alone: bool = False, robot: Any = None
+) -> Ablation:
     cfg = {**settings.defaults(study), "Ts": twin.Ts}  # the controllers sample at the twin's Ts
     q1d = cfg["speed"]
     duration = 4.0 if quick else cfg["duration"]
@@ -78,10 +80,12 @@ def hodosmc(study: str, twin: Twin, quick: bool, alone: bool = False) -> Ablatio
                 )
             )
     extra = {k: cfg[k] for k in ("stick_speed", "stick_start") if k in cfg}
+    design = None if robot is None else robot.design
     return run_ablation(
-        [(k, lambda k=k: exp_hodosmc.make_controller(k, cfg, q1d)) for k in kinds[::-1]],
+        [(k, lambda k=k: exp_hodosmc.make_controller(k, cfg, q1d, design)) for k in kinds[::-1]],
         twin,
         cases=cases,
+        plant=None if robot is None else robot.case_plant,
         metrics=metrics,
         run_kwargs={
             "q0": (0.0, cfg["theta0"], 0.0),
@@ -95,7 +99,7 @@ def hodosmc(study: str, twin: Twin, quick: bool, alone: bool = False) -> Ablatio
     )
 
 
-def asta(twin: Twin, quick: bool, alone: bool = False) -> Ablation:
+def asta(twin: Twin, quick: bool, alone: bool = False, robot: Any = None) -> Ablation:
     cfg = {**settings.defaults(exp_asta.NAME), "Ts": twin.Ts}
     duration = 4.0 if quick else cfg["duration"]
     window = (2.0, duration) if quick else tuple(cfg["rms_window"])
@@ -113,10 +117,12 @@ def asta(twin: Twin, quick: bool, alone: bool = False) -> Ablation:
         for c in (1, 2)
         for q in ("rms_theta", "rms_s1")
     ]
+    design = None if robot is None else robot.design
     return run_ablation(
-        [(k, lambda k=k: exp_asta.make_controller(k, cfg)) for k in exp_asta.KINDS],
+        [(k, lambda k=k: exp_asta.make_controller(k, cfg, design)) for k in exp_asta.KINDS],
         twin,
         cases=(1, 2),
+        plant=None if robot is None else robot.case_plant,
         metrics=metrics,
         run_kwargs={
             "q0": (0.0, cfg["theta0"], 0.0),
@@ -131,7 +137,7 @@ def asta(twin: Twin, quick: bool, alone: bool = False) -> Ablation:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--twin", type=Path, default=None)
+    ap.add_argument("--robot", type=Path, default=None, help="a robot file (docs/robot.md)")
     ap.add_argument("--out", type=Path, default=Path("ablation"))
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--alone", action="store_true")
@@ -141,8 +147,16 @@ def main() -> None:
         outdir.check(args.out, args.force)
     except ValueError as exc:
         ap.error(str(exc))
-    twin = load_twin(args.twin) if args.twin else default_twin()
-    which = f"the twin of {args.twin}" if args.twin else "the default twin"
+    robot = None
+    if args.robot:
+        from mwip.robot import RobotFileError, load_robot
+
+        try:
+            robot = load_robot(args.robot)
+        except (RobotFileError, OSError) as exc:
+            ap.error(str(exc))
+    twin = robot.twin if robot is not None else default_twin()
+    which = f"the robot of {args.robot}" if robot is not None else "the default twin"
     runs = "quick" if args.quick else "full"
     print(f"ablation on {which}: 4 studies, {runs} runs", flush=True)
     flat: dict[str, float] = {}
@@ -152,12 +166,16 @@ def main() -> None:
     jobs: list[tuple[str, Callable[[], Ablation], tuple[str, ...]]] = [
         (
             bal,
-            lambda: hodosmc(bal, twin, quick, al),
+            lambda: hodosmc(bal, twin, quick, al, robot),
             ("rms_theta", "rms_theta_meas", "rms_speed_err"),
         ),
-        (spd, lambda: hodosmc(spd, twin, quick, al), ("rms_theta", "rms_speed_err")),
-        (obs, lambda: hodosmc(obs, twin, quick, al), ("settling_time",)),
-        (exp_asta.NAME, lambda: asta(twin, quick, al), ("rms_theta", "rms_theta_meas", "rms_s1")),
+        (spd, lambda: hodosmc(spd, twin, quick, al, robot), ("rms_theta", "rms_speed_err")),
+        (obs, lambda: hodosmc(obs, twin, quick, al, robot), ("settling_time",)),
+        (
+            exp_asta.NAME,
+            lambda: asta(twin, quick, al, robot),
+            ("rms_theta", "rms_theta_meas", "rms_s1"),
+        ),
     ]
     for name, job, quantities in jobs:
         ab = job()

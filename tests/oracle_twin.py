@@ -362,7 +362,7 @@ class DriveActuator:
             ff: Any = emf if c == 1.0 else (0.0 if c == 0.0 else c * emf)
         else:
             ff = _col(c) * emf
-        v_ref = R * np.nan_to_num(u_cmd) / (gain / self.torque_gain) + ff
+        v_ref = R * np.nan_to_num(u_cmd) / (gain / _col(self.torque_gain)) + ff
         duty_ref = v_ref / d.supply_voltage
         duty = np.clip(duty_ref, -1.0, 1.0)
         shaped = duty

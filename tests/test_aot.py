@@ -72,8 +72,8 @@ def test_aot_batch_disturbance_stiff_plant_and_a_fall(monkeypatch):
 def test_sources_are_exactly_what_the_loop_imports():
     """The key hashes every mwip file compiled into the loop: importing mwip.sim.loop loads
     exactly SOURCES (plus this module's own build code, sim/aot.py) with the twin's compiled
-    loop, mwip.sim.twin_loop, which inlines the same kernels."""
-    code = ("import sys, mwip.sim.loop, mwip.sim.twin_loop, pathlib; "
+    loop, mwip.hardware.loop, which inlines the same kernels."""
+    code = ("import sys, mwip.sim.loop, mwip.hardware.loop, pathlib; "
             "root = pathlib.Path(mwip.__file__).parent; "
             "print('\\n'.join(sorted(str(pathlib.Path(m.__file__).relative_to(root)) "
             "for n, m in list(sys.modules.items()) if n.startswith('mwip') "

@@ -62,7 +62,8 @@ def test_params_show_and_save(tmp_path, capsys):
     assert doc["params"]["mb"] == 2.5 and doc["derived"]["Gb"] == pytest.approx(2.5 * 9.81 * 0.0582)
     path = tmp_path / "robot.toml"
     assert main(["params", "save", "real", str(path)]) == 0
-    assert main(["simulate", "--plant", str(path), "--duration", "1"]) == 0
+    # a parameter file loads as a robot file's body (--robot FILE replaces --plant/--params)
+    assert main(["simulate", "--robot", str(path), "--duration", "1"]) == 0
 
 
 @pytest.mark.parametrize(
@@ -74,7 +75,7 @@ def test_params_show_and_save(tmp_path, capsys):
         (["simulate", "--duration", "nan"], "--duration"),
         (["simulate", "--Ts", "0"], "--Ts"),
         (["simulate", "--dt", "0.0003"], "dt"),
-        (["simulate", "--plant", "missing.toml"], "--params"),
+        (["simulate", "--robot", "missing.toml"], "--robot"),
         (["simulate", "--controller", "pid"], "--controller"),
         (["design", "lqr", "--Ts", "-0.1"], "--Ts"),
         (["run", "no-such-study"], "STUDY"),
@@ -93,9 +94,11 @@ def test_bad_input_one_line_exit_2_no_files(tmp_path, capsys, args, needle):
 def test_bad_params_file_is_one_line(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
     bad.write_text("[params]\nmb = -2\n")
-    assert main(["simulate", "--plant", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert main(["simulate", "--robot", str(bad), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "'mb'" in err and "(0, inf)" in err
+    # the robot file's one error format: the file, the field (the body's), its range
+    assert err.count("\n") == 1 and "bad.toml" in err and "body.mb = -2 kg" in err
+    assert "outside the plausible [0.01, 500] kg" in err
     assert not (tmp_path / "o").exists()
 
 

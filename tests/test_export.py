@@ -143,7 +143,7 @@ def test_cli_export_and_verify(tmp_path, capsys):
         (["--controller", "smc", "--set", "K=a"], "--set"),
         (["--controller", "lqr", "--Ts", "0"], "--Ts"),
         (["--controller", "lqr", "--prefix", "9bad"], "prefix"),
-        (["--controller", "lqr", "--params", "/nonexistent.toml"], "--params"),
+        (["--controller", "lqr", "--robot", "/nonexistent.toml"], "--robot"),
     ],
 )
 def test_cli_bad_input(args, hint, tmp_path, capsys):

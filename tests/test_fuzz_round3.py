@@ -130,9 +130,9 @@ GOOD_LOG = ("t,theta,theta_rate,enc_r,enc_l,duty_r,duty_l\n"
                       f"{0.0005 * i},{0.0005 * i},{0.2 * math.sin(0.045 * i)},"
                       f"{0.2 * math.cos(0.045 * i)}\n" for i in range(60))).encode()  # fmt: skip
 
-LOG_ONLY = {"--free": st.just("delay"), "--fix": st.just("delay=0.5"),
+LOG_ONLY = {"--free": st.just("firmware.delay"), "--fix": st.just("firmware.delay=0.5"),
             "--validate": st.just("log.csv"), "--segment": st.integers(5, 400).map(str),
-            "--max-rows": st.integers(3, 10**6).map(str), "--twin": st.just("t.toml")}
+            "--max-rows": st.integers(3, 10**6).map(str), "--robot": st.just("t.toml")}
 BOOK_ONLY = {"--samples": st.integers(1, 100).map(str), "--seed": st.integers(0, 9).map(str),
              "--jobs": st.integers(1, 4).map(str), "--duration": st.floats(0, 15).map(repr),
              "--stage2-draws": st.integers(0, 9).map(str),
@@ -156,9 +156,10 @@ def test_twin_fit_options_of_the_other_mode(book, data):
 @FUZZ
 @given(
     opt=st.sampled_from(["--free", "--fix", "--segment", "--max-rows"]),
-    value=st.one_of(st.sampled_from(["", ",", "nosuch", "delay,delay", "delay=", "=1",
-                                     "delay=nan", "delay=1e999", "delay=x", "gear=2", "4",
-                                     "401", "0", "2"]), NON_NUMBERS),
+    value=st.one_of(st.sampled_from(["", ",", "nosuch", "firmware.delay,firmware.delay",
+                                     "firmware.delay=", "=1", "firmware.delay=nan",
+                                     "firmware.delay=1e999", "firmware.delay=x", "gear=2", "4",
+                                     "401", "0", "2", "delay"]), NON_NUMBERS),
 )  # fmt: skip
 def test_twin_fit_bad_option_values(opt, value):
     from mwip.identify.bounds import NAMES

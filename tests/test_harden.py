@@ -293,15 +293,18 @@ def test_long_simulations_show_progress_without_a_terminal(monkeypatch, capsys):
     assert main(["simulate", "--duration", "0.1"]) == 0
     assert capsys.readouterr().err == ""  # short: quiet
     monkeypatch.setattr(budget, "SAMPLE_S", 1.0)  # as if each sample took a second
-    # a loop that is not compiled (the digital twin's sensors) reports every tenth of the way
-    assert main(["simulate", "--twin", "--duration", "0.1"]) == 0
+    # a loop that is not compiled (the law inside the ODE, --mode continuous; the digital
+    # twin's sensors and drive now run in the compiled twin loop) reports every tenth
+    assert main(["simulate", "--controller", "smc", "--mode", "continuous",
+                 "--duration", "0.1"]) == 0  # fmt: skip
     err = capsys.readouterr().err.splitlines()
     assert "about 20 s" in err[0]
     assert err[1:] == [f"simulating: {10 * k}% ({2 * k}/20)" for k in range(1, 11)]
-    # the compiled loop (LQR) runs in one call and reports its end
-    assert main(["simulate", "--duration", "0.1"]) == 0
-    err = capsys.readouterr().err.splitlines()
-    assert "about 20 s" in err[0] and err[1:] == ["simulating: 100% (20/20)"]
+    # the compiled loops (LQR; the twin's) run in one call and report their end
+    for twin in ([], ["--twin"]):
+        assert main(["simulate", "--duration", "0.1", *twin]) == 0
+        err = capsys.readouterr().err.splitlines()
+        assert "about 20 s" in err[0] and err[1:] == ["simulating: 100% (20/20)"]
 
 
 def test_study_step_settings_are_bounded(tmp_path, capsys):
@@ -315,28 +318,31 @@ def test_study_step_settings_are_bounded(tmp_path, capsys):
 
 
 # ---- 4. parameter and scenario files ------------------------------------------------------------
-PARAM_FILES = {
-    "nested": ("a = " + "[" * 3000 + "]" * 3000 + "\n", "nested too deeply"),
-    "array": ("[params]\nmb = [2.0, 3.0]\n", "'mb'"),
-    "bool": ("[params]\nmb = true\n", "'mb'"),
-    "string": ('[params]\nmb = "2.5"\n', "'mb'"),
-    "table": ("[params.mb]\nx = 1\n", "'mb'"),
-    "tiny_radius": ("[params]\nr = 1e-300\n", "'r'"),
-    "huge_radius": ("[params]\nr = 1e300\n", "'r'"),
-    "base_list": ('base = ["real"]\n', "'base'"),
+PARAM_FILES = {  # the text; the field named by a parameter file's reader, by the robot file's
+    "nested": ("a = " + "[" * 3000 + "]" * 3000 + "\n", "nested too deeply", "nested too deeply"),
+    "array": ("[params]\nmb = [2.0, 3.0]\n", "'mb'", "body.mb"),
+    "bool": ("[params]\nmb = true\n", "'mb'", "body.mb"),
+    "string": ('[params]\nmb = "2.5"\n', "'mb'", "body.mb"),
+    "table": ("[params.mb]\nx = 1\n", "'mb'", "body.mb"),
+    "tiny_radius": ("[params]\nr = 1e-300\n", "'r'", "body.r"),
+    "huge_radius": ("[params]\nr = 1e300\n", "'r'", "body.r"),
+    "base_list": ('base = ["real"]\n', "'base'", "base must be one of real, nominal"),
 }
 
 
 @pytest.mark.parametrize("case", list(PARAM_FILES))
 def test_bad_parameter_files_are_one_line_naming_file_and_field(case, tmp_path, capsys):
-    text, field = PARAM_FILES[case]
+    text, field, robot_field = PARAM_FILES[case]
     path = tmp_path / f"{case}.toml"
     path.write_text(text)
-    for argv in (["params", "show", str(path)], ["design", "lqr", "--params", str(path)],
-                 ["simulate", "--plant", str(path), "--duration", "0.1"]):  # fmt: skip
+    # `mwip simulate` takes the robot file (--robot; a parameter file loads as one): its
+    # errors name the robot file's field
+    for argv, name in ((["params", "show", str(path)], field),
+                       (["design", "lqr", "--params", str(path)], field),
+                       (["simulate", "--robot", str(path), "--duration", "0.1"], robot_field)):
         assert main(argv) == 2
         line = _err_line(capsys)
-        assert f"{case}.toml" in line and field in line
+        assert f"{case}.toml" in line and name in line
 
 
 @pytest.mark.parametrize("value", ["", ".", "/"])

@@ -4,7 +4,8 @@ Each writer is fed names and values with newlines, quotes, brackets, control cha
 (where numbers go) non-finite numbers, and the file it writes must load back with its own
 format's reader, holding the same names and values (or, for a number JSON cannot hold,
 ``null``): the audit's case was a log named ``x\\ndelay = 0.99`` whose name, written into
-``twin.toml``'s header, became a TOML line (the fit exited 0 with a file mwip then refused).
+the fit's file's header (then ``twin.toml``, now ``robot.toml``), became a TOML line (the fit
+exited 0 with a file mwip then refused).
 """
 
 from __future__ import annotations
@@ -15,7 +16,6 @@ import json
 import math
 import tomllib
 from html.parser import HTMLParser
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -109,55 +109,58 @@ def test_settings_file_refuses_non_finite_numbers(tmp_path):
     assert not (tmp_path / "s.toml").exists()
 
 
-def test_twin_file_escapes_the_text_it_writes(tmp_path):
-    """A twin file's words (a prior entry's unit and source) with newlines, quotes and
-    control characters are written escaped: the file reads back to the same twin."""
-    from dataclasses import replace
+def test_robot_file_escapes_the_text_it_writes(tmp_path):
+    """A robot file's words (a prior entry's unit and source, the robot's notes) with
+    newlines, quotes and control characters are written escaped: the file reads back to the
+    same robot (the twin file is gone: the robot file holds the twin)."""
+    from mwip.robot import load_robot, robot_to_toml, save_robot
 
-    from mwip.hardware.twin_config import load_twin, save_twin
-
-    base = load_twin(_default_twin_file(tmp_path))
+    default = tmp_path / "default.toml"
+    default.write_text(robot_to_toml(_default_robot()), encoding="utf-8")
+    base = load_robot(default)
     entries = base.prior.to_dict()
     name = next(iter(entries))
     text = "\n".join(NASTY[1:-1])
-    edited = tomllib.loads(_default_twin_file(tmp_path).read_text(encoding="utf-8"))
-    edited["twin"]["prior"][name]["source"] = text
+    edited = tomllib.loads(default.read_text(encoding="utf-8"))
+    edited["prior"][name]["source"] = text
+    edited["robot"]["notes"] = text
     import tomli_w
 
     src = tmp_path / "edited.toml"
     src.write_text(tomli_w.dumps(edited), encoding="utf-8")
-    twin = load_twin(src)
-    assert twin.prior.to_dict()[name]["source"] == text
-    save_twin(twin, tmp_path / "again.toml")
-    again = load_twin(tmp_path / "again.toml")
-    assert again.prior.to_dict()[name]["source"] == text
-    assert replace(again) == twin
+    robot = load_robot(src)
+    assert robot.prior.to_dict()[name]["source"] == text and robot.notes == text
+    save_robot(robot, tmp_path / "again.toml")
+    again = load_robot(tmp_path / "again.toml")
+    assert again.prior.to_dict()[name]["source"] == text and again.notes == text
+    assert again == robot
 
 
-def _default_twin_file(tmp_path: Path) -> Path:
-    from mwip.hardware.twin_config import twin_to_toml
+def _default_robot():  # noqa: ANN202
+    from mwip.robot import default_robot
 
-    path = tmp_path / "default.toml"
-    if not path.exists():
-        path.write_text(twin_to_toml(), encoding="utf-8")
-    return path
+    return default_robot()
 
 
-def test_twin_fit_writes_log_names_as_comments(tmp_path):
-    """The audit: a log named ``x\\ndelay = 0.99`` injected ``delay = 0.99`` into twin.toml."""
-    from mwip.hardware.twin_config import load_twin
+def test_twin_fit_writes_log_names_as_text(tmp_path):
+    """The audit: a log named ``x\\ndelay = 0.99`` injected ``delay = 0.99`` into the fit's
+    file (now robot.toml, where the log names are the notes' and the provenance's text)."""
     from mwip.identify import excite, synth
+    from mwip.robot import load_robot
 
     t, duty, mode = excite.schedule(static=0.3, step=0.06, chirp=0.5)
     truth = synth.draw_truth(7)
     name = 'x\ndelay = 0.99\n[twin.drive]\ngear_ratio = 1e9\n"\x1b.csv'
     p = synth.write_csv(tmp_path / name, synth.stand_log(truth, duty, mode, seed=7))
     out = tmp_path / "fit"
-    assert main(["twin", "fit", str(p), "--out", str(out), "--fix", "delay=0.5"]) == 0
-    text = (out / "twin.toml").read_text(encoding="utf-8")
-    twin = load_twin(out / "twin.toml")  # reads back: nothing injected
-    assert twin.delay == 0.5 and twin.drive.gear_ratio < 1000
-    header = text.split("[twin]")[0]
+    assert main(["twin", "fit", str(p), "--out", str(out), "--fix", "firmware.delay=0.5"]) == 0
+    text = (out / "robot.toml").read_text(encoding="utf-8")
+    robot = load_robot(out / "robot.toml")  # reads back: nothing injected
+    assert robot.twin.firmware.delay == 0.5 and robot.twin.drive.gear_ratio < 1000
+    assert name in robot.notes  # the name is text, whole
+    tables = tomllib.loads(text)
+    assert "twin" not in tables and "delay" not in tables["robot"]
+    header = text.split("[robot]")[0]
     assert all(line.startswith("#") or not line for line in header.splitlines()), header
     assert _strict_json((out / "fit.json").read_text())["logs"][0]["file"] == name
 

@@ -149,33 +149,42 @@ def test_case_without_the_twin_is_refused(capsys, tmp_path):
 
 
 def test_an_empty_parameter_file_is_refused(tmp_path, capsys):
+    # the robot file (--robot; a parameter file loads as one) replaces --params
     (tmp_path / "p.toml").write_text("")
-    assert main(["simulate", "--params", str(tmp_path / "p.toml"), "--duration", "0.1"]) == 2
-    assert "holds no parameters" in _err_line(capsys)
+    assert main(["simulate", "--robot", str(tmp_path / "p.toml"), "--duration", "0.1"]) == 2
+    assert "is empty (an empty file would silently mean the default robot)" in _err_line(capsys)
     (tmp_path / "q.toml").write_text('base = "real"\n')  # the default robot, said so: fine
-    assert main(["simulate", "--params", str(tmp_path / "q.toml"), "--duration", "0.1",
+    assert main(["simulate", "--robot", str(tmp_path / "q.toml"), "--duration", "0.1",
                  "--out", str(tmp_path / "o")]) == 0  # fmt: skip
 
 
 @pytest.mark.parametrize(
     "text, needle",
     [
+        # a legacy twin file (still read as a robot file)
         ("[twin]\n[twinx]\nTs = 0.005\n", "'twinx'"),
         ('[twin.drive]\nemf_compensation = "no"\n', "emf_compensation must be a number"),
         ("[twin.drive]\npwm_levels = true\n", "pwm_levels must be a number"),
         ('[twin.drive]\nmode = 3\n', "mode must be text"),
+        # the robot file
+        ("[twinx]\nTs = 0.005\n", "'twinx'"),
+        ('[firmware]\nemf_compensation = "no"\n', "firmware.emf_compensation must be a number"),
+        ("[drive]\npwm_levels = true\n", "drive.pwm_levels must be a number"),
+        ('[drive]\nmode = 3\n', "drive.mode must be text"),
     ],
 )
 def test_twin_file_tables_and_types(text, needle, tmp_path, capsys):
     (tmp_path / "t.toml").write_text(text)
-    assert main(["simulate", "--twin", str(tmp_path / "t.toml"), "--duration", "0.1"]) == 2
+    assert main(["simulate", "--twin", "--robot", str(tmp_path / "t.toml"),
+                 "--duration", "0.1"]) == 2  # fmt: skip
     assert needle in _err_line(capsys)
 
 
 def test_pwm_levels_zero_is_documented():
-    from mwip.hardware.twin_config import twin_to_toml
+    from mwip.robot import default_robot, robot_to_toml
 
-    assert "pwm_levels = 1000" in twin_to_toml() and "0: not quantised" in twin_to_toml()
+    text = robot_to_toml(default_robot())
+    assert "pwm_levels = 1000" in text and "0: not quantised" in text
 
 
 @pytest.mark.parametrize(
@@ -239,7 +248,7 @@ def test_a_huge_bad_value_is_quoted_in_part(capsys):
     assert len(_err_line(capsys)) < 500
 
 
-@pytest.mark.parametrize("opt", ["--params", "--out", "--twin", "--scenario"])
+@pytest.mark.parametrize("opt", ["--robot", "--out", "--scenario"])  # --twin is a flag now
 def test_a_file_name_too_long_is_bad_input(opt, capsys):
     argv = ["simulate", opt, "a" * 5000, "--duration", "0.1"]
     assert main(argv) == 2

@@ -34,8 +34,9 @@ def _refused(capsys, argv: list[str], needle: str, code: int = 2) -> str:
 # ---- 4. no option silently ignored ---------------------------------------------------------------
 @pytest.mark.parametrize(
     "extra",
-    [["--free", "delay"], ["--fix", "delay=0.5"], ["--validate", "x.csv"], ["--segment", "20"],
-     ["--twin", "missing.toml"], ["--max-rows", "10"]],
+    [["--free", "firmware.delay"], ["--fix", "firmware.delay=0.5"], ["--validate", "x.csv"],
+     ["--segment", "20"],
+     ["--robot", "missing.toml"], ["--max-rows", "10"]],  # --robot FILE replaces --twin FILE
 )  # fmt: skip
 def test_evidence_book_refuses_the_log_options(tmp_path, capsys, extra):
     """The audit: --evidence book dropped them silently and started hours of work."""
@@ -121,7 +122,8 @@ def test_an_empty_free_list_is_refused(tmp_path, capsys, free):
              "--free: is an empty list")  # fmt: skip
 
 
-@pytest.mark.parametrize("fix", ["delay=nan", "delay=inf", "=1", "delay"])
+@pytest.mark.parametrize("fix", ["firmware.delay=nan", "firmware.delay=inf", "=1",
+                                 "firmware.delay"])
 def test_bad_fixes_are_refused(tmp_path, capsys, fix):
     log = tmp_path / "log.csv"
     log.write_text("t\n0\n")

@@ -5,31 +5,35 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mwip.hardware.encoder import EncoderSpec, count, counts_to_angle
-from mwip.hardware.imu import (
-    FusionSpec,
-    Imu,
-    ImuNoise,
-    TiltFilter,
-    gyro_integrate,
-    specific_force,
-    tilt_arcsin,
-    tilt_arctan,
-)
-from mwip.hardware.motor import (
-    RE25,
-    RPM,
-    DriveActuator,
-    DriveSpec,
-    current_step,
-    quantise_duty,
-    simulate_motor,
-    steady_speed,
-)
-from mwip.hardware.twin import Twin, TwinSensor
+from mwip.hardware import fusion
+from mwip.hardware.encoder import EncoderSpec
+from mwip.hardware.firmware import FirmwareSpec
+from mwip.hardware.fusion import FusionSpec
+from mwip.hardware.imu import G, ImuNoise
+from mwip.hardware.motor import RE25, RPM, DriveSpec
+from mwip.hardware.twin import Twin, TwinActuator, TwinSensor
 from mwip.params import REAL
+from oracle_twin import current_step, simulate_motor, steady_speed
 
 TS = 0.005
+
+
+def _kalman() -> FirmwareSpec:
+    return FirmwareSpec(fusion=FusionSpec(kind="kalman"))
+
+
+def _sensor(twin: Twin, n: int, seed: int = 0) -> TwinSensor:
+    """The twin's compiled sensor chain for ``n`` robots, reset."""
+    sensor = TwinSensor(REAL, twin)
+    sensor.reset(n, seed=seed)
+    return sensor
+
+
+def _actuator(twin: Twin, n: int) -> TwinActuator:
+    """The twin's compiled drive chain for ``n`` robots, reset."""
+    act = TwinActuator(REAL, twin)
+    act.reset(n)
+    return act
 
 
 def _static_states(theta: np.ndarray) -> np.ndarray:
@@ -42,8 +46,8 @@ def _static_states(theta: np.ndarray) -> np.ndarray:
 def test_static_tilt_recovered_within_noise(kind: str) -> None:
     noise = ImuNoise()
     theta = np.linspace(-0.3, 0.3, 7)
-    sensor = TwinSensor(REAL, Twin(imu=noise, fusion=FusionSpec(kind=kind)))
-    sensor.reset(theta.size, seed=3)
+    fw = FirmwareSpec(fusion=FusionSpec(kind=kind))
+    sensor = _sensor(Twin(imu=noise, firmware=fw), theta.size, seed=3)
     y = _static_states(theta)
     est = []
     for k in range(1200):  # 6 s at 5 ms
@@ -62,68 +66,82 @@ def test_static_tilt_recovered_within_noise(kind: str) -> None:
 
 
 def test_kalman_estimates_gyro_bias() -> None:
-    tf = TiltFilter(FusionSpec(kind="kalman"))
-    imu = Imu(ImuNoise(gyro_bias_walk=0.0))
+    """The compiled fusion element's Kalman filter: its gyro-offset state converges to the
+    gyro's offset (the robot at rest, tilted)."""
     n = 4
-    imu.reset(n, seed=1)
-    th = np.full(n, 0.1)
-    z = np.zeros(n)
-    ax, ay, _ = imu.read(th, z, z, z, 0.0)
-    tf.reset(tilt_arctan(ax, ay))
-    for _ in range(4000):
-        ax, ay, om = imu.read(th, z, z, z, TS)
-        tf.update(om, tilt_arctan(ax, ay), TS)
-    assert np.allclose(tf.x[:, 1], ImuNoise().gyro_bias, atol=2e-3)
+    sensor = _sensor(Twin(imu=ImuNoise(gyro_bias_walk=0.0), firmware=_kalman()), n, seed=1)
+    y = _static_states(np.full(n, 0.1))
+    for k in range(4001):
+        sensor(k * TS, y)
+    j = sensor.chain.names().index("fusion")
+    x0 = int(sensor.chain.plan[j, 3])  # the fusion element's state in the chain's
+    assert np.allclose(sensor.X[:, x0 + fusion.S.bias], ImuNoise().gyro_bias, atol=2e-3)
+
+
+def _integrated_gyro(noise: ImuNoise, n: int, steps: int, seed: int) -> np.ndarray:
+    """The compiled IMU's gyro readings of ``n`` robots at rest, integrated by (2.40)."""
+    sensor = _sensor(Twin(imu=noise), n, seed=seed)
+    th = np.full(n, 0.05)
+    y = _static_states(th)
+    ang = th.copy()
+    for k in range(steps):
+        sensor(k * TS, y)
+        ang = ang + sensor.last["imu_gyro"][:, 0] * TS  # (2.40)
+    return ang - th
 
 
 def test_gyro_only_integration_drifts_as_bias_predicts() -> None:
     b = 0.01
     n, steps = 16, 2000  # 10 s
-    th = np.full(n, 0.05)
-    z = np.zeros(n)
     # noise-free gyro: (2.40) drifts exactly by b t
-    imu = Imu(ImuNoise(gyro_sigma=0.0, gyro_bias=b, gyro_bias_walk=0.0))
-    imu.reset(n, seed=0)
-    ang = th.copy()
-    for _ in range(steps):
-        ang = gyro_integrate(ang, imu.read(th, z, z, z, TS)[2], TS)
-    assert np.allclose(ang - th, b * steps * TS, rtol=1e-9)
+    drift = _integrated_gyro(ImuNoise(gyro_sigma=0.0, gyro_bias=b, gyro_bias_walk=0.0), n,
+                             steps, seed=0)  # fmt: skip
+    assert np.allclose(drift, b * steps * TS, rtol=1e-9)
     # with white noise the drift is b t within the random walk of the integrated noise
     sig = 0.002
-    imu = Imu(ImuNoise(gyro_sigma=sig, gyro_bias=b, gyro_bias_walk=0.0))
-    imu.reset(n, seed=7)
-    ang = th.copy()
-    for _ in range(steps):
-        ang = gyro_integrate(ang, imu.read(th, z, z, z, TS)[2], TS)
+    drift = _integrated_gyro(ImuNoise(gyro_sigma=sig, gyro_bias=b, gyro_bias_walk=0.0), n,
+                             steps, seed=7)  # fmt: skip
     spread = sig * TS * np.sqrt(steps)
-    assert np.all(np.abs(ang - th - b * steps * TS) < 4 * spread)
-    assert abs(np.mean(ang - th) - b * steps * TS) < 4 * spread / np.sqrt(n)
+    assert np.all(np.abs(drift - b * steps * TS) < 4 * spread)
+    assert abs(np.mean(drift) - b * steps * TS) < 4 * spread / np.sqrt(n)
 
 
 def test_accelerometer_tilt_formulas_and_motion_corruption() -> None:
     th = np.linspace(-1.0, 1.0, 11)
-    z = np.zeros_like(th)
-    ax, ay = specific_force(th, z, z, z, height=0.1)
-    assert np.allclose(tilt_arcsin(ax), th)  # (2.37)
-    assert np.allclose(tilt_arctan(ax, ay), th)  # (2.39)
-    # a forward acceleration of the body reads as a backward tilt of atan(a / g)
-    ax, ay = specific_force(0.0, 0.0, 0.0, 1.0, height=0.1)
-    assert tilt_arctan(ax, ay) == pytest.approx(-np.arctan(1.0 / 9.81))
+    sensor = _sensor(Twin(imu=ImuNoise.ideal(height=0.1)), th.size)
+    sensor(0.0, _static_states(th))
+    ax = sensor.last["imu_accel"][:, 0]
+    assert np.allclose(np.arcsin(np.clip(ax / G, -1.0, 1.0)), th)  # (2.37)
+    assert np.allclose(sensor.last["imu_theta_acc"][:, 0], th)  # (2.39)
+    # a forward acceleration of the body reads as a backward tilt of atan(a / g): the axle's
+    # speed rises by 1 m/s^2 x Ts over a sample (the IMU's acceleration: the sample's mean)
+    sensor = _sensor(Twin(imu=ImuNoise.ideal(height=0.1)), 1)
+    y = np.zeros((1, 8))
+    sensor(0.0, y)
+    y[0, 3] = 1.0 * TS / REAL.r  # psi' = x' / r
+    sensor(TS, y)
+    assert sensor.last["imu_theta_acc"][0, 0] == pytest.approx(-np.arctan(1.0 / 9.81))
 
 
 def test_encoder_quantisation_error_below_one_count(rng: np.random.Generator) -> None:
     spec = EncoderSpec()
-    a = rng.uniform(-50.0, 50.0, 10_000)
-    err = a - counts_to_angle(count(a, spec), spec)
-    assert np.all((err >= 0) & (err < spec.resolution))
-    # through the twin's sensor: psi, alpha and psi' of a robot rolling at constant speed
     tw = Twin(imu=ImuNoise.ideal())
-    sensor = TwinSensor(REAL, tw)
+    res = spec.resolution(tw.drive.gear_ratio)  # the encoder is on the motor shaft
+    # the compiled encoder's wheel angles (relative to the body, from power-on at 0)
+    a = rng.uniform(-50.0, 50.0, 10_000)
+    sensor = _sensor(tw, a.size)
+    sensor(0.0, np.zeros((a.size, 8)))
+    y = np.zeros((a.size, 8))
+    y[:, 0] = a
+    sensor(TS, y)
+    err = a[:, None] - sensor.last["encoder_angles"]
+    assert np.all((err >= 0) & (err < res))
+    # through the twin's sensor: psi, alpha and psi' of a robot rolling at constant speed
     n = 5
-    sensor.reset(n, seed=0)
+    sensor = _sensor(tw, n)
     speeds = rng.uniform(-8.0, 8.0, n)
     yaw_rates = rng.uniform(-1.0, 1.0, n)
-    res, bor = spec.resolution, REAL.b / REAL.r
+    bor = REAL.b / REAL.r
     for k in range(400):
         t = k * TS
         y = np.zeros((n, 8))
@@ -154,8 +172,9 @@ def test_motor_reproduces_table_2_1_at_24V() -> None:
 
 def test_drive_limits_and_pwm() -> None:
     drive = DriveSpec(mode="torque", deadband=0.0)
-    act = DriveActuator(RE25, drive, plant_b_over_r=REAL.b / REAL.r, Ts=TS)
-    act.reset(3)
+    # the compiled drive chain: the firmware's torque-to-duty map, the driver and the motors
+    tw = Twin(drive=drive, elements={"motor", "pwm", "sag"})
+    act = _actuator(tw, 3)
     state = np.zeros((3, 8))
     u = act(0.0, np.array([[0.2, -0.2], [50.0, 50.0], [-50.0, 0.0]]), state)
     lim = drive.wheel_torque_limit()
@@ -169,19 +188,23 @@ def test_drive_limits_and_pwm() -> None:
     assert u[1, 0] == pytest.approx(lim * (1 - RE25.tau_e / TS), abs=step)
     u = act(TS, np.array([[0.2, -0.2], [50.0, 50.0], [-50.0, 0.0]]), state)
     assert u[1, 0] == pytest.approx(lim, abs=step)
-    assert act.last["limited"][1].all() and not act.last["limited"][0].any()
-    duty = quantise_duty(np.array([1.2345, -30.0]), drive)
-    assert np.allclose(duty * drive.pwm_levels, np.round(duty * drive.pwm_levels))
-    assert duty[1] == -1.0
-    # torque mode compensates back-EMF; voltage mode loses torque at speed
+    limited = act.last["drive_limited"]
+    assert limited[1].all() and not limited[0].any()
+    # the duty the bridge applied: on the PWM grid where nothing limits it, within [-1, 1]
+    duty = act.last["drive_duty"]
+    assert np.allclose(duty[0] * drive.pwm_levels, np.round(duty[0] * drive.pwm_levels))
+    assert np.all(np.abs(duty) <= 1.0)
+    # torque mode compensates back-EMF; voltage mode loses torque at speed (the whole motor
+    # torque: the plant holds a voltage drive's back-EMF damping in its Db)
     state[:, 3] = 5.0
     act.reset(3)
     u_t = act(0.0, np.full((3, 2), 0.3), state)
-    act_v = DriveActuator(RE25, DriveSpec(mode="voltage"), Ts=TS)
-    act_v.reset(3)
-    u_v = act_v(0.0, np.full((3, 2), 0.3), state)
+    act_v = _actuator(Twin(drive=DriveSpec(mode="voltage"), elements={"motor", "pwm", "sag"}),
+                      3)  # fmt: skip
+    act_v(0.0, np.full((3, 2), 0.3), state)
     assert np.allclose(u_t, 0.3, atol=0.01)
-    assert np.all(u_v < 0.3 - 0.1)
+    assert np.allclose(act.last["drive_torque"], 0.3, atol=0.01)
+    assert np.all(act_v.last["drive_torque"] < 0.3 - 0.1)
 
 
 def test_parameter_validation_names_field() -> None:

@@ -1,6 +1,6 @@
 """The default twin is the book calibration's most probable member (issue 23): the packaged
-twin file is the MAP of the packaged posterior, it does what the posterior says it does, and
-`mwip twin show`, the run record and the report say where it comes from."""
+robot file's twin is the MAP of the packaged posterior, it does what the posterior says it
+does, and `mwip robot show`, the run record and the report say where it comes from."""
 
 from __future__ import annotations
 
@@ -11,19 +11,24 @@ import pytest
 
 from mwip.cli import main
 from mwip.hardware.identified import IDENTIFIED_FILE, STATUS_FILE, default_twin, status
-from mwip.hardware.prior import PRIOR
+from mwip.hardware.prior import PRIOR, current_name
 from mwip.hardware.twin import Twin
-from mwip.hardware.twin_config import load_twin
+from mwip.robot import load_robot
 
 DOC = json.loads(STATUS_FILE.read_text(encoding="utf-8"))
 
 
 def test_the_default_twin_is_the_posteriors_most_probable_member() -> None:
     tw = default_twin()
-    assert tw == load_twin(IDENTIFIED_FILE)
+    assert tw == load_robot(IDENTIFIED_FILE).twin
     values = tw.values()
-    assert set(DOC["map_values"]) == set(PRIOR.names)
-    for name, v in DOC["map_values"].items():
+    # the record names the unknowns as the calibration's run did (mwip.hardware.prior's
+    # LEGACY_NAMES); the firmware's torque gain came later: 1, the structure the calibration
+    # declared (its firmware agrees with its hardware)
+    recorded = {current_name(k): v for k, v in DOC["map_values"].items()}
+    assert set(recorded) == set(PRIOR.names) - {"firmware.torque_gain"}
+    assert values["firmware.torque_gain"] == 1.0
+    for name, v in recorded.items():
         assert values[name] == pytest.approx(v, rel=1e-12, abs=1e-15), name
     # and it is not the data-sheet twin the prior is centred on
     assert tw != Twin()
@@ -47,14 +52,18 @@ def test_the_default_twin_does_what_the_posterior_records() -> None:
             assert cols[num["key"]][0] == pytest.approx(num["map"], rel=1e-9), num["key"]
 
 
-def test_twin_show_prints_the_identified_twin_with_its_provenance(capsys) -> None:
-    assert main(["twin", "show"]) == 0
+def test_robot_show_prints_the_identified_twin_with_its_provenance(capsys) -> None:
+    # `mwip robot show` replaces `mwip twin show`: the twin's provenance is the robot's notes
+    # and each value's source (a data-sheet guess is an unknown with its prior)
+    assert main(["robot", "show"]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("# The book's robot: the most probable twin")
+    assert out.startswith("# mwip robot file")
+    assert 'notes = """\nThe book\'s robot: Tables 6.1' in out
+    assert "the most probable twin of the posterior conditioned on the book's" in out
     assert "identified: most probable twin of the book calibration" in out
-    assert main(["twin", "show", "--datasheet"]) == 0
+    assert main(["robot", "show", "--datasheet"]) == 0
     ds = capsys.readouterr().out
-    assert "identified:" not in ds and "ASSUMED MAXON GP 32 A 23:1" in ds
+    assert "identified:" not in ds and "unknown (prior): MAXON GP 32 A 23:1" in ds
 
 
 def test_status_says_which_twin_ran() -> None:
@@ -74,7 +83,7 @@ def test_status_says_which_twin_ran() -> None:
     n_up = sum(DOC["map_standing"].values())
     assert f"{n_up} of {len(DOC['map_standing'])} Chapter 6 runs stand" in st["text"]
     other = status(Twin())
-    assert not other["identified"] and "--twin FILE" in other["text"]
+    assert not other["identified"] and "--robot FILE" in other["text"]
 
 
 def test_the_report_headline_states_the_twins_status(tmp_path) -> None:

@@ -119,17 +119,21 @@ def test_fit_cli_writes_three_files(tmp_path: Path) -> None:
     truth = synth.draw_truth(7)
     p = synth.write_csv(tmp_path / "log.csv", synth.stand_log(truth, duty, mode, seed=7))
     out = tmp_path / "fit"
-    assert main(["twin", "fit", str(p), "--out", str(out), "--fix", "delay=0.5"]) == 0
-    assert {f.name for f in out.iterdir()} >= {"twin.toml", "fit.json", "fit.png"}
-    text = (out / "twin.toml").read_text()
-    assert "# fixed: delay=0.5" in text and "delay = 0.5" in text
-    from mwip.hardware.twin_config import load_twin
+    # the fit writes a robot file (robot.toml; it was twin.toml), the delay the firmware's
+    fix = "firmware.delay=0.5"
+    assert main(["twin", "fit", str(p), "--out", str(out), "--fix", fix]) == 0
+    assert {f.name for f in out.iterdir()} >= {"robot.toml", "fit.json", "fit.png"}
+    text = (out / "robot.toml").read_text()
+    assert "fixed: firmware.delay=0.5" in text and "\ndelay = 0.5 " in text
+    from mwip.robot import load_robot
 
-    assert abs(load_twin(out / "twin.toml").drive.gear_ratio - truth["drive.gear_ratio"]) < 3
-    # deterministic: the same logs give the same twin file
+    robot = load_robot(out / "robot.toml")
+    assert robot.twin.firmware.delay == 0.5
+    assert abs(robot.twin.drive.gear_ratio - truth["drive.gear_ratio"]) < 3
+    # deterministic: the same logs give the same robot file
     out2 = tmp_path / "fit2"
-    assert main(["twin", "fit", str(p), "--out", str(out2), "--fix", "delay=0.5"]) == 0
-    assert (out2 / "twin.toml").read_text() == text
+    assert main(["twin", "fit", str(p), "--out", str(out2), "--fix", fix]) == 0
+    assert (out2 / "robot.toml").read_text() == text
 
 
 def test_balancing_logs_from_two_controllers_read_and_leave_drive_not_informed(

@@ -43,12 +43,12 @@ def test_run_never_writes_into_reproduces_folder(tmp_path, capsys, tiny_studies,
     robot = tmp_path / "robot.toml"
     robot.write_text("[params]\nmb = 25.0\n")
     # into reproduce's folder: refused, one line, exit 2, nothing changed
-    assert main(["run", "one", "--params", str(robot), "--out", "out"]) == 2
+    assert main(["run", "one", "--robot", str(robot), "--out", "out"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "holds the results of `mwip reproduce`" in err
     assert "--force" in err and _tree(tmp_path / "out") == before
     # by default: a folder of its own, said where
-    assert main(["run", "one", "--params", str(robot), "-j", "1", "-v"]) == 0
+    assert main(["run", "one", "--robot", str(robot), "-j", "1", "-v"]) == 0
     cap = capsys.readouterr()
     assert "report: runs/one/index.html" in cap.out
     assert _tree(tmp_path / "out") == before
@@ -71,7 +71,8 @@ def test_run_never_writes_into_reproduces_folder(tmp_path, capsys, tiny_studies,
 
 
 def test_book_robot_run_has_no_robot_note(tmp_path, capsys, tiny_studies):
-    assert main(["run", "one", "--out", str(tmp_path / "o"), "-j", "1", "--params", "real"]) == 0
+    # the book's robot: no --robot (it replaces --params real)
+    assert main(["run", "one", "--out", str(tmp_path / "o"), "-j", "1"]) == 0
     record = json.loads((tmp_path / "o" / "run.json").read_text())
     assert "robot" not in record["studies"]["one"]
     assert "<h2>one: one</h2>" in (tmp_path / "o" / "index.html").read_text()

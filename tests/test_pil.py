@@ -294,10 +294,10 @@ def test_delay_from_pil_is_the_largest_step_at_the_clock():
 
 
 @needs_pil
-def test_cli_pil_writes_the_report_and_a_twin_file(tmp_path, capsys):
+def test_cli_pil_writes_the_report_and_a_robot_file(tmp_path, capsys):
     import json
 
-    from mwip.hardware.twin_config import load_twin
+    from mwip.robot import load_robot
 
     out = tmp_path / "board"
     assert main(["export", "c", "--controller", "it2", "--pil", "--duration", "1",
@@ -310,9 +310,10 @@ def test_cli_pil_writes_the_report_and_a_twin_file(tmp_path, capsys):
     steps = (out / "pil_steps.csv").read_text().splitlines()
     assert steps[0] == "step,t,instructions,cycle_bound" and len(steps) == 202
     assert int(steps[1].split(",")[2]) == data["instructions"]["first"]
-    twin = load_twin(out / "twin-delay.toml")
+    # the robot with the measured delay: OUT/robot.toml (it was twin-delay.toml)
+    twin = load_robot(out / "robot.toml").twin
     assert (
-        twin.delay
+        twin.firmware.delay
         == data["twin_delay"]["delay"]
         == pytest.approx(data["cycle_bound"]["share_of_Ts"], abs=1e-6)
     )

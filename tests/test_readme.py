@@ -8,7 +8,8 @@ test names it. Each page runs in order in a fresh folder holding a copy of ``exa
 (the pages' relative paths are the clone's), through :func:`mwip.cli.main` in this process
 (``> FILE`` written from the captured output). "At small sizes" is a fixed, named list of
 options appended to a line (:data:`SMALL`: ``--quick``, ``--samples``, ``--trials``, ``--jobs
-1``, ...); nothing else is changed.
+1``, ...), or put in place of the value of the same option where the line gives one (an
+option may be given once); nothing else is changed.
 
 Expected outcomes other than success are named too: a line whose point is a fall says so
 beside it on the page (exit 1), and a line that needs the user's own inputs (logs of their
@@ -60,7 +61,7 @@ EXPECT: dict[str, tuple[int, str]] = {
 NOT_RUN: dict[str, str] = {
     "mwip campaign run mine.toml --out runs/mine --scheduler tcp://host:8786":
         "needs a Dask cluster at tcp://host:8786",  # fmt: skip
-    "mwip run exp-asta --twin myrobot/twin.toml": "needs the twin fitted from your logs",
+    "mwip run exp-asta --robot myrobot/robot.toml": "needs the robot fitted from your logs",
 }
 #: Files a page takes as the reader's own, made here before its lines run.
 GIVEN: dict[str, dict[str, str]] = {
@@ -70,8 +71,8 @@ GIVEN: dict[str, dict[str, str]] = {
     },
     "docs/export.md": {"my_robot.toml": "@examples/my_robot.toml"},
 }
-PAGES = ["README.md", "docs/bench.md", "docs/campaigns.md", "docs/export.md", "docs/tune.md",
-         "docs/twin.md", "docs/twin_fit.md"]  # fmt: skip
+PAGES = ["README.md", "docs/bench.md", "docs/campaigns.md", "docs/export.md", "docs/robot.md",
+         "docs/tune.md", "docs/twin.md", "docs/twin_fit.md"]  # fmt: skip
 _PREFIX = re.compile(r"^PYTHONPATH=src \S*python -m (mwip|pytest)\b")
 
 
@@ -101,6 +102,28 @@ def test_every_page_has_commands_and_every_named_line_exists():
         assert line in found, f"{line!r} is no longer on a page: remove it here"
 
 
+#: Short names of the options :data:`SMALL` sets.
+_ALIASES = {"-j": "--jobs"}
+
+
+def small(words: list[str], extra: list[str]) -> list[str]:
+    """``words`` with the options ``extra`` of :data:`SMALL`: an option the line already gives
+    takes the small value in its place (an option may be given once), the others are
+    appended."""
+    words, tail = list(words), []
+    i = 0
+    while i < len(extra):
+        opt = extra[i]
+        has_value = i + 1 < len(extra) and not extra[i + 1].startswith("--")
+        at = next((j for j, w in enumerate(words) if _ALIASES.get(w, w) == opt), None)
+        if at is not None and has_value:
+            words[at + 1] = extra[i + 1]
+        elif at is None:
+            tail += extra[i : i + 1 + has_value]
+        i += 1 + has_value
+    return words + tail
+
+
 def _run(line: str, capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
     words = shlex.split(line)
     target = None
@@ -109,7 +132,7 @@ def _run(line: str, capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
     extra = next((v for k, v in SMALL.items() if line.startswith(k)), [])
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
-        code = main(words[1:] + extra)
+        code = main(small(words, extra)[1:])
     err = capsys.readouterr().err
     if target is not None:
         Path(target).write_text(buf.getvalue(), encoding="utf-8")

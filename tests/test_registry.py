@@ -45,13 +45,13 @@ def test_every_controller_balances_the_default_robot(name, tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def bare_twin(tmp_path_factory):
-    """A twin file with every physical element switched off (the robot of Table 6.1 with
-    ideal sensors and drive; docs/twin_model.md)."""
+    """A robot file whose twin has every physical element switched off (the robot of Table
+    6.1 with ideal sensors and drive; docs/twin_model.md)."""
     from mwip.hardware.twin import Twin
-    from mwip.hardware.twin_config import twin_to_toml
+    from mwip.robot import Robot, robot_to_toml
 
     path = tmp_path_factory.mktemp("twin") / "bare.toml"
-    path.write_text(twin_to_toml(Twin(elements=frozenset())))
+    path.write_text(robot_to_toml(Robot(twin=Twin(elements=frozenset()))))
     return path
 
 
@@ -59,14 +59,14 @@ def bare_twin(tmp_path_factory):
 def test_chapter6_controllers_run_on_the_twin(name, capsys, bare_twin):
     """--twin runs every Chapter 6 controller through the twin and reports its status (with
     the default twin's drive train most of them fall: docs/twin_model.md, ablation); with
-    the elements switched off (--twin FILE) each balances."""
+    the elements switched off (--robot FILE --twin) each balances."""
     code = main(["simulate", "--controller", name, "--twin", "--theta0", "0.1",
                  "--duration", "2", "--json"])  # fmt: skip
     doc = json.loads(capsys.readouterr().out)
     assert doc["twin"] == "case 1" and doc["status"] in ("ok", "fell")
     assert code == (0 if doc["status"] == "ok" else 1)
-    assert main(["simulate", "--controller", name, "--twin", str(bare_twin), "--theta0", "0.1",
-                 "--duration", "2", "--json"]) == 0  # fmt: skip
+    assert main(["simulate", "--controller", name, "--twin", "--robot", str(bare_twin),
+                 "--theta0", "0.1", "--duration", "2", "--json"]) == 0  # fmt: skip
     assert json.loads(capsys.readouterr().out)["status"] == "ok"
 
 
@@ -167,14 +167,21 @@ def test_scenario_names_controller_and_settings(tmp_path):
         load_scenario(path)
 
 
-def test_params_is_the_simulated_robot_everywhere_plant_an_alias(tmp_path, capsys):
-    """`--params` names the simulated robot in simulate as in run/reproduce; `--plant` (and
-    `--design-params` for `--nominal`) still work and mean the same."""
+def test_robot_is_the_simulated_robot_and_the_old_options_are_gone(tmp_path, capsys):
+    """`--robot FILE` names the simulated robot (its body) and the model the controller is
+    designed on (its [design]) in simulate as in run/reproduce: a file with book bases and
+    the same robot written out value by value (`mwip robot show FILE`) run the same; the
+    default robot runs otherwise. `--params`, `--plant`, `--nominal`, `--design-params` are
+    gone: one line pointing at the robot file (exit 2)."""
+    short = tmp_path / "short.toml"
+    short.write_text('[body]\nbase = "nominal"\n[design]\nbase = "real"\n')
+    assert main(["robot", "show", str(short)]) == 0
+    full = tmp_path / "full.toml"
+    full.write_text(capsys.readouterr().out)
     outs = []
-    for flags in (["--params", "nominal", "--nominal", "real"],
-                  ["--plant", "nominal", "--design-params", "real"]):  # fmt: skip
-        out = tmp_path / flags[0].strip("-")
-        assert main(["simulate", "--controller", "smc", *flags, "--theta0", "0.05",
+    for f in (short, full):
+        out = tmp_path / f.stem
+        assert main(["simulate", "--controller", "smc", "--robot", str(f), "--theta0", "0.05",
                      "--duration", "1", "--out", str(out)]) == 0  # fmt: skip
         outs.append(np.load(out / "timeseries.npz")["states"])
     assert np.array_equal(outs[0], outs[1])
@@ -182,3 +189,10 @@ def test_params_is_the_simulated_robot_everywhere_plant_an_alias(tmp_path, capsy
     main(["simulate", "--controller", "smc", "--theta0", "0.05", "--duration", "1",
           "--out", str(default)])  # fmt: skip
     assert not np.array_equal(np.load(default / "timeseries.npz")["states"], outs[0])
+    capsys.readouterr()
+    for flag in ("--params", "--plant", "--nominal", "--design-params"):
+        assert main(["simulate", "--controller", "smc", flag, "nominal", "--duration", "1",
+                     "--out", str(tmp_path / "gone")]) == 2  # fmt: skip
+        err = capsys.readouterr().err
+        assert "is gone" in err and "--robot FILE" in err and err.count("\n") == 1, flag
+    assert not (tmp_path / "gone").exists()

@@ -311,7 +311,8 @@ def test_study_file_and_params_run_a_study_on_another_robot(tmp_path, capsys):
     robot = tmp_path / "robot.toml"
     robot.write_text('base = "real"\n[params]\nr = 0.05\nmb = 3.0\n')
     study = tmp_path / "study.toml"
-    study.write_text('[study]\nname = "lqr-gain"\nquick = true\n[robot]\nparams = "robot.toml"\n')
+    # [robot] file (a parameter file loads as a robot file's body) replaces [robot] params
+    study.write_text('[study]\nname = "lqr-gain"\nquick = true\n[robot]\nfile = "robot.toml"\n')
     out = tmp_path / "out"
     assert main(["run", "--scenario", str(study), "--out", str(out)]) == 0
     record = json.loads((out / "run.json").read_text())
@@ -321,7 +322,7 @@ def test_study_file_and_params_run_a_study_on_another_robot(tmp_path, capsys):
     assert main(["run", "--scenario", str(study), "--out", str(out)]) == 2
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
         f"mwip: error: study file {str(study)!r}: [robot] parms: unknown key; "
-        "allowed: params, nominal, damping, twin"
+        "allowed: file, damping"
     )
 
 

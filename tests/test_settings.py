@@ -17,7 +17,9 @@ def test_every_study_ships_a_study_file_that_loads(name, tmp_path):
     text = settings.packaged_text(name)
     data = tomllib.loads(text)
     assert data["study"]["name"] == name
-    assert data["robot"] == {"params": "real", "nominal": "nominal"}
+    # the book's robot: no robot file named (its [robot] params/nominal keys are gone: a
+    # robot file, [robot] file, holds the body and the design model)
+    assert data["robot"] == {}
     assert data["settings"], "a study file lists the study's settings"
     path = tmp_path / "copy.toml"
     path.write_text(text)

@@ -111,7 +111,7 @@ def test_wrong_type_is_named(name: str) -> None:
 TWIN_STUDIES = STUDIES[1:]
 
 
-#: the twin's numbers: they live in the twin file (mwip.hardware.twin_config), not here
+#: the twin's numbers: they live in the robot file (mwip.robot), not here
 TWIN_NUMBERS = {
     "Ts", "dt", "delay", "fusion_tau", "accel_sigma", "accel_bias", "gyro_sigma", "gyro_bias",
     "gyro_bias_walk", "imu_height", "encoder_cpr", "gear_ratio", "current_limit", "pwm_levels",
@@ -122,7 +122,7 @@ TWIN_NUMBERS = {
 def test_open_settings_load_and_leave_the_twin_to_the_twin_file(name: str) -> None:
     """Every ``[open]`` key of a Chapter 6 study loads (a key of ``[settings]``, a finite range
     holding the default, a reason), and no twin number is a study setting: one source, the
-    twin file."""
+    robot file."""
     table = settings.open_settings(name)
     cfg = settings.defaults(name)
     assert not TWIN_NUMBERS & set(cfg)
@@ -140,39 +140,45 @@ def test_open_settings_load_and_leave_the_twin_to_the_twin_file(name: str) -> No
     assert study_specific <= set(table)
 
 
-def test_a_twin_file_value_reaches_the_run(tmp_path: Path) -> None:
-    """A study file's ``[twin]`` table over its ``[robot] twin`` file reaches the twin the
-    study runs on: the fusion constant changes the run and is recorded."""
-    from mwip.hardware.twin import Twin
-    from mwip.hardware.twin_config import save_twin
+def test_a_robot_file_value_reaches_the_run(tmp_path: Path) -> None:
+    """A study file's ``[robot] file`` (a robot file: the twin file and the study file's
+    ``[twin]`` tables are gone) reaches the twin the study runs on: the fusion constant
+    changes the run and is recorded."""
+    from mwip.hardware.identified import default_twin
     from mwip.studies.study_file import load_study_file
 
-    save_twin(Twin(delay=0.4), tmp_path / "my_twin.toml")
+    (tmp_path / "my_robot.toml").write_text("[firmware]\ndelay = 0.4\n"
+                                            "[firmware.fusion]\ntau = 0.2\n")  # fmt: skip
     study = tmp_path / "study.toml"
-    study.write_text('[study]\nname = "exp-asta"\n[robot]\ntwin = "my_twin.toml"\n'
-                     "[twin.fusion]\ntau = 0.2\n")  # fmt: skip
+    study.write_text('[study]\nname = "exp-asta"\n[robot]\nfile = "my_robot.toml"\n')
     tw = load_study_file(study).twin
-    assert tw.fusion.tau == 0.2 and tw.delay == 0.4 and tw.imu == Twin().imu
+    assert tw.firmware.fusion.tau == 0.2 and tw.firmware.delay == 0.4
+    assert tw.imu == default_twin().imu  # the rest: the default robot's
     base = _run("exp-asta", tmp_path / "base")
     new = run_study("exp-asta", tmp_path / "new", quick=True, twin=tw)
     assert "tau 0.2 s" in new["settings"]["twin"] and "tau 0.5 s" in base["settings"]["twin"]
     assert not _same(base["metrics"]["asmc.case1.u_tv"], new["metrics"]["asmc.case1.u_tv"])
 
 
-def test_bad_twin_file_is_one_line_exit_2(tmp_path: Path) -> None:
-    """``mwip run --twin FILE`` and a study file's ``[twin]`` table name the bad key."""
+def test_bad_robot_file_is_one_line_exit_2(tmp_path: Path) -> None:
+    """``mwip run --robot FILE`` and a study file's ``[robot] file`` name the bad key; a
+    study file's ``[twin]`` table (gone) is refused."""
     from click.testing import CliRunner
 
     from mwip.cli import cli
     from mwip.studies.study_file import load_study_file
 
     bad = tmp_path / "bad.toml"
-    bad.write_text("[twin.drive]\ngear = 3\n")
-    res = CliRunner().invoke(cli, ["run", "exp-asta", "--quick", "--twin", str(bad),
+    bad.write_text("[drive]\ngear = 3\n")
+    res = CliRunner().invoke(cli, ["run", "exp-asta", "--quick", "--robot", str(bad),
                                    "--out", str(tmp_path / "o")])  # fmt: skip
-    assert res.exit_code == 2 and "twin.drive: unknown key 'gear'" in res.output
+    assert res.exit_code == 2 and "unknown key drive.gear" in res.output
     assert "Traceback" not in res.output
+    (tmp_path / "late.toml").write_text("[firmware]\ndelay = 2.0\n")
     study = tmp_path / "study.toml"
+    study.write_text('[study]\nname = "exp-asta"\n[robot]\nfile = "late.toml"\n')
+    with pytest.raises(ValueError, match=r"firmware\.delay must be finite and in \[0, 1\]"):
+        load_study_file(study)
     study.write_text('[study]\nname = "exp-asta"\n[twin]\ndelay = 2.0\n')
-    with pytest.raises(ValueError, match="delay"):
+    with pytest.raises(ValueError, match=r"\[twin\] tables are gone"):
         load_study_file(study)

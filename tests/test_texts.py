@@ -92,7 +92,7 @@ def test_bench_axis_titles_and_docs_give_the_identified_twin_values():
     dead = re.search(r"the twin: ([\d.]+)\)", axes["deadband"].title)
     assert dead is not None and float(dead.group(1)) == _sig(tw.drive.deadband)
     delay = re.search(r"the twin: ([\d.]+)\)", axes["delay"].title)
-    assert delay is not None and float(delay.group(1)) == _sig(tw.delay)
+    assert delay is not None and float(delay.group(1)) == _sig(tw.firmware.delay)
     page = (ROOT / "docs" / "bench.md").read_text()
     assert f"accelerometer {_sig(tw.imu.accel_sigma):g} m/s^2" in page
     assert f"gyro {_sig(1e3 * tw.imu.gyro_sigma):g} mrad/s" in page
@@ -158,12 +158,12 @@ def test_readme_counts_the_default_twins_standing_runs():
 
 
 def test_twin_fit_page_names_the_key_the_file_holds():
-    from mwip.hardware.identified import default_twin
-    from mwip.hardware.twin_config import twin_to_toml
+    from mwip.robot import default_robot, robot_to_toml
 
-    assert "emf_compensation" in twin_to_toml(default_twin())
+    text_file = robot_to_toml(default_robot())
+    assert "\n[firmware]\n" in text_file and "\nemf_compensation = " in text_file
     text = (ROOT / "docs" / "twin_fit.md").read_text()
-    assert "`drive.emf_compensation`" in text
+    assert "`firmware.emf_compensation`" in text
     assert "`emf_feedforward = " not in text  # the old boolean is named only as read
 
 

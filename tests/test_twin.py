@@ -124,27 +124,40 @@ def test_stick_obstacle_does_the_lifting_work() -> None:
 
 
 def test_twin_validation() -> None:
-    with pytest.raises(ValueError, match="gear_ratio"):
-        Twin(encoder=EncoderSpec(gear_ratio=10.0))
+    # one gearbox: the encoder (on the motor shaft) has no gear ratio of its own, and a
+    # legacy twin file giving it one that differs from the drive's is refused
+    from mwip.robot import RobotFileError, robot_from_dict
+
+    with pytest.raises(TypeError, match="gear_ratio"):
+        EncoderSpec(gear_ratio=10.0)  # type: ignore[call-arg]
+    with pytest.raises(RobotFileError, match="encoder.gear_ratio .* must equal .*gear_ratio"):
+        robot_from_dict({"twin": {"drive": {"gear_ratio": 23.0},
+                                  "encoder": {"gear_ratio": 10.0}}})  # fmt: skip
     with pytest.raises(ValueError, match="case"):
         case_plant(4)
 
 
 def test_the_drive_sees_each_robots_wheel_geometry():
-    """Setting the twin actuator's ``b / r`` (one per robot, as a campaign block does) reaches
-    the motor model, which turns the state into wheel speeds for the back-EMF: two robots in
-    the same state and with the same command but different ``b / r`` get different torques
-    while turning (before, the inner drive kept the value it was built with)."""
+    """The twin's drive chain takes each robot's ``b / r`` from the plant it is built for
+    (one row per robot, as a campaign block's plant): two robots in the same state and with
+    the same command but different ``b / r`` get different torques while turning, each the
+    torque of a drive built for its own robot alone."""
+    from dataclasses import replace
+
     import numpy as np
 
     from mwip.hardware.identified import default_twin
-    from mwip.params import REAL
+    from mwip.params import REAL, stack_params
 
-    act = default_twin().actuator(REAL)
-    act.b_over_r = np.array([2.0, 6.0])
-    assert np.array_equal(act.drive.b_over_r, [2.0, 6.0])
+    rows = [replace(REAL, b=2.0 * REAL.r), replace(REAL, b=6.0 * REAL.r)]
+    tw = default_twin()
+    act = tw.actuator(stack_params(rows))
     act.reset(2, seed=0)
     state = np.zeros((2, 8))
     state[:, 5] = 3.0  # yaw rate: the wheels turn at +-(b/r) alpha'
     u = act(0.0, np.full((2, 2), 0.05), state)
     assert not np.allclose(u[0], u[1])
+    for i, plant in enumerate(rows):
+        one = tw.actuator(plant)
+        one.reset(1, seed=0)
+        assert np.array_equal(one(0.0, np.full((1, 2), 0.05), state[i : i + 1])[0], u[i])

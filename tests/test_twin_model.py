@@ -10,35 +10,41 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from mwip.hardware import Twin, run_on_twin
+from mwip.hardware import Twin, imu, run_on_twin
 from mwip.hardware.ablation import ablation_steps, rms_metrics, run_ablation
-from mwip.hardware.drivetrain import (
-    Backlash,
-    GearboxSpec,
-    coulomb_torque,
-    derive_plant,
-    relative_mobility,
-)
+from mwip.hardware.bus import BUS
+from mwip.hardware.drivetrain import GearboxSpec, derive_plant, relative_mobility
+from mwip.hardware.element import PackContext
 from mwip.hardware.elements import ELEMENTS
-from mwip.hardware.identified import default_twin
-from mwip.hardware.imu import Imu, ImuNoise
-from mwip.hardware.motor import RE25, RPM, DriveActuator, DriveSpec
+from mwip.hardware.firmware import FirmwareSpec
+from mwip.hardware.imu import ImuNoise
+from mwip.hardware.motor import RE25, RPM, DriveSpec
 from mwip.hardware.sensitivity import input_gains, payload_sensitivity, pitch_pole
-from mwip.hardware.twin_config import load_twin, twin_from_dict, twin_to_toml
+from mwip.hardware.twin import TwinActuator
 from mwip.laws.smc.controller import make_smc
 from mwip.models.reduced import accelerations, mass_matrix
 from mwip.params import REAL
+from mwip.robot import RobotFileError, default_robot, load_robot, robot_from_dict, robot_to_toml
+from mwip.robot.spec import Robot
 from mwip.sim import simulate
 
 TS = 0.005
+
+
+def _drive(drive: DriveSpec, n: int = 1, elements: tuple[str, ...] = ("motor",),
+           masks: np.ndarray | None = None) -> TwinActuator:  # fmt: skip
+    """The twin's compiled drive chain (the firmware's torque-to-duty map, the driver and the
+    motors) for ``drive`` and ``n`` robots, reset."""
+    act = TwinActuator(REAL, Twin(drive=drive, elements=frozenset(elements)), masks=masks)
+    act.reset(n)
+    return act
 
 
 def _wheel_run(drive: DriveSpec, u_cmd: float, load: float, n: int = 400) -> tuple:
     """One wheel behind the gearbox with only the rotor's inertia ``N^2 J`` (no load other
     than ``load`` N m): the actuator's held torque plus the plant's back-EMF damping
     ``c w`` (what the twin puts in ``Db``), integrated exactly over each sample."""
-    act = DriveActuator(RE25, drive, plant_b_over_r=0.0, Ts=TS, emf_in_plant=True)
-    act.reset(1)
+    act = _drive(drive)
     jw = drive.gear_ratio**2 * RE25.rotor_inertia
     c = drive.emf_damping(RE25) if drive.mode == "voltage" else 0.0
     w = 0.0
@@ -47,7 +53,7 @@ def _wheel_run(drive: DriveSpec, u_cmd: float, load: float, n: int = 400) -> tup
         state = np.zeros((1, 8))
         state[0, 3] = w
         u = act(0.0, np.array([[u_cmd, u_cmd]]), state)[0, 0] - load
-        torques.append(act.last["torque"][0, 0])
+        torques.append(act.last["drive_torque"][0, 0])
         if c > 0:  # J w' = u - c w over the sample, exactly
             w_inf = u / c
             w = w_inf + (w - w_inf) * np.exp(-c * TS / jw)
@@ -66,12 +72,11 @@ def test_locked_rotor_and_no_load_reproduce_re25_through_the_gear() -> None:
     drive = _bare_drive()
     n, eta = drive.gear_ratio, drive.gear_efficiency
     # locked rotor at full duty: wheel torque = N eta tau_stall (243 mN m, Table 2.1)
-    act = DriveActuator(RE25, drive, Ts=TS, emf_in_plant=True)
-    act.reset(1)
+    act = _drive(drive)
     big = np.array([[100.0, 100.0]])
     act(0.0, big, np.zeros((1, 8)))
     act(TS, big, np.zeros((1, 8)))
-    assert act.last["torque"][0] == pytest.approx(n * eta * 0.243, rel=1e-9)
+    assert act.last["drive_torque"][0] == pytest.approx(n * eta * 0.243, rel=1e-9)
     # no load at full duty: wheel speed = no-load speed / N (9560 rpm, Table 2.1)
     w, torques = _wheel_run(drive, 100.0, 0.0)
     assert w == pytest.approx(9560 * RPM / n, rel=1e-6)
@@ -113,7 +118,8 @@ class _Step:
 
 def test_one_sample_delay_shifts_a_step_response_by_exactly_one_sample() -> None:
     kw = dict(q0=(0.0, 0.0, 0.0), duration=0.2, record_every=1)
-    delayed = run_on_twin(_Step(10), 1, twin=Twin(elements={"delay"}, delay=1.0), **kw)
+    delayed = run_on_twin(_Step(10), 1, twin=Twin(elements={"delay"},
+                                                  firmware=FirmwareSpec(delay=1.0)), **kw)
     ideal_late = run_on_twin(_Step(11), 1, twin=Twin.ideal(), **kw)
     ideal = run_on_twin(_Step(10), 1, twin=Twin.ideal(), **kw)
     assert np.array_equal(delayed.states, ideal_late.states)
@@ -121,7 +127,8 @@ def test_one_sample_delay_shifts_a_step_response_by_exactly_one_sample() -> None
     ua = delayed.series()["u_applied"]
     assert np.array_equal(ua[1:], ideal.series()["u_applied"][:-1])
     # a fraction d holds d u_{k-1} + (1 - d) u_k
-    half = run_on_twin(_Step(10), 1, twin=Twin(elements={"delay"}, delay=0.5), **kw)
+    half = run_on_twin(_Step(10), 1, twin=Twin(elements={"delay"},
+                                               firmware=FirmwareSpec(delay=0.5)), **kw)
     assert half.series()["u_applied"][10, 0] == pytest.approx(0.025)
     assert half.series()["u_applied"][11, 0] == pytest.approx(0.05)
 
@@ -142,19 +149,39 @@ def test_accelerometer_reads_gravity_plus_body_acceleration_in_its_frame() -> No
     ey = (np.sin(th), np.cos(th))
     want_x = fx * ex[0] + fz * ex[1]
     want_y = fx * ey[0] + fz * ey[1]
-    imu = Imu(ImuNoise.ideal(height=h))
-    imu.reset(t.size, 0)
     tdot = np.gradient(th, dt)
-    ax, ay, om = imu.read(th, tdot, np.gradient(tdot, dt), np.gradient(np.gradient(x, dt), dt),
-                          0.0)  # fmt: skip
+    ax, ay, om = _imu_read(Twin(imu=ImuNoise.ideal(height=h)), th, tdot, np.gradient(tdot, dt),
+                           np.gradient(np.gradient(x, dt), dt))  # fmt: skip
     inner = slice(10, -10)
     assert np.allclose(ax[inner], want_x[inner], atol=1e-4)
     assert np.allclose(ay[inner], want_y[inner], atol=1e-4)
     assert np.max(np.abs(want_x - g * np.sin(th))[inner]) > 0.5  # the motion is visible
     assert np.array_equal(om, tdot)
     # switched off, the accelerometer reads gravity only
-    ax0, ay0, _ = imu.read(th, tdot, tdot, tdot, 0.0, motion=False)
+    still = Twin(imu=ImuNoise.ideal(height=h), elements=set(ELEMENTS) - {"accel_motion"})
+    ax0, ay0, _ = _imu_read(still, th, tdot, tdot, tdot)
     assert np.allclose(ax0, g * np.sin(th)) and np.allclose(ay0, g * np.cos(th))
+
+
+def _imu_read(tw: Twin, th: np.ndarray, tdot: np.ndarray, tddot: np.ndarray,
+              xddot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """The compiled IMU kernel's ``(a_x, a_y, omega*)`` for the true motion: one sample each,
+    its previous sample's velocities set so that the kernel's mean acceleration over the
+    sample is ``theta''`` and ``x'' = r psi''``."""
+    ctx = PackContext(twin=tw, plant=REAL, values=tw.values(), masks=tw.masks(), n=1)
+    P, X = imu.ELEMENT.vectors(ctx)
+    Ts = tw.Ts
+    out = np.empty((3, th.size))
+    bus, z, lg = np.zeros(BUS.size), np.zeros(imu.ELEMENT.noise), np.zeros(6)
+    for i in range(th.size):
+        yi = np.zeros(8)
+        yi[1], yi[4] = th[i], tdot[i]
+        s = X[0].copy()
+        s[imu.S.prev + 3] = yi[3] - Ts * xddot[i] / REAL.r
+        s[imu.S.prev + 4] = yi[4] - Ts * tddot[i]
+        imu.step(1, P[0], s, bus, yi, z, lg)
+        out[:, i] = lg[3], lg[4], lg[1]
+    return out[0], out[1], out[2]
 
 
 def test_reflected_rotor_inertia_matches_the_rotor_kinetic_energy() -> None:
@@ -196,7 +223,16 @@ def test_coulomb_friction_slides_and_sticks(rng: np.random.Generator) -> None:
     fc = 0.034
     w = rng.normal(scale=0.3, size=(200, 2))
     drive = rng.normal(scale=0.1, size=(200, 2))
-    f = coulomb_torque(w, drive, fc, m, TS)
+    # the compiled friction element, alone in the drive chain, on wheels at these speeds
+    act = TwinActuator(p, Twin(gearbox=GearboxSpec(coulomb=fc), elements={"friction"}))
+    act.reset(200)
+    bor = REAL.b / REAL.r
+    state = np.zeros((200, 8))
+    state[:, 3] = (w[:, 0] + w[:, 1]) / 2.0
+    state[:, 5] = (w[:, 0] - w[:, 1]) / (2.0 * bor)
+    w = np.column_stack([state[:, 3] + bor * state[:, 5], state[:, 3] - bor * state[:, 5]])
+    act(0.0, drive, state)
+    f = act.last["drive_friction"]
     assert np.all(np.abs(f) <= fc + 1e-15)
     w_end = w + TS * m * (drive + f)  # the relative speed the sample would end with
     free = w + TS * m * drive
@@ -213,12 +249,14 @@ def test_coulomb_friction_slides_and_sticks(rng: np.random.Generator) -> None:
 
 def test_backlash_delays_a_torque_reversal_by_the_crossing_time() -> None:
     width, jm, tau = np.deg2rad(0.7), 23**2 * RE25.rotor_inertia, 0.1
-    bl = Backlash(width, jm, TS)
+    # the compiled backlash element alone in the drive chain (motor side N^2 J, N = 23)
+    bl = TwinActuator(REAL, Twin(gearbox=GearboxSpec(backlash=width), elements={"backlash"}))
     bl.reset(1)
-    assert np.allclose(bl(np.full((1, 2), tau)), tau)  # in contact: passes
+    y = np.zeros((1, 8))
+    assert np.allclose(bl(0.0, np.full((1, 2), tau), y), tau)  # in contact: passes
     t_c = np.sqrt(2 * width * jm / tau)  # free motor side crosses the play from rest
     k = int(t_c // TS)
-    out = [bl(np.full((1, 2), -tau))[0, 0] for _ in range(k + 3)]
+    out = [bl(0.0, np.full((1, 2), -tau), y)[0, 0] for _ in range(k + 3)]
     assert np.allclose(out[:k], 0.0)
     assert out[k] == pytest.approx(-tau * ((k + 1) * TS - t_c) / TS)
     assert np.allclose(out[k + 1 :], -tau)
@@ -233,38 +271,51 @@ def test_pitch_pole_and_payload_geometry() -> None:
     assert all(a > b for a, b in zip(poles, poles[1:], strict=False))  # heavier: slower
 
 
-def test_twin_file_round_trip_and_errors(tmp_path: object) -> None:
-    tw = Twin(delay=1.0, drive=DriveSpec(mode="torque"), elements={"motor", "delay"})
-    assert twin_from_dict(tomllib.loads(twin_to_toml(tw))["twin"]) == tw
-    assert twin_from_dict(tomllib.loads(twin_to_toml())["twin"]) == default_twin()
-    with pytest.raises(ValueError, match=r"twin\.drive: unknown key 'gear'"):
-        twin_from_dict({"drive": {"gear": 3}})
-    with pytest.raises(ValueError, match="delay"):
-        twin_from_dict({"delay": 2.0})
-    with pytest.raises(ValueError, match="unknown element 'wind'"):
-        twin_from_dict({"elements": ["wind"]})
-    m = twin_from_dict({"motor": {"torque_constant": 0.0234, "terminal_resistance": 2.32}}).motor
+def test_robot_file_round_trip_and_errors(tmp_path: object) -> None:
+    # the twin is the robot file's hardware part (the twin file format is gone)
+    tw = Twin(firmware=FirmwareSpec(delay=1.0), drive=DriveSpec(mode="torque"),
+              elements={"motor", "delay"})  # fmt: skip
+    robot = Robot(twin=tw)
+    assert robot_from_dict(tomllib.loads(robot_to_toml(robot))) == robot
+    assert robot_from_dict(tomllib.loads(robot_to_toml(default_robot()))) == default_robot()
+    with pytest.raises(RobotFileError, match=r"unknown key drive\.gear;"):
+        robot_from_dict({"drive": {"gear": 3}})
+    with pytest.raises(RobotFileError, match="firmware.delay"):
+        robot_from_dict({"firmware": {"delay": 2.0}})
+    with pytest.raises(RobotFileError, match="unknown element 'wind'"):
+        robot_from_dict({"robot": {"elements": ["wind"]}})
+    m = robot_from_dict({"motor": {"torque_constant": 0.0234,
+                                   "terminal_resistance": 2.32}}).twin.motor  # fmt: skip
     assert (m.k_t, m.k_e, m.resistance) == (0.0234, 0.0234, 2.32)  # catalogue values
-    with pytest.raises(ValueError, match="terminal_resistance"):
-        twin_from_dict({"motor": {"terminal_resistance": -1.0}})
-    f = tmp_path / "t.toml"  # type: ignore[operator]
-    f.write_text("[twin.drive]\ngear_ratio = 11.0\n")
-    t11 = load_twin(f)
-    assert t11.drive.gear_ratio == 11.0 and t11.encoder.gear_ratio == 11.0
+    with pytest.raises(RobotFileError, match="terminal_resistance"):
+        robot_from_dict({"motor": {"terminal_resistance": -1.0}})
+    # the encoder is on the motor shaft: its wheel resolution follows the file's gear ratio;
+    # a legacy [twin] table loads the same
+    for i, text in enumerate(("[drive]\ngear_ratio = 11.0\n",
+                              "[twin.drive]\ngear_ratio = 11.0\n")):  # fmt: skip
+        f = tmp_path / f"t{i}.toml"  # type: ignore[operator]
+        f.write_text(text)
+        t11 = load_robot(f).twin
+        assert t11.drive.gear_ratio == 11.0 and t11.values()["drive.gear_ratio"] == 11.0
+        assert t11.encoder.resolution(11.0) == pytest.approx(2 * np.pi / (400 * 11.0))
 
 
-def test_cli_twin_show_and_bad_file(tmp_path: object, capsys: pytest.CaptureFixture) -> None:
+def test_cli_robot_show_and_bad_file(tmp_path: object, capsys: pytest.CaptureFixture) -> None:
     from mwip.cli import main
 
-    assert main(["twin", "show"]) == 0
+    assert main(["robot", "show"]) == 0
     text = capsys.readouterr().out
-    assert twin_from_dict(tomllib.loads(text)["twin"]) == default_twin()
+    assert robot_from_dict(tomllib.loads(text)) == default_robot()
     assert "Table 2.1" in text
     f = tmp_path / "bad.toml"  # type: ignore[operator]
-    f.write_text("[twin.imu]\naccel_sigma = -1.0\n")
-    assert main(["twin", "show", "--twin", str(f)]) == 2
+    f.write_text("[imu]\naccel_sigma = -1.0\n")
+    assert main(["robot", "show", str(f)]) == 2
     err = capsys.readouterr().err
     assert "accel_sigma" in err and len(err.strip().splitlines()) == 1
+    # `mwip twin show` is gone: one line pointing at `mwip robot show`
+    assert main(["twin", "show"]) == 2
+    err = capsys.readouterr().err
+    assert "mwip robot show" in err and len(err.strip().splitlines()) == 1
 
 
 def _smc() -> object:
@@ -343,24 +394,31 @@ def test_closed_loop_sensitivities_equal_single_runs() -> None:
 
 
 def test_pwm_deadband_and_supply_sag() -> None:
-    from mwip.hardware.motor import apply_deadband
-
-    d = apply_deadband(np.array([0.005, -0.005, 0.5, -0.5]), 0.01)
-    assert np.allclose(d, [0.0, 0.0, 0.49, -0.49])
+    # the dead-band of the compiled driver: duty d -> sign(d) max(|d| - 0.01, 0)
+    bare = DriveSpec(pwm_levels=0, deadband=0.01, supply_resistance=0.0, current_limit=10.0)
+    act = _drive(bare, 4, ("motor", "pwm"))
+    gain = bare.gear_ratio * bare.gear_efficiency * RE25.k_t
+    duty = np.array([0.005, -0.005, 0.5, -0.5])
+    cmd = np.column_stack([duty, duty]) * gain * bare.supply_voltage / RE25.resistance
+    act(0.0, cmd, np.zeros((4, 8)))
+    assert np.allclose(act.last["drive_duty"][:, 0], [0.0, 0.0, 0.49, -0.49])
     drive = DriveSpec(pwm_levels=0, deadband=0.0, supply_resistance=0.2, current_limit=3.0)
-    act = DriveActuator(RE25, drive, Ts=TS, emf_in_plant=True)
-    act.reset(2)
+    act = _drive(drive, 2, ("motor", "pwm", "sag"))
     state = np.zeros((2, 8))
     cmd = np.array([[0.5, 0.5], [-0.2, 0.3]])
     act(0.0, cmd, state)
-    i_bat = np.sum(act.last["duty"] * act.last["current"], axis=1)
-    assert np.allclose(act.last["supply"], 24.0)  # no current drawn before the first sample
+    i_bat = np.sum(act.last["drive_duty"] * act.last["drive_current"], axis=1)
+    supply = act.last["drive_supply"][:, 0]
+    assert np.allclose(supply, 24.0)  # no current drawn before the first sample
     act(TS, cmd, state)
-    assert np.allclose(act.last["supply"], 24.0 - 0.2 * i_bat)
-    assert np.all(act.last["supply"] < 24.0)
+    supply = act.last["drive_supply"][:, 0]
+    assert np.allclose(supply, 24.0 - 0.2 * i_bat)
+    assert np.all(supply < 24.0)
     # switched off per row, the supply stays stiff
-    act2 = DriveActuator(RE25, drive, Ts=TS, sag=np.array([True, False]), emf_in_plant=True)
-    act2.reset(2)
+    tw = Twin(drive=drive, elements={"motor", "pwm", "sag"})
+    act2 = _drive(drive, 2, ("motor", "pwm", "sag"),
+                  masks=tw.masks([["motor", "pwm", "sag"], ["motor", "pwm"]]))
     act2(0.0, cmd, state)
     act2(TS, cmd, state)
-    assert act2.last["supply"][1] == 24.0 and act2.last["supply"][0] < 24.0
+    supply = act2.last["drive_supply"][:, 0]
+    assert supply[1] == 24.0 and supply[0] < 24.0

@@ -10,21 +10,24 @@ import numpy as np
 import pytest
 
 from mwip.hardware.elements import ELEMENTS
+from mwip.hardware.firmware import FirmwareSpec
 from mwip.hardware.identified import default_twin
-from mwip.hardware.motor import DriveActuator, DriveSpec
+from mwip.hardware.motor import RE25, DriveSpec
 from mwip.hardware.prior import PRIOR, Prior, Unknown
-from mwip.hardware.twin import Twin, run_on_twin
-from mwip.hardware.twin_config import load_twin, twin_from_dict, twin_to_toml
+from mwip.hardware.twin import Twin, TwinActuator, run_on_twin
+from mwip.params import REAL
+from mwip.robot import Robot, default_robot, load_robot, robot_from_dict, robot_to_toml
 from mwip.studies import exp_hodosmc
 from mwip.studies.twin_settings import study_settings
 
 DATA = Path(__file__).parent / "data"
 
 NAMES = (
-    "drive.gear_ratio", "drive.emf_compensation", "drive.deadband", "drive.current_limit",
-    "gearbox.coulomb", "gearbox.viscous", "gearbox.backlash", "delay", "imu.gyro_bias",
-    "imu.accel_bias", "imu.accel_sigma", "imu.gyro_sigma", "imu.height", "fusion.tau",
-    "payload.height", "payload.radius", "stick.height",
+    "drive.gear_ratio", "firmware.emf_compensation", "drive.deadband", "drive.current_limit",
+    "gearbox.coulomb", "gearbox.viscous", "gearbox.backlash", "firmware.delay",
+    "imu.gyro_bias", "imu.accel_bias", "imu.accel_sigma", "imu.gyro_sigma", "imu.height",
+    "firmware.fusion.tau", "payload.height", "payload.radius", "stick.height",
+    "firmware.torque_gain",
 )  # fmt: skip
 
 
@@ -49,6 +52,9 @@ def test_declared_prior_names_ranges_and_defaults() -> None:
         assert u.source
     assert PRIOR.bounds.shape == (len(NAMES), 2)
     assert PRIOR["drive.gear_ratio"].low == 3.7 and PRIOR["drive.gear_ratio"].high == 51.0
+    # the firmware's torque gain: log-uniform over [0.25, 4], 1 (agreeing with the drive)
+    tg = PRIOR["firmware.torque_gain"]
+    assert (tg.low, tg.high, tg.scale, tg.default) == (0.25, 4.0, "log", 1.0)
     assert tw.prior == PRIOR
 
 
@@ -57,82 +63,100 @@ def test_prior_sample_centre_index_subset_dict() -> None:
     b = PRIOR.bounds
     assert x.shape == (100, len(PRIOR)) and np.all(x >= b[:, 0]) and np.all(x <= b[:, 1])
     assert np.allclose(PRIOR.centre(), b.mean(axis=1))
-    assert PRIOR.index("delay") == NAMES.index("delay")
-    sub = PRIOR.subset(["delay", "drive.gear_ratio"])
-    assert sub.names == ("delay", "drive.gear_ratio")
+    assert PRIOR.index("firmware.delay") == NAMES.index("firmware.delay")
+    sub = PRIOR.subset(["firmware.delay", "drive.gear_ratio"])
+    assert sub.names == ("firmware.delay", "drive.gear_ratio")
     assert Prior.from_dict(PRIOR.to_dict()) == PRIOR
     with pytest.raises(ValueError, match=r"twin.prior: unknown name 'nope'"):
         PRIOR.index("nope")
-    fixed = Prior.from_dict({"delay": {"low": 0.3, "high": 0.3}})
-    assert np.all(fixed.sample(np.random.default_rng(0), 5)[:, fixed.index("delay")] == 0.3)
+    fixed = Prior.from_dict({"firmware.delay": {"low": 0.3, "high": 0.3}})
+    column = fixed.sample(np.random.default_rng(0), 5)[:, fixed.index("firmware.delay")]
+    assert np.all(column == 0.3)
+    # a name before the robot file (a [twin] file's) reads as its name now
+    assert Prior.from_dict({"delay": {"low": 0.3, "high": 0.3}}) == fixed
 
 
-def test_twin_show_round_trips_with_the_prior(tmp_path: Path) -> None:
-    tw = Twin().with_values({"delay": 0.4, "drive.gear_ratio": 14.0, "stick.height": 0.015})
+def test_robot_file_round_trips_with_the_prior(tmp_path: Path) -> None:
+    tw = Twin().with_values({"firmware.delay": 0.4, "drive.gear_ratio": 14.0,
+                             "stick.height": 0.015})  # fmt: skip
     narrowed = Prior.from_dict({"drive.gear_ratio": {"low": 10.0, "high": 20.0}})
     tw = replace(tw, prior=narrowed)
-    text = twin_to_toml(tw)
-    assert "[twin.prior]" in text and '"drive.gear_ratio" = { low = 10.0, high = 20.0' in text
+    text = robot_to_toml(Robot(twin=tw))
+    assert "[prior]" in text and '"drive.gear_ratio" = { low = 10.0, high = 20.0' in text
     path = tmp_path / "t.toml"
     path.write_text(text)
-    back = load_twin(path)
+    back = load_robot(path).twin
     assert back == tw and back.prior == narrowed and back.drive.gear_ratio == 14.0
-    assert load_twin_text(twin_to_toml()) == default_twin()  # the identified default twin
-    assert load_twin_text(twin_to_toml(Twin())) == Twin()
+    # the default robot (its twin the identified one) and the data-sheet twin round-trip
+    assert load_robot_text(robot_to_toml(default_robot())) == default_robot()
+    assert load_robot_text(robot_to_toml(default_robot())).twin == default_twin()
+    assert load_robot_text(robot_to_toml(Robot(twin=Twin()))).twin == Twin()
 
 
-def load_twin_text(text: str) -> Twin:
-    return twin_from_dict(tomllib.loads(text)["twin"])
+def load_robot_text(text: str) -> Robot:
+    return robot_from_dict(tomllib.loads(text))
 
 
 @pytest.mark.parametrize(
     ("prior", "match"),
     [
-        ({"delay": {"low": 0.5, "high": 0.1}}, r"^twin.prior.delay: low \(0.5\) must be <= high"),
-        ({"drive.nope": {"low": 0, "high": 1}}, r"^twin.prior.drive.nope: unknown name"),
-        ({"delay": {"low": 0.5, "high": 0.9}}, r"^twin.prior.delay: the twin's value 0.2 is"),
-        ({"delay": {"low": 0.0, "high": 1.0, "wide": 2}}, r"^twin.prior.delay: unknown key 'wide'"),
-        ({"delay": {"low": "a", "high": 1.0}}, r"^twin.prior.delay: 'low' must be a number"),
+        # the robot file's [prior] table (a legacy name, 'delay', reads as firmware.delay)
+        ({"delay": {"low": 0.5, "high": 0.1}},
+         r"^prior.firmware.delay: low \(0.5\) must be <= high"),
+        ({"drive.nope": {"low": 0, "high": 1}}, r"^prior.drive.nope: unknown name"),
+        ({"firmware.delay": {"low": 0.5, "high": 0.9}},
+         r"^firmware.delay = 0.2 is outside its prior \[0.5, 0.9\]"),
+        ({"delay": {"low": 0.0, "high": 1.0, "wide": 2}},
+         r"^prior.firmware.delay: unknown key 'wide'"),
+        ({"delay": {"low": "a", "high": 1.0}}, r"^prior.firmware.delay: 'low' must be a number"),
     ],
 )  # fmt: skip
 def test_bad_prior_entries_are_one_line_errors(prior: dict, match: str) -> None:
-    with pytest.raises(ValueError, match=match) as exc:
-        twin_from_dict({"prior": prior}, base=Twin())  # the data-sheet twin: delay 0.2
+    with pytest.raises(ValueError, match=match) as exc:  # the data-sheet twin: delay 0.2
+        robot_from_dict({"prior": prior}, base=Robot(twin=Twin()))
     assert "\n" not in str(exc.value)
 
 
 def test_emf_feedforward_alias_and_half_compensation() -> None:
-    tw = twin_from_dict({"drive": {"emf_feedforward": True}}, base=Twin())
-    assert tw.drive.emf_compensation == 1.0 and tw.drive == DriveSpec(emf_compensation=1.0)
-    assert DriveSpec(emf_feedforward=False).emf_compensation == 0.0
-    assert DriveSpec(mode="torque").compensation == 1.0
-    assert "emf_feedforward" not in twin_to_toml(tw)
-    assert "emf_compensation = 1.0" in twin_to_toml(tw)
-    # the actuator's voltage: c = 0.5 adds half the back-EMF of c = 1
+    # a legacy twin file's drive.emf_feedforward: the firmware's full back-EMF compensation
+    r = robot_from_dict({"twin": {"drive": {"emf_feedforward": True}}}, base=Robot(twin=Twin()))
+    tw = r.twin
+    assert tw.firmware.emf_compensation == 1.0 and tw.drive == DriveSpec()
+    assert tw.firmware == FirmwareSpec(emf_compensation=1.0)
+    assert "emf_feedforward" not in robot_to_toml(r)
+    assert "emf_compensation = 1.0" in robot_to_toml(r)
+    # the compiled drive's voltage: c = 0.5 adds half the back-EMF of c = 1, and a
+    # current-mode driver compensates fully
     state = np.zeros((1, 8))
     state[0, 3] = 5.0  # psi' (relative wheel speed 5 rad/s)
     u = np.array([[0.05, 0.05]])
     volts = {}
-    for c in (0.0, 0.5, 1.0):
-        act = DriveActuator(drive=DriveSpec(emf_compensation=c, pwm_levels=0, deadband=0.0,
-                                            current_limit=100.0))  # fmt: skip
+    for c in (0.0, 0.5, 1.0, "torque"):
+        drive = DriveSpec(pwm_levels=0, deadband=0.0, current_limit=100.0,
+                          mode="torque" if c == "torque" else "voltage")  # fmt: skip
+        fw = FirmwareSpec(emf_compensation=0.0 if c == "torque" else c)
+        act = TwinActuator(REAL, Twin(drive=drive, firmware=fw, elements={"motor"}))
+        act.reset(1)
         act(0.0, u, state)
-        volts[c] = act.last["voltage"][0, 0]
+        volts[c] = act.last["drive_voltage"][0, 0]
     assert volts[0.5] - volts[0.0] == pytest.approx(0.5 * (volts[1.0] - volts[0.0]), rel=1e-12)
     assert volts[1.0] - volts[0.0] == pytest.approx(
-        DriveSpec().gear_ratio * 5.0 * DriveActuator().motor.k_e, rel=1e-12
+        DriveSpec().gear_ratio * 5.0 * RE25.k_e, rel=1e-12
     )
+    assert volts["torque"] == volts[1.0]
 
 
 def test_with_values_errors() -> None:
     tw = Twin()
     with pytest.raises(ValueError, match=r"^with_values: unknown name 'drive.nope'") as e1:
         tw.with_values({"drive.nope": 1.0})
-    with pytest.raises(ValueError, match=r"^with_values: 'delay' = 1.5 is outside") as e2:
+    # a legacy name ('delay') is read as its name now
+    with pytest.raises(ValueError, match=r"^with_values: 'firmware.delay' = 1.5 is outside") as e2:
         tw.with_values({"delay": 1.5})
     assert "\n" not in str(e1.value) + str(e2.value)
     t2 = tw.with_values({"drive.gear_ratio": 33.0, "imu.height": 0.05})
-    assert t2.encoder.gear_ratio == 33.0 and t2.imu.height == 0.05 and t2.values()["delay"] == 0.2
+    assert t2.drive.gear_ratio == 33.0 and t2.imu.height == 0.05
+    assert t2.values()["firmware.delay"] == 0.2
     with pytest.raises(ValueError, match=r"values\['delay'\]\[1\] = 2.0 is outside"):
         run_on_twin(_smc(_cfg()), 1, twin=tw, values={"delay": [0.1, 2.0]}, duration=0.05)
     with pytest.raises(ValueError, match=r"values: unknown name 'x'"):
@@ -164,8 +188,8 @@ def test_default_twin_runs_unchanged() -> None:
     rows = [[e] for e in ELEMENTS] + [[e for e in ELEMENTS if e != "motor"]]
     from mwip.hardware.drivetrain import GearboxSpec
 
-    twins = {"ff": Twin(drive=DriveSpec(emf_feedforward=True, deadband=0.0),
-                        gearbox=GearboxSpec(coulomb=0.0)),
+    twins = {"ff": Twin(firmware=FirmwareSpec(emf_compensation=1.0),
+                        drive=DriveSpec(deadband=0.0), gearbox=GearboxSpec(coulomb=0.0)),
              "tq": Twin(drive=DriveSpec(mode="torque"))}  # fmt: skip
     for name, tw in twins.items():
         for case in (1, 2, 3):
@@ -182,13 +206,14 @@ def _draws(n: int, seed: int = 7) -> dict[str, np.ndarray]:
     """``n`` prior draws; the first two made torque-ish (with :data:`NO_FUSION` they stand)."""
     vals = PRIOR.as_values(PRIOR.sample(np.random.default_rng(seed), n))
     for k, v in (
-        ("drive.emf_compensation", 1.0),
+        ("firmware.emf_compensation", 1.0),
         ("drive.deadband", 0.0),
         ("drive.gear_ratio", 5.0),
         ("gearbox.viscous", 0.0),
         ("gearbox.coulomb", 0.0),
-        ("delay", 0.2),
+        ("firmware.delay", 0.2),
         ("drive.current_limit", 10.0),
+        ("firmware.torque_gain", 1.0),
     ):
         vals[k][:2] = v  # fmt: skip
     return vals

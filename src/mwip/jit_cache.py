@@ -47,10 +47,13 @@ def _law_sources() -> list[str]:
 
 def _hardware_sources() -> list[str]:
     """The twin's compiled modules: every ``hardware/*.py`` with a kernel (a new element is
-    found without editing this list), and the layouts they read."""
+    found without editing this list), the layouts they read (the signal bus's offsets are
+    compiled into the kernels) and the declarations every element module imports."""
     hw = Path(__file__).resolve().parent / "hardware"
-    return ["layout.py", *(f"hardware/{f.name}" for f in sorted(hw.glob("*.py"))
-                           if "@njit" in f.read_text(encoding="utf-8"))]  # fmt: skip
+    kernels = [f"hardware/{f.name}" for f in sorted(hw.glob("*.py"))
+               if "@njit" in f.read_text(encoding="utf-8")]  # fmt: skip
+    return ["layout.py", "hardware/bus.py", "hardware/element.py", "hardware/unknown.py",
+            *kernels]  # fmt: skip
 
 
 #: The source files compiled into :func:`mwip.sim.loop.run`, relative to the package

@@ -44,7 +44,6 @@ import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator
-
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -437,11 +436,12 @@ def run_campaign(
     samples_done = [sum(size(b) for b in done & set(range(total)))]
     if progress is _default_progress:
         progress = _Progress(samples_done[0])
-    if isinstance(progress, _Progress) and chunks:  # at once: what there is to do (a given
-        # progress function is called after each chunk only, as before)
-        progress(samples_done[0], samples_total, time.perf_counter() - t0)
     dask = (_connect(workers, scheduler) if chunks and (scheduler is not None or workers > 1)
             else None)  # fmt: skip
+    if isinstance(progress, _Progress) and chunks:  # at once: what there is to do (a given
+        # progress function is called after each chunk only, as before), once the cluster is
+        # up (a scheduler refused or Ctrl-C while it starts stays one line)
+        progress(samples_done[0], samples_total, time.perf_counter() - t0)
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "campaign.json", _record(campaign))
 

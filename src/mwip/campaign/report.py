@@ -234,7 +234,7 @@ def torque_note() -> str:
             "median / p95 over the runs that did not fall). On the plain plant that is the "
             "controller's command, which no drive limits; on the twin, what its drive delivered. "
             "The robot's drive (the default twin's RE25 through its gearbox at its current "
-            f"limit, `mwip twin show`) gives at most {wheel_torque_limit():.3g} N m per wheel: "
+            f"limit, `mwip robot show`) gives at most {wheel_torque_limit():.3g} N m per wheel: "
             "the \"drive limit\" that `mwip simulate` compares its commanded max |u| with and "
             "the run figures draw. A plain-plant run whose peak_torque exceeds it asked for more "
             "than the robot could give.")  # fmt: skip

@@ -82,7 +82,7 @@ def status(twin: Any = None) -> dict[str, Any]:
     identified = twin is None or twin == default_twin()
     if not identified:
         return {"identified": False,
-                "text": "a twin given by the user (--twin FILE): not the identified one"}
+                "text": "a twin given by the user (--robot FILE): not the identified one"}
     doc = _posterior()
     p = doc.get("posterior", {})
     stand = doc.get("map_standing", {})
@@ -122,7 +122,7 @@ def status(twin: Any = None) -> dict[str, Any]:
 def wheel_torque_limit() -> float:
     """The default twin's largest wheel torque (N m per wheel,
     :meth:`~mwip.hardware.motor.DriveSpec.wheel_torque_limit`), from ``book-twin.json`` alone
-    (no twin file is parsed: ``mwip simulate`` reports it for every run and stays fast; a test
+    (no robot file is parsed: ``mwip simulate`` reports it for every run and stays fast; a test
     checks it against :func:`default_twin`)."""
     from mwip.hardware.motor import RE25, DriveSpec
 

@@ -2,20 +2,22 @@
 
 The book prints the robot's parameters (Table 6.1), the motor's data sheet (Table 2.1), the
 battery voltage, the encoder's lines and the 5 ms sampling period: those stay fixed. What it
-does not print is an :class:`Unknown` with a continuous uniform range, declared by the element
-module it belongs to in a module-level ``UNKNOWNS`` tuple (:mod:`mwip.hardware.motor`,
-:mod:`~mwip.hardware.drivetrain`, :mod:`~mwip.hardware.imu`, :mod:`~mwip.hardware.twin`,
-:mod:`~mwip.hardware.payload`, :mod:`~mwip.hardware.obstacle`); :data:`PRIOR` collects them in
-that order (a new element: one module and its ``UNKNOWNS``, named in :data:`_MODULES`).
+does not print is an :class:`Unknown` with a continuous uniform (or log-uniform) range, declared
+by the element module it belongs to in a module-level ``UNKNOWNS`` tuple
+(:mod:`mwip.hardware.motor`, :mod:`~mwip.hardware.firmware`, :mod:`~mwip.hardware.drivetrain`,
+:mod:`~mwip.hardware.imu`, :mod:`~mwip.hardware.payload`, :mod:`~mwip.hardware.obstacle`);
+:data:`PRIOR` collects them in :data:`ORDER` (a new element: one module and its ``UNKNOWNS``,
+named in :data:`_MODULES`).
 
-A twin file carries the prior as ``[twin.prior]``, one inline table per unknown::
+A robot file (:mod:`mwip.robot`, docs/robot.md) carries the prior as ``[prior]``, one inline
+table per unknown::
 
-    [twin.prior]
+    [prior]
     "drive.gear_ratio" = { low = 3.7, high = 51.0, unit = "", source = "..." }
 
-(:meth:`Prior.to_dict` / :meth:`Prior.from_dict`); a user may narrow a range or fix an unknown
-with ``low = high``. ``Twin.prior``, ``Twin.values()`` and ``Twin.with_values()`` use it, and
-``run_on_twin(..., values=...)`` runs one twin per row of values.
+(:meth:`Prior.to_dict` / :meth:`Prior.from_dict`); a user may narrow or widen a range or fix an
+unknown with ``low = high``. ``Twin.prior``, ``Twin.values()`` and ``Twin.with_values()`` use
+it, and ``run_on_twin(..., values=...)`` runs one twin per row of values.
 """
 
 from __future__ import annotations
@@ -161,9 +163,10 @@ class Prior:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], base: Prior | None = None) -> Prior:
-        """A prior from a ``[twin.prior]`` table: entries of ``base`` (default :data:`PRIOR`)
-        with ranges (and sources) replaced, names not given keeping ``base``'s. One-line
-        ``ValueError`` naming ``twin.prior.<name>``."""
+        """A prior from a robot file's ``[prior]`` table: entries of ``base`` (default
+        :data:`PRIOR`) with ranges (and sources) replaced, names not given keeping ``base``'s.
+        One-line ``ValueError`` naming ``twin.prior.<name>`` (the robot file's loader says
+        ``prior.<name>``)."""
         pr = PRIOR if base is None else base
         if not isinstance(data, Mapping):
             raise ValueError(f"twin.prior must be a table, got {data!r}")

@@ -1,4 +1,5 @@
-"""One unknown value of the twin: a dotted name of the twin file and a uniform range.
+"""One unknown value of the twin: a dotted name of the robot file and a uniform (or log-uniform)
+range.
 
 Each element module declares its unknowns in a module-level tuple ``UNKNOWNS`` of
 :class:`Unknown`; :mod:`mwip.hardware.prior` collects them into the declared prior. Kept in a

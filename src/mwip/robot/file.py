@@ -19,7 +19,6 @@ delay, fusion and back-EMF compensation move to ``[firmware]``) and a parameter 
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Mapping
 from dataclasses import fields, replace
@@ -206,7 +205,10 @@ def _legacy(data: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _is_legacy(data: Mapping[str, Any]) -> bool:
-    return "twin" in data or "params" in data or bool(set(data) & set(PARAM_FIELDS))
+    # a parameter file may hold its base alone (``base = "real"``: the book's robot, said so);
+    # a robot file has no top-level ``base`` (its [body] and [design] have theirs)
+    return ("twin" in data or "params" in data or "base" in data
+            or bool(set(data) & set(PARAM_FIELDS)))  # fmt: skip
 
 
 def robot_from_dict(data: Mapping[str, Any], base: Robot | None = None, *, where: str = "",

@@ -252,7 +252,7 @@ def simulate(
         Run the whole loop compiled (:mod:`mwip.sim.loop`): ``None`` (default) when the
         controller offers ``packed_law()`` and the loop has the ideal sensor and no actuator
         model, or a sensor with its own compiled loop (the digital twin's sensor and drive,
-        :mod:`mwip.sim.twin_loop`); ``False`` forces the Python loop; ``True`` raises if
+        :mod:`mwip.hardware.loop`); ``False`` forces the Python loop; ``True`` raises if
         it cannot be compiled.
     budget : Budget
         Bounds on the run's cost (:mod:`mwip.budget`), checked before it starts; a run above
@@ -426,9 +426,8 @@ def _own_loop(
 ) -> Any:
     """The sensor's own compiled loop for this run, or ``None``: a sensor (with its actuator)
     may offer ``compiled_loop(actuator, n, n_samples)`` returning a callable that runs the
-    packed law with them in compiled code (the digital twin's,
-    :mod:`mwip.sim.twin_loop`, packed by :mod:`mwip.hardware.twin_pack`); the engine imports
-    no hardware."""
+    packed law with them in compiled code (the digital twin's, :mod:`mwip.hardware.loop`, its
+    element chains packed by :mod:`mwip.hardware.pack`); the engine imports no hardware."""
     if compiled is False:
         return None
     get = getattr(sensor, "compiled_loop", None)
@@ -558,13 +557,18 @@ def _run_own(
     n = y.shape[0]
     log_arr = np.full((n, rec_idx.size, law.log_width), np.nan)
     _compile_notice(own.function(), "the digital twin's loop")
-    old = numba.set_parallel_chunksize(max(1, n // (16 * numba.get_num_threads())))
+    # the threads only for a threaded batch (as the plain loop): starting them for one robot
+    # would start OpenMP in this process, and a process pool forked after it dies
+    threaded = n >= PARALLEL_MIN
+    old = (numba.set_parallel_chunksize(max(1, n // (16 * numba.get_num_threads())))
+           if threaded else None)  # fmt: skip
     try:
         P, X = law.arrays(n)
         extra = own(first, y, coef, tau, column, method, dt, n_sub, Ts, rec_idx, law.code, P,
                     X, states, us, log_arr, status, t_end)  # fmt: skip
     finally:
-        numba.set_parallel_chunksize(old)
+        if old is not None:
+            numba.set_parallel_chunksize(old)
     logs.update(law.split_logs(log_arr))
     logs.update(extra)
 
