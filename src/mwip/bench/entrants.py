@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from mwip.bench.run import Entrant
-from mwip.params import NOMINAL
+from mwip.params import NOMINAL, Params
 
 __all__ = ["resolve_entrants"]
 
@@ -31,12 +31,17 @@ def _frozen(settings: dict[str, Any]) -> tuple[tuple[str, Any], ...]:
 
 
 def resolve_entrants(names: Sequence[str], settings_files: Sequence[str | Path] = (),
-                     scenario_files: Sequence[str | Path] = ()) -> tuple[Entrant, ...]:  # fmt: skip
+                     scenario_files: Sequence[str | Path] = (),
+                     design: Params | None = None) -> tuple[Entrant, ...]:  # fmt: skip
     """The entrants, in the order: ``names`` (all registered ones when ``names`` is empty),
-    then the settings files, then the scenarios."""
+    then the settings files, then the scenarios. The registry's and the settings files'
+    controllers are designed on ``design`` (the robot's design model; default Table 3.2); a
+    scenario's on its own ``[design]``."""
     from mwip.laws.registry import get
     from mwip.laws.registry import names as registered
     from mwip.schema.settings import read_settings_file
+
+    design = NOMINAL if design is None else design
 
     out: list[Entrant] = []
     for n in names or registered():
@@ -44,7 +49,7 @@ def resolve_entrants(names: Sequence[str], settings_files: Sequence[str | Path] 
             get(n)
         except ValueError as exc:
             raise ValueError(f"CONTROLLER: {exc}") from None
-        out.append(Entrant(n, n))
+        out.append(Entrant(n, n, design=design))
     for f in settings_files:
         sf = read_settings_file(f)
         where = f"--settings {str(f)!r}"
@@ -60,7 +65,7 @@ def resolve_entrants(names: Sequence[str], settings_files: Sequence[str | Path] 
         except ValueError as exc:
             raise ValueError(f"{where}: {exc}") from None
         label = sf.label or f"{sf.name} ({Path(f).stem})"
-        out.append(Entrant(label, sf.name, _frozen(sf.settings_dict()), NOMINAL,
+        out.append(Entrant(label, sf.name, _frozen(sf.settings_dict()), design,
                            f"settings file {Path(f).name}"))  # fmt: skip
     for f in scenario_files:
         from mwip.scenario import load_scenario

@@ -33,18 +33,27 @@ class BenchSummary:
 
 def notes(work: BenchRun) -> list[str]:
     """Lines the page shows about what the benchmark stands on."""
-    m = len(posterior_members())
-    post = ("the identified twin's posterior (book-twin.json) has a single member, the default "
-            "twin itself: the twin axis's 'posterior' level therefore repeats the nominal runs, "
-            "and the plausible ranges come from the declared prior (mwip.hardware.prior)"
-            if m == 1 else f"the identified twin's 'posterior' level draws {m} members of the book "
-            "calibration's posterior (book-twin.json: resampled from its weighted members, or a "
-            "thinned set of its Markov chain states where the chains are its sampler)")
-    # fmt: skip
     origins = sorted({f"{e.label}: {e.origin}" for e in work.entrants if e.origin != "registry"})
-    out = ["Every entrant runs on the identified default twin (mwip twin show), designed on "
-           "its design model (the book's nominal, Table 3.2, unless a scenario says otherwise);"
-           " the robot is Table 6.1's.", post.capitalize() + "."]
+    if work.robot is not None:
+        robot = work.the_robot
+        out = [f"Every entrant runs on the twin of robot {robot.name!r} (a robot file: its body "
+               "is every run's real robot, its twin the hardware), designed on its design "
+               "model unless a scenario says otherwise. The twin axis's 'posterior' level "
+               "repeats the robot's own values (its file carries no posterior); the plausible "
+               "ranges come from its declared prior."]
+    else:
+        m = len(posterior_members())
+        post = ("the identified twin's posterior (book-twin.json) has a single member, the "
+                "default twin itself: the twin axis's 'posterior' level therefore repeats the "
+                "nominal runs, and the plausible ranges come from the declared prior "
+                "(mwip.hardware.prior)"
+                if m == 1 else f"the identified twin's 'posterior' level draws {m} members of "
+                "the book calibration's posterior (book-twin.json: resampled from its weighted "
+                "members, or a thinned set of its Markov chain states where the chains are its "
+                "sampler)")  # fmt: skip
+        out = ["Every entrant runs on the default robot's identified twin (mwip robot show), "
+               "designed on its design model (the book's nominal, Table 3.2, unless a scenario "
+               "says otherwise); the robot is Table 6.1's.", post.capitalize() + "."]
     if origins:
         out.append("Entrants from files: " + "; ".join(origins) + ".")
     return out

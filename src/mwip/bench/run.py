@@ -3,7 +3,7 @@
 The runs. Level ``L`` (of all axes' levels, in file order) and replicate ``i`` make run
 ``u = L n + i`` (``n`` = ``bench.samples``); the engine's *sample* index is ``u``. Block ``b``
 holds runs ``b B .. (b + 1) B - 1`` (``B`` = ``bench.block``, the last block padded with runs
-that are simulated and dropped) and is one engine batch per entrant on the identified twin, every
+that are simulated and dropped) and is one engine batch per entrant on the robot's twin (default: the identified one), every
 run with its own robot, twin unknowns, delay, actuator and push (all per row).
 
 Randomness, from the bench seed ``s`` alone (never from the block, the chunk or the worker):
@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mwip.bench.spec import CASE_ONLY, Bench, Level
-from mwip.params import NOMINAL, PARAM_FIELDS, Params, book_params
+from mwip.params import NOMINAL, PARAM_FIELDS, Params
 
 __all__ = ["Entrant", "BenchRun", "run_rows", "posterior_members"]
 
@@ -68,7 +68,17 @@ class BenchRun:
 
     bench: Bench
     entrants: tuple[Entrant, ...]
+    #: the robot (:class:`mwip.robot.Robot`): its body is every run's real robot, its twin the
+    #: hardware; ``None``: the default robot (:func:`mwip.robot.default_robot`)
+    robot: Any = field(default=None, compare=False)
     kind: str = field(default="bench", init=False)
+
+    @property
+    def the_robot(self) -> Any:
+        """:attr:`robot`, or the default robot."""
+        from mwip.robot import robot_or_default
+
+        return robot_or_default(self.robot)
 
     @property
     def samples(self) -> int:
@@ -80,11 +90,15 @@ class BenchRun:
 
     @property
     def source(self) -> dict[str, Any]:
-        from mwip.hardware.identified import default_twin
-
         b = self.bench
-        return {"bench": b.source, "quick": b.quick, "twin": default_twin().values(),
-                "posterior_members": len(posterior_members()),
+        robot = self.the_robot
+        extra: dict[str, Any] = {}
+        if self.robot is not None:  # the robot as loaded (the default's values are above)
+            from mwip.robot import robot_to_toml
+
+            extra["robot_loaded"] = hashlib.sha256(robot_to_toml(robot).encode()).hexdigest()
+        return {"bench": b.source, "quick": b.quick, "twin": robot.twin.values(), **extra,
+                "posterior_members": len(posterior_members(self.robot)),
                 "sizes": {k: getattr(b, k) for k in ("seed", "samples", "duration", "block",
                                                      "success_theta", "theta0", "push_at",
                                                      "push_width", "payload_height",
@@ -93,7 +107,7 @@ class BenchRun:
 
     def identity(self) -> str:
         """A hash of everything that defines the rows (the definition, the sizes, the entrants,
-        the identified twin's values)."""
+        the robot's twin values, the robot as loaded)."""
         text = json.dumps(self.source, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -124,20 +138,33 @@ def _controllers(work: BenchRun) -> dict[str, Any]:
     return _CACHE[key]
 
 
-def posterior_members() -> list[dict[str, float]]:
-    """The identified twin's posterior members as unknown values: ``members`` of
-    ``book-twin.json`` (resampled from the book calibration's weighted posterior, or a thinned
-    set of its Markov chain states where the chains were its sampler), else (a
-    posterior of stages 1-2 alone lists none) the default twin's values alone."""
+def posterior_members(robot: Any = None) -> list[dict[str, float]]:
+    """The twin's posterior members as unknown values. For the default robot (``robot`` is
+    ``None``): ``members`` of ``book-twin.json`` (resampled from the book calibration's
+    weighted posterior, or a thinned set of its Markov chain states where the chains were its
+    sampler; names as the robot file has them now, :func:`mwip.hardware.prior.current_name`),
+    else (a posterior of stages 1-2 alone lists none) the default twin's values alone. For
+    another robot, its own twin's values alone (its file carries no posterior)."""
     from mwip.hardware.identified import STATUS_FILE, default_twin
+    from mwip.hardware.prior import current_name
 
+    if robot is not None:
+        from mwip.robot import robot_or_default
+
+        return [robot_or_default(robot).twin.values()]
     try:
         doc = json.loads(STATUS_FILE.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         doc = {}
     members = doc.get("members") if isinstance(doc, dict) else None
     if isinstance(members, list) and members:
-        return [{k: float(v) for k, v in m.items()} for m in members]
+        known = default_twin().values()
+        out = []
+        for m in members:
+            row = dict(known)  # a member names the unknowns it varies
+            row.update({current_name(k): float(v) for k, v in m.items()})
+            out.append({k: row[k] for k in known})
+        return out
     return [default_twin().values()]
 
 
@@ -176,25 +203,27 @@ def _v_ref(entry: Entrant) -> float:
     return 0.0
 
 
-def _inputs(bench: Bench, units: NDArray[np.int64]) -> dict[str, Any]:
+def _inputs(bench: Bench, units: NDArray[np.int64], robot: Any = None) -> dict[str, Any]:
     """Per-row inputs of runs ``units``: levels, replicates, initial pitch, the real robot per
-    row, the twin's unknowns per row, whole-sample delay, responsiveness, torque noise, push."""
-    from mwip.hardware.identified import default_twin
+    row (``robot``'s body, varied by the level), the twin's unknowns per row, whole-sample
+    delay, responsiveness, torque noise, push; ``robot`` ``None``: the default robot."""
+    from mwip.robot import robot_or_default
 
     levels = bench.levels
     n = units.size
     li = (units // bench.samples) % len(levels)
     rep = units % bench.samples
-    twin = default_twin()
+    the_robot = robot_or_default(robot)
+    twin = the_robot.twin
     base = twin.values()
     acting = [u.name for u in twin.prior if not u.name.startswith(CASE_ONLY)]
-    real = book_params("real")
+    real = the_robot.body
     fields = {f: np.full(n, float(getattr(real, f))) for f in PARAM_FIELDS}
     vals = {k: np.full(n, v) for k, v in base.items()}
     theta0 = np.empty(n)
     whole = np.zeros(n, dtype=np.int64)
     rho, sigma, push, pay = np.ones(n), np.zeros(n), np.zeros(n), np.zeros(n)
-    members = posterior_members()
+    members = posterior_members(robot)
     for j in range(n):
         lv, i = levels[int(li[j])], int(rep[j])
         theta0[j] = bench.theta0 * (2.0 * _rng(bench.seed, 0, i).random() - 1.0)
@@ -232,13 +261,14 @@ def _inputs(bench: Bench, units: NDArray[np.int64]) -> dict[str, Any]:
             "whole": whole, "rho": rho, "sigma": sigma, "push": push}  # fmt: skip
 
 
-def _twin_for(values: Mapping[str, NDArray[np.float64]]) -> Any:
-    """The default twin with its prior widened to hold ``values`` (the stress levels go past
-    the declared ranges; the prior only validates, it changes no value)."""
-    from mwip.hardware.identified import default_twin
+def _twin_for(values: Mapping[str, NDArray[np.float64]], robot: Any = None) -> Any:
+    """The robot's twin (``None``: the default robot's) with its prior widened to hold
+    ``values`` (the stress levels go past the declared ranges; the prior only validates, it
+    changes no value)."""
     from mwip.hardware.prior import Prior
+    from mwip.robot import robot_or_default
 
-    twin = default_twin()
+    twin = robot_or_default(robot).twin
     wide = {u.name: {"low": min(u.low, float(np.min(values[u.name]))),
                      "high": max(u.high, float(np.max(values[u.name])))}
             for u in twin.prior}  # fmt: skip
@@ -256,8 +286,8 @@ def run_rows(work: BenchRun, block: int, controllers: Mapping[str, Any]) -> list
     bench = work.bench
     B = bench.block
     units = np.arange(block * B, (block + 1) * B, dtype=np.int64)
-    inp = _inputs(bench, units)
-    twin = _twin_for(inp["values"])
+    inp = _inputs(bench, units, work.robot)
+    twin = _twin_for(inp["values"], work.robot)
     vals, n = twin.row_values(inp["values"])
     plant: Params = inp["plant"]
     p = twin.plant(plant, None, vals)

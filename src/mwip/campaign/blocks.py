@@ -134,10 +134,11 @@ def run_block(
         ctrl = copy.deepcopy(controllers[entry.label])
         kw: dict[str, Any] = {}
         if "twin" in (campaign.sensors, campaign.drive):
-            from mwip.hardware.identified import default_twin
+            from mwip.robot import robot_or_default
 
-            # the identified default twin (issue 23), its sensors or drive ideal on request
-            twin = replace(default_twin(), ideal_sensors=campaign.sensors == "ideal",
+            # the robot's twin (default: the book's robot's identified twin), its sensors or
+            # drive ideal on request
+            twin = replace(robot_or_default(campaign.robot).twin, ideal_sensors=campaign.sensors == "ideal",
                            ideal_actuator=campaign.drive == "ideal")  # fmt: skip
             # the plant the twin integrates: reflected rotor inertia and the back-EMF and
             # viscous damping on Db (as run_on_twin; the drive returns the rest of the torque)

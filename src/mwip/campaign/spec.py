@@ -22,9 +22,13 @@ Three kinds (the third, ``calibration``, holds the book calibration's prior draw
     settings = { K = [6.3, 4.0] }
 
     [robot]
-    centre = "real"         # the real plant's centre: "real", "nominal" or a parameter file
-    design = "nominal"      # the model every controller is designed on (stays fixed)
-    damping = "units"       # reading of the book's Db, Dw (SPEC.md section 2)
+    file = "my_robot.toml"  # optional: a robot file (relative to this file; `mwip robot show`,
+                            # docs/robot.md): its body, design model and hardware (the twin);
+                            # default the book's robot; `campaign run --robot FILE` overrides it
+    centre = "real"         # the plant's centre: "real" (the robot's body), "nominal" (its
+                            # design model) or a parameter file (missing fields: the body's)
+    design = "nominal"      # the model every controller is designed on (stays fixed): as centre
+    damping = "units"       # reading of the book's Db, Dw (SPEC.md section 2; the book's robot)
     [robot.uncertainty]     # per parameter; unlisted parameters stay at the centre
     mb = { uniform = 0.2 }          # centre x (1 + U(-0.2, 0.2))
     l = { normal = 0.1 }            # centre x (1 + 0.1 Z), Z standard normal cut at +-3
@@ -180,6 +184,9 @@ class Campaign:
     disturbances: tuple[tuple[str, dict[str, Any]], ...] = (("none", {"kind": "none"}),)
     studies: tuple[str, ...] = ()
     quick: bool = True
+    #: the robot (:class:`mwip.robot.Robot`) whose hardware the twin runs; ``None``: the
+    #: default robot (:func:`mwip.robot.default_robot`)
+    robot: Any = field(default=None, compare=False)
     #: the parsed file, for the identity check of a resumed run
     source: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
@@ -206,6 +213,10 @@ class Campaign:
         camp.pop("samples", None)
         camp.pop("title", None)
         src["campaign"] = camp
+        if self.robot is not None:  # the robot as loaded (its file's text may be anywhere)
+            from mwip.robot import robot_to_toml
+
+            src["robot_loaded"] = hashlib.sha256(robot_to_toml(self.robot).encode()).hexdigest()
         text = json.dumps(src, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -284,15 +295,46 @@ def _dist(value: Any, where: str, relative: bool) -> Dist:
     return Dist(kind, (lo, hi, float(n)))
 
 
-def _params(value: Any, where: str, damping: str, base: str) -> Params:
+def _params(value: Any, where: str, damping: str, base: str, robot: Any = None) -> Params:
+    """``real`` (the robot's body), ``nominal`` (its design model) or a parameter file
+    (missing fields from ``base`` of the two); without a robot the book's sets under
+    ``damping``."""
     if not isinstance(value, str):
         raise ValueError(f"{where} must be 'real', 'nominal' or a parameter file, got {value!r}")
+
+    def book(name: str) -> Params:
+        if robot is None:
+            return book_params(name, damping)
+        return robot.body if name == "real" else robot.design
+
     if value.lower() in ("real", "nominal"):
-        return book_params(value.lower(), damping)
+        return book(value.lower())
     path = Path(value)
     if not path.exists():
         raise ValueError(f"{where} must be 'real', 'nominal' or an existing file, got {value!r}")
-    return load_params(path, base=book_params(base, damping))
+    return load_params(path, base=book(base))
+
+
+def _robot(table: dict[str, Any], folder: Path | None, robot: Any) -> Any:
+    """The campaign's robot: ``robot`` (given by the caller, e.g. ``--robot``) over the file's
+    ``[robot] file`` (relative to the campaign file's folder); ``None`` for neither."""
+    if robot is not None:
+        from mwip.robot import robot_or_default
+
+        return robot_or_default(robot)
+    if "file" not in table:
+        return None
+    value = table["file"]
+    if not isinstance(value, str) or not value.strip():
+        raise ValueError(f"robot.file must be a robot file path, got {value!r}")
+    path = Path(value)
+    if not path.is_absolute():
+        path = (folder or Path.cwd()) / path
+    if not path.is_file():
+        raise ValueError(f"robot.file: no such robot file {str(path)!r}")
+    from mwip.robot import load_robot
+
+    return load_robot(path)
 
 
 def _controllers(items: Any) -> tuple[ControllerEntry, ...]:
@@ -359,8 +401,11 @@ def _disturbances(items: Any) -> tuple[tuple[str, dict[str, Any]], ...]:
     return tuple(out)
 
 
-def parse_campaign(data: dict[str, Any]) -> Campaign:
-    """Validate a parsed campaign file (see the module docstring)."""
+def parse_campaign(data: dict[str, Any], *, robot: Any = None,
+                   folder: Path | None = None) -> Campaign:  # fmt: skip
+    """Validate a parsed campaign file (see the module docstring). ``robot`` (a
+    :class:`mwip.robot.Robot` or a robot file) replaces the file's ``[robot] file``;
+    ``folder`` is where that path is relative to (the campaign file's folder)."""
     camp = data.get("campaign")
     if not isinstance(camp, dict):
         raise ValueError("campaign: missing [campaign] table")
@@ -378,6 +423,9 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
     seed = _integer(camp.get("seed", 0), "campaign.seed", 0, 2**63 - 1)
     block = _integer(camp.get("block", 100 if kind == "robustness" else 1), "campaign.block", 1,
                      MAX_BLOCK)  # fmt: skip
+    if robot is not None and kind != "robustness":
+        raise ValueError(f"a robot (--robot) applies to robustness campaigns; a {kind} campaign "
+                         "runs the book's studies on their own robots")
     if kind == "calibration":
         cap = _number(camp.get("duration", 0.0), "campaign.duration", 0.0, 3600.0)
         return Campaign("calibration", title, samples, seed, block, duration=cap, source=data)
@@ -412,15 +460,21 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
     success = _number(camp.get("success_theta", 0.2), "campaign.success_theta", 0.0, 1.6, True)
     controllers = _controllers(data.get("controllers"))
 
+    given_robot = robot
     robot = data.get("robot", {})
     if not isinstance(robot, dict):
         raise ValueError("robot must be a table")
-    _unknown(robot, {"centre", "design", "damping", "uncertainty"}, "robot")
+    _unknown(robot, {"file", "centre", "design", "damping", "uncertainty"}, "robot")
     damping = robot.get("damping", "units")
     if damping not in ("units", "literal"):
         raise ValueError(f"robot.damping must be one of units, literal; got {damping!r}")
-    centre = _params(robot.get("centre", "real"), "robot.centre", damping, "real")
-    design = _params(robot.get("design", "nominal"), "robot.design", damping, "nominal")
+    the_robot = _robot(robot, folder, given_robot)
+    if the_robot is not None and damping != "units":
+        raise ValueError("robot.damping reads the book's tables; a robot file gives its body's "
+                         "Db, Dw as the rotational coefficients of (2.32): drop one of the two")
+    centre = _params(robot.get("centre", "real"), "robot.centre", damping, "real", the_robot)
+    design = _params(robot.get("design", "nominal"), "robot.design", damping, "nominal",
+                     the_robot)  # fmt: skip
     unc_table = robot.get("uncertainty", {})
     if not isinstance(unc_table, dict):
         raise ValueError("robot.uncertainty must be a table")
@@ -478,6 +532,7 @@ def parse_campaign(data: dict[str, Any]) -> Campaign:
         tuple(uncertainty),
         tuple(initial),
         _disturbances(data.get("disturbances")),
+        robot=the_robot,
         source=data,
     )
 
@@ -496,8 +551,9 @@ def builtin_text(name: str) -> str:
     return path.read_text(encoding="utf-8")
 
 
-def load_campaign(name_or_path: str) -> Campaign:
-    """A built-in campaign by name, or a campaign file."""
+def load_campaign(name_or_path: str, robot: Any = None) -> Campaign:
+    """A built-in campaign by name, or a campaign file; ``robot`` (a :class:`mwip.robot.Robot`
+    or a robot file) replaces the file's ``[robot] file`` (see :func:`parse_campaign`)."""
     if name_or_path in builtin_names():
         text = builtin_text(name_or_path)
     else:
@@ -509,9 +565,9 @@ def load_campaign(name_or_path: str) -> Campaign:
             )
         from mwip.io import read_toml  # size, encoding, BOM and syntax: one line each
 
-        return parse_campaign(read_toml(path, "campaign"))
+        return parse_campaign(read_toml(path, "campaign"), robot=robot, folder=path.parent)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:  # pragma: no cover - a packaging error
         raise ValueError(f"campaign {name_or_path!r} is not valid TOML: {exc}") from None
-    return parse_campaign(data)
+    return parse_campaign(data, robot=robot)

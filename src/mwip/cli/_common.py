@@ -133,9 +133,10 @@ ROBOT_OPTION = click.option(
 )  # fmt: skip
 
 
-def robot_option(path: Path | None, damping: str = "units") -> Any:
+def robot_option(path: Path | None, damping: str = "units", hint: str = "--robot") -> Any:
     """The robot of ``--robot FILE`` (a :class:`mwip.robot.Robot`); without a file the book's
-    robot under the ``--damping`` reading. Errors are one line naming ``--robot``."""
+    robot under the ``--damping`` reading. Errors are one line naming ``hint`` (the option
+    or argument that gave the file)."""
     from mwip.robot import default_robot, load_robot
 
     if path is None:
@@ -154,11 +155,11 @@ def robot_option(path: Path | None, damping: str = "units") -> Any:
             "design model's Db, Dw as the rotational coefficients of (2.32): give one of the two"
         )
     if not path.exists():
-        raise click.BadParameter(f"no such file {str(path)!r}", param_hint="--robot")
+        raise click.BadParameter(f"no such file {str(path)!r}", param_hint=hint)
     try:
         return load_robot(path)
     except (ValueError, OSError) as exc:
-        raise click.BadParameter(str(exc), param_hint="--robot") from None
+        raise click.BadParameter(str(exc), param_hint=hint) from None
 
 
 def gone_option(*names: str, hint: str, flag: bool = False) -> Callable[[Any], Any]:

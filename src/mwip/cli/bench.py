@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from mwip.cli._common import NonEmptyPath
+from mwip.cli._common import NonEmptyPath, robot_option
 
 __all__ = ["bench"]
 
@@ -36,13 +36,18 @@ __all__ = ["bench"]
 @click.option("--definition", default=None, metavar="FILE",
               help="A benchmark definition (default: the built-in one; print it with --show).")
 @click.option("--show", is_flag=True, help="Print the built-in definition and exit.")
+@click.option("--robot", "robot_file", type=NonEmptyPath(dir_okay=False, path_type=Path),
+              default=None, help="The robot (a robot file, docs/robot.md): its body is every "
+              "run's real robot, its twin the hardware, its design model the one the "
+              "registry's and settings files' controllers are designed on (default: the "
+              "book's robot, its identified twin and posterior).")
 def bench(controllers: tuple[str, ...], out: Path | None, settings_files: tuple[str, ...],
           scenario_files: tuple[str, ...], quick: bool, samples: int | None, jobs: int | None,
           scheduler: str | None, max_hours: float | None, definition: str | None,
-          show: bool) -> None:  # fmt: skip
+          show: bool, robot_file: Path | None) -> None:  # fmt: skip
     """Score each CONTROLLER (default: every registered one) on the robustness axes.
 
-    Every entrant runs on the identified twin over the axes of the definition (model
+    Every entrant runs on the robot's twin (default: the book's robot's identified twin) over the axes of the definition (model
     parameters, the twin's unknowns, measurement and actuator noise, dead-band,
     responsiveness, delay, payload, push); each axis's level is a success fraction over a
     fixed, seeded set of runs with its Wilson 95 % interval. Writes DIR/scores.parquet,
@@ -75,8 +80,10 @@ def bench(controllers: tuple[str, ...], out: Path | None, settings_files: tuple[
     spec = load_bench(definition, quick)
     if samples is not None:
         spec = spec.with_samples(samples)
-    entrants = resolve_entrants(list(controllers), settings_files, scenario_files)
-    work = BenchRun(spec, entrants)
+    robot = None if robot_file is None else robot_option(robot_file)
+    design = None if robot is None else robot.design
+    entrants = resolve_entrants(list(controllers), settings_files, scenario_files, design)
+    work = BenchRun(spec, entrants, robot)
     n_blocks(work)  # type: ignore[arg-type]  # the sizes are refused before anything is written
     if out.exists() and not out.is_dir():
         raise click.BadParameter(f"{str(out)!r} exists and is not a folder", param_hint="--out")

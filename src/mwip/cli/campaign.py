@@ -7,6 +7,8 @@ from pathlib import Path
 
 import click
 
+from mwip.cli._common import NonEmptyPath, robot_option
+
 __all__ = ["campaign"]
 
 
@@ -68,6 +70,12 @@ def show_cmd(name: str | None) -> None:
     default=None,
     help="Samples per chunk (rounded up to whole blocks); does not change results.",
 )
+@click.option(
+    "--robot", "robot_file", type=NonEmptyPath(dir_okay=False, path_type=Path), default=None,
+    help="The robot (a robot file, docs/robot.md): its body is 'real', its design model "
+    "'nominal' and its hardware the twin (replaces the file's [robot] file; default the "
+    "book's robot). Robustness campaigns only.",
+)  # fmt: skip
 def run_cmd(
     campaign_name: str,
     out: Path,
@@ -76,6 +84,7 @@ def run_cmd(
     scheduler: str | None,
     chunk: int | None,
     max_hours: float | None,
+    robot_file: Path | None,
 ) -> None:
     """Run (or continue) campaign NAME (built-in) or FILE.toml into --out."""
     from mwip.cli._common import need_extra
@@ -85,7 +94,8 @@ def run_cmd(
     from mwip.campaign.execute import max_jobs, run_campaign
     from mwip.campaign.spec import load_campaign
 
-    camp = load_campaign(campaign_name)
+    robot = None if robot_file is None else robot_option(robot_file)
+    camp = load_campaign(campaign_name, robot=robot)
     if samples is not None:
         try:  # the campaign validates its sample count
             camp = camp.with_samples(samples)

@@ -223,7 +223,8 @@ def export_c(
         f"software in the loop ({'twin' if twin else 'simulation'}, {duration:g} s): "
         f"max |state difference| {rep.max_state_diff:.3g} (theta {rep.max_theta_diff:.3g} rad), "
         f"max |u difference| {rep.max_u_diff:.3g} N m; status python {rep.status_python}, "
-        f"C {rep.status_c}; C step {rep.seconds_per_call * 1e6:.1f} us per call via ctypes"
+        f"C {rep.status_c}; C step {rep.seconds_per_call * 1e6:.1f} us per call via ctypes; "
+        f"peak delivered torque {rep.peak_torque:.4g} N m"
     )
     if not rep.ok(tol):
         click.echo(f"mwip: error: the C controller differs from the Python one by more than "

@@ -39,5 +39,5 @@ def robot_show(file: Path | None, book: bool, datasheet: bool) -> None:
     else:
         if file is not None and not file.exists():
             raise click.BadParameter(f"no such file {str(file)!r}", param_hint="FILE")
-        r = robot_option(file)
+        r = robot_option(file, hint="FILE")
     click.echo(robot_to_toml(r), nl=False)

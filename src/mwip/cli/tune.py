@@ -6,6 +6,8 @@ from pathlib import Path
 
 import click
 
+from mwip.cli._common import NonEmptyPath, robot_option
+
 __all__ = ["tune"]
 
 
@@ -59,8 +61,13 @@ __all__ = ["tune"]
     is_flag=True,
     help="Write into OUT even if it is a non-empty folder mwip did not create.",
 )
+@click.option(
+    "--robot", "robot_file", type=NonEmptyPath(dir_okay=False, path_type=Path), default=None,
+    help="The robot to tune for (a robot file, docs/robot.md: its body, design model and "
+    "twin; replaces the objective's [robots] robot; default the book's robot).",
+)  # fmt: skip
 def tune(controller: str, out: Path, objective: str, trials: int, storage: str | None,
-         sampler: str | None, seed: int, force: bool) -> None:  # fmt: skip
+         sampler: str | None, seed: int, force: bool, robot_file: Path | None) -> None:  # fmt: skip
     """Tune CONTROLLER's settings for robustness: every trial evaluates candidate settings on a
     batch of robots (a campaign's distribution, on the twin or the plain plant); writes
     OUT/best.toml (`mwip simulate --controller C --settings OUT/best.toml`)."""
@@ -69,7 +76,8 @@ def tune(controller: str, out: Path, objective: str, trials: int, storage: str |
     try:
         from mwip.tune.run import execute, plan
 
-        p = plan(controller, out, objective, trials, storage, sampler, seed, force)
+        robot = None if robot_file is None else robot_option(robot_file)
+        p = plan(controller, out, objective, trials, storage, sampler, seed, force, robot)
         execute(p, log=lambda text: click.echo(text, err=True))
     except KeyboardInterrupt:
         # one line, no traceback (Optuna's or ours); the trials finished so far are in the

@@ -125,7 +125,9 @@ class VerifyReport:
     """Closed loops of the Python and the C controller: largest state and torque differences
     over the run (``max_state_diff`` over all states in their units, rad, rad/s and m;
     ``max_theta_diff`` the pitch alone), the statuses,
-    and the C step's mean time per call (s, including the ctypes call)."""
+    the C step's mean time per call (s, including the ctypes call) and the Python loop's
+    largest wheel torque delivered to the plant (N m; on the twin, what its drive delivers,
+    not what the controller commands)."""
 
     max_state_diff: float
     max_theta_diff: float
@@ -134,6 +136,7 @@ class VerifyReport:
     status_c: str
     duration: float
     seconds_per_call: float
+    peak_torque: float = float("nan")
 
     def ok(self, tol: float) -> bool:
         return self.status_python == self.status_c and self.max_state_diff <= tol
@@ -172,7 +175,8 @@ def verify(
     du = np.abs(a.u[..., :n, :] - b.u[..., :n, :])
     per = c_controller.seconds / max(c_controller.calls, 1)
     status = (str(np.atleast_1d(a.status)[0]), str(np.atleast_1d(b.status)[0]))
+    applied = (getattr(a, "logs", None) or {}).get("u_applied", a.u)
     return VerifyReport(
         float(np.nanmax(ds)), float(np.nanmax(ds[..., 1])), float(np.nanmax(du)), *status,
-        float(duration), per,
+        float(duration), per, float(np.nanmax(np.abs(applied))),
     )  # fmt: skip

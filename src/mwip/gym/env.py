@@ -27,7 +27,11 @@ steps, 10 s; ``max_episode_steps=N`` to change it). The vectorised env, which Gy
 not wrap, truncates after ``max_episode_steps`` (or ``episode_seconds``) itself.
 
 Parameters, disturbances and sampling can come from a scenario TOML (:mod:`mwip.scenario`):
-its ``[plant]``, ``[disturbance]``, ``Ts`` and ``dt``.
+its ``[plant]``, ``[disturbance]``, ``Ts`` and ``dt``; or from a robot (``robot=``, a
+:class:`mwip.robot.Robot` or a robot file, docs/robot.md): its body is the plant, its
+firmware's sample period ``Ts`` and its drive's largest wheel torque the action bound (the
+agent's torque is applied as commanded: the environment has no drive model; pass
+``sensor=robot.twin.sensor(...)`` for the robot's IMU and encoders).
 """
 
 from __future__ import annotations
@@ -66,18 +70,33 @@ class EnvConfig:
     def __init__(
         self,
         task: str = "balance",
-        plant: Params = REAL,
-        Ts: float = 0.005,
+        plant: Params | None = None,
+        Ts: float | None = None,
         dt: float | None = None,
         episode_seconds: float = 10.0,
         max_episode_steps: int | None = None,
-        max_torque: float = WHEEL_TORQUE_LIMIT,
+        max_torque: float | None = None,
         init_theta: float = 0.2,
         v_ref_range: float = 1.0,
         yaw_rate_ref_range: float = 1.0,
         disturbance: Disturbance | None = None,
         scenario: str | Path | None = None,
+        robot: Any = None,
     ) -> None:
+        if robot is not None:
+            from mwip.robot import robot_or_default
+
+            if scenario is not None or plant is not None:
+                raise ValueError("robot: give the robot, a scenario or a plant, not two (the "
+                                 "robot's body is the plant)")  # fmt: skip
+            robot = robot_or_default(robot)
+            plant = robot.body
+            Ts = robot.Ts if Ts is None else Ts
+            if max_torque is None:
+                max_torque = float(robot.twin.drive.wheel_torque_limit(robot.twin.motor))
+        plant = REAL if plant is None else plant
+        Ts = 0.005 if Ts is None else Ts
+        max_torque = WHEEL_TORQUE_LIMIT if max_torque is None else max_torque
         if scenario is not None:
             from mwip.scenario import load_scenario
 

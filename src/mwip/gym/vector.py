@@ -42,12 +42,25 @@ class MwipVectorEnv(VectorEnv):
         self,
         num_envs: int = 16,
         *,
-        plant: Params = REAL,
+        plant: Params | None = None,
         obs_noise: ArrayLike = 0.0,
         **config: Any,
     ) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if config.get("robot") is not None:
+            if plant is not None:
+                raise ValueError("robot: give the robot or a plant, not both (the robot's body "
+                                 "is the plant)")  # fmt: skip
+            from mwip.robot import robot_or_default
+
+            robot = robot_or_default(config.pop("robot"))  # as EnvConfig(robot=...) reads it
+            plant = robot.body
+            if config.get("Ts") is None:
+                config["Ts"] = robot.Ts
+            if config.get("max_torque") is None:
+                config["max_torque"] = float(robot.twin.drive.wheel_torque_limit(robot.twin.motor))
+        plant = REAL if plant is None else plant
         shape = plant.batch_shape
         if shape not in ((), (num_envs,)):
             raise ValueError(f"plant fields must be scalars or of shape ({num_envs},), got {shape}")

@@ -39,7 +39,7 @@ def get_study(name: str) -> Any:
 def run_study(name: str, out: Path, **kwargs: Any) -> dict[str, Any]:
     """Run one study into ``out/<name>``; returns its metrics document
     (:func:`mwip.studies.registry.run_study`: ``quick``, ``plant``, ``nominal``,
-    ``overrides``)."""
+    ``overrides``, ``twin``, or ``robot``: a robot file or :class:`mwip.robot.Robot`)."""
     from mwip.studies.registry import run_study as run
 
     return run(name, out, **kwargs)

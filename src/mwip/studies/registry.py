@@ -187,6 +187,10 @@ def robot(plant: Params | None = None, nominal: Params | None = None) -> tuple[P
     return (REAL if plant is None else plant), (NOMINAL if nominal is None else nominal)
 
 
+#: (:func:`robot` under a name the ``robot`` argument of :func:`context` does not hide)
+_book_robot = robot
+
+
 def context(
     name: str,
     out: Path,
@@ -196,19 +200,34 @@ def context(
     nominal: Params | None = None,
     overrides: Mapping[str, Any] | None = None,
     twin: Twin | None = None,
+    robot: Any = None,
 ) -> StudyContext:
     """The context study ``name`` runs in: its folder ``out/<name>``, the robot ``plant``
     (default Table 3.1) and design model ``nominal`` (default Table 3.2), its settings (the
     study file's defaults with ``overrides``, validated), its seed (setting ``seed``, else
     0) and, for the Chapter 6 studies, the twin configuration ``twin`` (default: the default
-    twin, :class:`mwip.hardware.twin.Twin`)."""
+    robot's, :func:`mwip.hardware.identified.default_twin`, as ``mwip run``). ``robot`` (a
+    :class:`mwip.robot.Robot` or a robot file) gives all three at once (then none of
+    ``plant``, ``nominal``, ``twin``)."""
+    if robot is not None:
+        from mwip.robot import robot_or_default
+
+        if plant is not None or nominal is not None or twin is not None:
+            raise ValueError("robot: give the robot or plant/nominal/twin, not both (the "
+                             "robot file holds its body, design model and twin)")  # fmt: skip
+        robot = robot_or_default(robot)
+        plant, nominal, twin = robot.body, robot.design, robot.twin
+    if twin is None:
+        from mwip.hardware.identified import default_twin
+
+        twin = default_twin()
     study = get(name)
     try:
         base = study_settings.defaults(name)
     except ValueError:  # a study without a study file has no settings (e.g. in a test)
         base = {}
     cfg = {**base, **study_settings.validate(name, overrides or {})}
-    plant, nominal = robot(plant, nominal)
+    plant, nominal = _book_robot(plant, nominal)
     from mwip.studies.study import StudyContext
 
     return StudyContext(
@@ -220,7 +239,7 @@ def context(
         out=Path(out) / name,
         quick=quick,
         seed=int(cfg.get("seed", 0)),
-        **({} if twin is None else {"twin": twin}),
+        twin=twin,
     )
 
 
@@ -233,9 +252,10 @@ def run_study(
     nominal: Params | None = None,
     overrides: Mapping[str, Any] | None = None,
     twin: Twin | None = None,
+    robot: Any = None,
 ) -> dict[str, Any]:
-    """Run study ``name`` into ``out/<name>`` (see :func:`context`); returns its metrics
-    document."""
+    """Run study ``name`` into ``out/<name>`` (see :func:`context`; ``robot``: a robot file or
+    :class:`mwip.robot.Robot`); returns its metrics document."""
     ctx = context(name, out, quick=quick, plant=plant, nominal=nominal, overrides=overrides,
-                  twin=twin)  # fmt: skip
+                  twin=twin, robot=robot)  # fmt: skip
     return get(name).run(ctx)

@@ -60,10 +60,12 @@ def robot_set(
     plant: str = "campaign",
     duration: float | None = None,
     success_theta: float | None = None,
+    robot: Any = None,
 ) -> RobotSet:
     """The robots of ``campaign`` (built-in name, file or :class:`Campaign`) with ``seed``;
     ``plant``: ``twin`` (the twin's sensors and drive), ``plain`` (ideal both) or
-    ``campaign`` (as the campaign says)."""
+    ``campaign`` (as the campaign says); ``robot`` (a :class:`mwip.robot.Robot` or a robot
+    file) replaces the campaign's robot (for a campaign given by name or file)."""
     import math
 
     from mwip.campaign.spec import load_campaign
@@ -87,7 +89,10 @@ def robot_set(
             raise TypeError(f"{name!r} must be a number, got {x!r}")
         if not (math.isfinite(x) and 0 < x <= hi):
             raise ValueError(f"{name!r} must be in (0, {hi:g}], got {x!r}")
-    camp = load_campaign(campaign) if isinstance(campaign, str) else campaign
+    if robot is not None and not isinstance(campaign, str):
+        raise ValueError("robot: give the robot in the Campaign itself (load_campaign(..., "
+                         "robot=...)) when passing a Campaign")  # fmt: skip
+    camp = load_campaign(campaign, robot=robot) if isinstance(campaign, str) else campaign
     if camp.kind != "robustness":
         raise ValueError(f"objective robots.campaign must be a robustness campaign, got kind "
                          f"{camp.kind!r}")  # fmt: skip

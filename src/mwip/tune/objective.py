@@ -8,8 +8,8 @@
     mode = "scalar"          # "scalar": one cost, success first; "pareto": one objective per
                              # term and the success rate (NSGA-II, the Pareto front)
     success_theta = 0.2      # success: never fell and |theta| < this (rad) in the last second
-    torque_limit = "drive"   # ... and peak torque <= a limit: "drive" (the default twin's
-                             # RE25 at its current limit; on robots with the twin's drive the
+    torque_limit = "drive"   # ... and peak torque <= a limit: "drive" (the robot's drive
+                             # at its current limit or supply; on robots with the twin's drive the
                              # drive itself bounds the torque, so no further check), a number
                              # (N m, checked on any robot) or "none"
 
@@ -19,9 +19,12 @@
     weight = 1.0
 
     [robots]                 # the robots the tuner evaluates every candidate on
+    robot = "my_robot.toml"  # optional: a robot file (relative to this file; docs/robot.md):
+                             # the campaign's robot (its body, design model and twin); default
+                             # the campaign's; `mwip tune --robot FILE` overrides it
     campaign = "robustness"  # a campaign (built-in name or file): its [robot] distribution,
                              # [initial], [disturbances], duration (its controllers unused)
-    plant = "twin"           # "twin" (the default twin's sensors and drive), "plain" (ideal
+    plant = "twin"           # "twin" (the robot's twin's sensors and drive), "plain" (ideal
                              # sensors, the commanded torque applied) or "campaign" (as it says)
     samples = 256            # robots; evaluated in chunks of `chunk` (the pruning steps)
     chunk = 64
@@ -77,7 +80,7 @@ TERM_METRICS: dict[str, float] = {
 
 _TOP = {"objective", "robots", "validation", "space"}
 _OBJECTIVE = {"title", "mode", "success_theta", "torque_limit", "terms"}
-_ROBOTS = {"campaign", "plant", "samples", "chunk", "seed", "duration"}
+_ROBOTS = {"robot", "campaign", "plant", "samples", "chunk", "seed", "duration"}
 _VALIDATION = {"samples", "seed"}
 _SPACE = {"tune", "ratio", "ranges"}
 #: Largest robot sets (a trial is samples x duration of simulated time).
@@ -115,6 +118,8 @@ class Objective:
     tune: tuple[str, ...] | None = None
     ratio: float = 4.0
     ranges: tuple[tuple[str, Any], ...] = ()
+    #: the robot (:class:`mwip.robot.Robot`) the campaign runs; ``None``: the campaign's own
+    robot: Any = field(default=None, repr=False, compare=False)
     source: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def limit_for(self, drive: str) -> float | None:
@@ -126,8 +131,13 @@ class Objective:
         return 1 if self.mode == "scalar" else 1 + len(self.terms)
 
     def identity(self) -> str:
-        """A hash of the file's content (not its name)."""
-        text = json.dumps(self.source, sort_keys=True, default=str)
+        """A hash of the file's content (not its name) and of the robot as loaded."""
+        src = dict(self.source)
+        if self.robot is not None:
+            from mwip.robot import robot_to_toml
+
+            src["robot_loaded"] = hashlib.sha256(robot_to_toml(self.robot).encode()).hexdigest()
+        text = json.dumps(src, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
@@ -161,7 +171,25 @@ def _table(data: dict[str, Any], key: str) -> dict[str, Any]:
     return value
 
 
-def parse_objective(data: dict[str, Any], name: str = "file") -> Objective:
+def _robot_file(rob: dict[str, Any], folder: Path | None) -> Any:
+    """The robot of ``[robots] robot`` (a file relative to ``folder``), or ``None``."""
+    if "robot" not in rob:
+        return None
+    value = rob["robot"]
+    if not isinstance(value, str) or not value.strip():
+        raise ValueError(f"objective robots.robot must be a robot file path, got {value!r}")
+    path = Path(value)
+    if not path.is_absolute():
+        path = (folder or Path.cwd()) / path
+    if not path.is_file():
+        raise ValueError(f"objective robots.robot: no such robot file {str(path)!r}")
+    from mwip.robot import load_robot
+
+    return load_robot(path)
+
+
+def parse_objective(data: dict[str, Any], name: str = "file", *, robot: Any = None,
+                    folder: Path | None = None) -> Objective:  # fmt: skip
     """Validate a parsed objective file; one-line ``ValueError`` naming the field."""
     _unknown(data, _TOP, "")
     obj, rob, val, spc = (_table(data, k) for k in ("objective", "robots", "validation", "space"))
@@ -179,7 +207,15 @@ def parse_objective(data: dict[str, Any], name: str = "file") -> Objective:
                          lo_open=True)  # fmt: skip
     limit_raw = obj.get("torque_limit", "drive")
     limit: float | None
-    if limit_raw == "drive":
+    if robot is not None:
+        from mwip.robot import robot_or_default
+
+        robot = robot_or_default(robot)
+    else:
+        robot = _robot_file(rob, folder)
+    if limit_raw == "drive" and robot is not None:
+        limit = float(robot.twin.drive.wheel_torque_limit(robot.twin.motor))
+    elif limit_raw == "drive":
         from mwip.hardware.identified import wheel_torque_limit
 
         limit = float(wheel_torque_limit())
@@ -258,7 +294,8 @@ def parse_objective(data: dict[str, Any], name: str = "file") -> Objective:
     return Objective(
         name, title, mode, success_theta, limit, limit_raw == "drive", tuple(terms), campaign,
         plant, samples, chunk, seed, duration, v_samples, v_seed,
-        None if tune is None else tuple(tune), ratio, tuple(sorted(ranges.items())), source=data,
+        None if tune is None else tuple(tune), ratio, tuple(sorted(ranges.items())),
+        robot=robot, source=data,
     )  # fmt: skip
 
 
@@ -268,15 +305,17 @@ def builtin_objectives() -> list[str]:
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
-def load_objective(name_or_path: str) -> Objective:
-    """A built-in objective by name, or an objective file."""
+def load_objective(name_or_path: str, robot: Any = None) -> Objective:
+    """A built-in objective by name, or an objective file; ``robot`` (a
+    :class:`mwip.robot.Robot` or a robot file) replaces its ``[robots] robot``."""
     import tomllib
 
     from mwip.io import read_toml
 
     if name_or_path in builtin_objectives():
         path = resources.files("mwip.tune").joinpath("objectives", f"{name_or_path}.toml")
-        return parse_objective(tomllib.loads(path.read_text(encoding="utf-8")), name_or_path)
+        return parse_objective(tomllib.loads(path.read_text(encoding="utf-8")), name_or_path,
+                               robot=robot)  # fmt: skip
     if not Path(name_or_path).is_file():
         raise ValueError(f"--objective: {name_or_path!r} is neither a built-in objective "
                          f"({', '.join(builtin_objectives())}) nor a file")  # fmt: skip
@@ -285,7 +324,8 @@ def load_objective(name_or_path: str) -> Objective:
         raise ValueError(f"objective file {name_or_path!r} is empty; give at least its "
                          "[objective] and [robots] tables (docs/tune.md; a built-in one: "
                          f"{', '.join(builtin_objectives())})")  # fmt: skip
-    return parse_objective(data, Path(name_or_path).stem)
+    return parse_objective(data, Path(name_or_path).stem, robot=robot,
+                           folder=Path(name_or_path).parent)  # fmt: skip
 
 
 def successes(obj: Objective, met: dict[str, NDArray], drive: str = "ideal") -> NDArray[np.bool_]:

@@ -65,6 +65,7 @@ def plan(
     sampler: str | None = None,
     seed: int = 0,
     force: bool = False,
+    robot: Any = None,
 ) -> Plan:
     """Validate a run (module docstring); nothing is written."""
     from mwip.laws.registry import get
@@ -80,7 +81,7 @@ def plan(
         spec = get(controller)
     except ValueError as exc:
         raise ValueError(f"CONTROLLER: {exc}") from None
-    obj = load_objective(objective)
+    obj = load_objective(objective, robot=robot)
     kind = sampler or ("tpe" if obj.mode == "scalar" else "nsga2")
     if kind not in SAMPLERS:
         raise ValueError(f"--sampler must be one of {', '.join(SAMPLERS)}, got {kind!r}")
@@ -88,7 +89,8 @@ def plan(
         raise ValueError("--sampler cmaes optimises one objective; objective "
                          f"{obj.name!r} is pareto: use --sampler nsga2 or tpe")  # fmt: skip
     space = build_space(spec, obj.tune, dict(obj.ranges), obj.ratio)
-    common = dict(plant=obj.plant, duration=obj.duration, success_theta=obj.success_theta)
+    common = dict(plant=obj.plant, duration=obj.duration, success_theta=obj.success_theta,
+                  robot=obj.robot)  # fmt: skip
     robots = robot_set(obj.campaign, obj.samples, obj.chunk, obj.seed, **common)  # type: ignore[arg-type]
     vrobots = robot_set(obj.campaign, obj.validation_samples, obj.chunk, obj.validation_seed,
                         **common)  # type: ignore[arg-type]  # fmt: skip
@@ -331,7 +333,8 @@ def _execute(p: Plan, storage: Any, log: Callable[[str], None]) -> dict[str, Any
     best = _best(study, p)
     n_done = finished(study)
     settings = p.space.settings(best.params)
-    header = (f"mwip tune {p.controller} --objective {obj.name} --sampler {p.sampler} "
+    robot = "" if obj.robot is None else f" --robot ({obj.robot.name})"
+    header = (f"mwip tune {p.controller} --objective {obj.name}{robot} --sampler {p.sampler} "
               f"--seed {p.seed}: trial {slot_of(best)} of {n_done}, "
               f"{'cost' if obj.mode == 'scalar' else 'objectives'} "
               f"{', '.join(f'{v:.6g}' for v in best.values)}, success "
