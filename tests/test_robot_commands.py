@@ -87,7 +87,8 @@ def test_run(tmp_path: Path, robots: dict[str, Path]) -> None:
     assert 1.1 < speeds[1] / speeds[0] < 1.45, speeds
 
 
-def test_reproduce(tmp_path: Path, robots: dict[str, Path], monkeypatch: pytest.MonkeyPatch) -> None:
+def test_reproduce(tmp_path: Path, robots: dict[str, Path],
+                   monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
     """`mwip reproduce --robot` (its studies cut to one, as the test's budget asks)."""
     import mwip.studies
 

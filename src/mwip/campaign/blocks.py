@@ -138,7 +138,8 @@ def run_block(
 
             # the robot's twin (default: the book's robot's identified twin), its sensors or
             # drive ideal on request
-            twin = replace(robot_or_default(campaign.robot).twin, ideal_sensors=campaign.sensors == "ideal",
+            twin = replace(robot_or_default(campaign.robot).twin,
+                           ideal_sensors=campaign.sensors == "ideal",
                            ideal_actuator=campaign.drive == "ideal")  # fmt: skip
             # the plant the twin integrates: reflected rotor inertia and the back-EMF and
             # viscous damping on Db (as run_on_twin; the drive returns the rest of the torque)

@@ -47,9 +47,9 @@ def bench(controllers: tuple[str, ...], out: Path | None, settings_files: tuple[
           show: bool, robot_file: Path | None) -> None:  # fmt: skip
     """Score each CONTROLLER (default: every registered one) on the robustness axes.
 
-    Every entrant runs on the robot's twin (default: the book's robot's identified twin) over the axes of the definition (model
-    parameters, the twin's unknowns, measurement and actuator noise, dead-band,
-    responsiveness, delay, payload, push); each axis's level is a success fraction over a
+    Every entrant runs on the robot's twin (default: the book's robot's identified twin)
+    over the axes of the definition (model parameters, the twin's unknowns, measurement and
+    actuator noise, dead-band, responsiveness, delay, payload, push); each axis's level is a success fraction over a
     fixed, seeded set of runs with its Wilson 95 % interval. Writes DIR/scores.parquet,
     DIR/index.html (the leaderboard), DIR/leaderboard.png and DIR/levels.png (docs/bench.md).
     """

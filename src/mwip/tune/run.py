@@ -91,9 +91,9 @@ def plan(
     space = build_space(spec, obj.tune, dict(obj.ranges), obj.ratio)
     common = dict(plant=obj.plant, duration=obj.duration, success_theta=obj.success_theta,
                   robot=obj.robot)  # fmt: skip
-    robots = robot_set(obj.campaign, obj.samples, obj.chunk, obj.seed, **common)  # type: ignore[arg-type]
+    robots = robot_set(obj.campaign, obj.samples, obj.chunk, obj.seed, **common)
     vrobots = robot_set(obj.campaign, obj.validation_samples, obj.chunk, obj.validation_seed,
-                        **common)  # type: ignore[arg-type]  # fmt: skip
+                        **common)  # fmt: skip
     out = check(out, force, command="tune")
     identity = {"controller": controller, "objective": obj.name,
                 "objective_identity": obj.identity(), "sampler": kind, "seed": seed,
