@@ -4,7 +4,8 @@ The runs. Level ``L`` (of all axes' levels, in file order) and replicate ``i`` m
 ``u = L n + i`` (``n`` = ``bench.samples``); the engine's *sample* index is ``u``. Block ``b``
 holds runs ``b B .. (b + 1) B - 1`` (``B`` = ``bench.block``, the last block padded with runs
 that are simulated and dropped) and is one engine batch per entrant on the robot's twin
-(default: the identified one), every run with its own robot, twin unknowns, delay, actuator and push (all per row).
+(default: the identified one), every run with its own robot, twin unknowns, delay, actuator
+and push (all per row).
 
 Randomness, from the bench seed ``s`` alone (never from the block, the chunk or the worker):
 
