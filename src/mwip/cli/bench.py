@@ -51,7 +51,8 @@ def bench(controllers: tuple[str, ...], out: Path | None, settings_files: tuple[
     over the axes of the definition (model parameters, the twin's unknowns, measurement and
     actuator noise, dead-band, responsiveness, delay, payload, push); each axis's level is a
     success fraction over a fixed, seeded set of runs with its Wilson 95 % interval. Writes
-    DIR/scores.parquet, DIR/index.html (the leaderboard), DIR/leaderboard.png and DIR/levels.png (docs/bench.md).
+    DIR/scores.parquet, DIR/index.html (the leaderboard), DIR/leaderboard.png and
+    DIR/levels.png (docs/bench.md).
     """
     from mwip.bench.spec import MAX_SAMPLES, builtin_text, load_bench
 
