@@ -69,8 +69,9 @@ class StudyContext:
     ``[settings]`` (packaged defaults with the user's overrides, validated; read-only);
     ``out`` the study's own folder (``OUT/<name>``); ``quick`` shorter runs for smoke tests;
     ``seed`` the noise seed (the ``seed`` setting where the study has one, else 0); ``twin``
-    the digital twin configuration a Chapter 6 study starts from (default: the twin file's
-    defaults, ``mwip twin show``).
+    the digital twin a Chapter 6 study runs on: the robot file's (``--robot FILE`` or a study
+    file's ``[robot] file``; a run without one gets the default robot's, ``mwip robot
+    show``).
     """
 
     name: str
