@@ -7,7 +7,8 @@ path (compilation):
 - ``bare``: the plain plant (ideal sensors and drive), the compiled batch loop: the reference;
 - ``twin python``: the default twin's sensors and drive in the engine's Python sample loop
   (``simulate(..., compiled=False)``, the path before the compiled twin loop);
-- ``twin compiled``: the same runs through :mod:`mwip.sim.twin_loop` (the default);
+- ``twin compiled``: the same runs through the compiled twin loop, :mod:`mwip.hardware.loop`
+  (the default);
 
 and prints each path's plant-seconds per second and its ratio to ``bare``, and checks that the
 two twin paths give the same metrics. The twin integrates at its own ``dt`` = 0.5 ms (RK4, 10

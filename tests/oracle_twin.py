@@ -503,12 +503,12 @@ class OracleActuator:
        sample instant, so the torque command held over the sample is
        ``d u_{k-1} + (1 - d) u_k`` (exact for ``d = 0`` and ``d = 1``, a one-sample shift;
        for a fraction the sample's mean);
-    2. ``motor`` (:class:`~mwip.hardware.motor.DriveActuator`, with ``pwm`` and ``sag``): the
+    2. ``motor`` (:class:`DriveActuator`, with ``pwm`` and ``sag``): the
        torque the motor delivers (the back-EMF term of a voltage drive is in the plant's
        ``Db``); without it the command is applied as a torque;
     3. ``friction``: Coulomb friction held over the sample
-       (:func:`~mwip.hardware.drivetrain.coulomb_torque`);
-    4. ``backlash`` (:class:`~mwip.hardware.drivetrain.Backlash`).
+       (:func:`coulomb_torque`; compiled: :mod:`mwip.hardware.friction`);
+    4. ``backlash`` (:class:`Backlash`; compiled: :mod:`mwip.hardware.backlash`).
 
     ``last`` holds the drive's logs (``duty``, ``current``, ``voltage``, ``supply``,
     ``torque``, ``limited``) and ``friction``.
@@ -554,7 +554,7 @@ class OracleActuator:
     @property
     def b_over_r(self) -> Any:
         """The plant's ``b / r`` (a number, or one per robot), from which the drive gets each
-        wheel's speed: the inner :class:`~mwip.hardware.motor.DriveActuator`'s (one value, so
+        wheel's speed: the inner :class:`DriveActuator`'s (one value, so
         setting it here reaches the motor model)."""
         return self.drive.b_over_r
 

@@ -29,7 +29,7 @@ def test_examples_load_and_run():
     res = twin.run()
     assert "imu_gyro" in res.logs  # ran through the twin's sensors (default twin: it may fall)
     # with the twin's elements off the speed target is tracked: last 2 s near -2 rad/s (the
-    # twin is the robot's: Scenario.robot, where twin_config was)
+    # twin is the robot's: Scenario.robot, the robot file's)
     from mwip.hardware.twin import Twin
     from mwip.robot import Robot
 

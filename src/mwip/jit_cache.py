@@ -48,12 +48,13 @@ def _law_sources() -> list[str]:
 def _hardware_sources() -> list[str]:
     """The twin's compiled modules: every ``hardware/*.py`` with a kernel (a new element is
     found without editing this list), the layouts they read (the signal bus's offsets are
-    compiled into the kernels) and the declarations every element module imports."""
+    compiled into the kernels), the declarations every element module imports and the motor's
+    data sheet (:mod:`mwip.hardware.motor_data`, imported by the motor element)."""
     hw = Path(__file__).resolve().parent / "hardware"
     kernels = [f"hardware/{f.name}" for f in sorted(hw.glob("*.py"))
                if "@njit" in f.read_text(encoding="utf-8")]  # fmt: skip
     return ["layout.py", "hardware/bus.py", "hardware/element.py", "hardware/unknown.py",
-            *kernels]  # fmt: skip
+            "hardware/motor_data.py", *kernels]  # fmt: skip
 
 
 #: The source files compiled into :func:`mwip.sim.loop.run`, relative to the package

@@ -17,7 +17,7 @@ stages 1-2 by exact importance weights: the posterior of record). Its words and 
 :mod:`mwip.calibration.report`.
 
 Outputs in ``OUT``: ``posterior.json`` (everything), ``posterior.md`` (the same in words),
-``twin.toml`` (the most probable member as a twin file, with its provenance), ``marginals.png``.
+``robot.toml`` (the most probable member as a robot file, with its provenance), ``marginals.png``.
 """
 
 from __future__ import annotations
@@ -322,7 +322,7 @@ def calibrate_book(
     note: Callable[[str], None] | None = None,
 ) -> BookCalibration:
     """Run (or resume) the book calibration into ``out``; returns the result and writes
-    ``posterior.json``, ``posterior.md``, ``twin.toml``, ``marginals.png`` (atomically).
+    ``posterior.json``, ``posterior.md``, ``robot.toml``, ``marginals.png`` (atomically).
     ``samples``, ``seed``, ``block`` default to the declaration's; ``duration`` > 0 caps every
     run (a smoke test: its verdicts are not the book's experiments). ``proposal``: stage 2's
     box sample (:class:`mwip.calibration.proposal.BoxProposal`; ``True``: the declaration's,

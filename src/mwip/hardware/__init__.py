@@ -10,7 +10,8 @@ The twin's elements, one module each with its one compiled kernel
 - :mod:`mwip.hardware.delay`: the firmware's computation delay;
 - :mod:`mwip.hardware.firmware`: what the board believes (torque gain, back-EMF
   compensation) and its torque-to-duty map;
-- :mod:`mwip.hardware.motor`: MAXON RE25 (Table 2.1) and the H-bridge PWM driver;
+- :mod:`mwip.hardware.motor`: MAXON RE25 (Table 2.1) and the H-bridge PWM driver (its data
+  sheet and the drive's specification: :mod:`mwip.hardware.motor_data`, no kernel);
 - :mod:`mwip.hardware.friction`, :mod:`mwip.hardware.backlash`: the gearbox's Coulomb
   friction and backlash;
 
@@ -50,9 +51,9 @@ __getattr__, __dir__ = exports(
         "FusionSpec": "mwip.hardware.fusion",
         "FirmwareSpec": "mwip.hardware.firmware",
         "ImuNoise": "mwip.hardware.imu",
-        "RE25": "mwip.hardware.motor",
-        "DriveSpec": "mwip.hardware.motor",
-        "MotorData": "mwip.hardware.motor",
+        "RE25": "mwip.hardware.motor_data",
+        "DriveSpec": "mwip.hardware.motor_data",
+        "MotorData": "mwip.hardware.motor_data",
         "StickObstacle": "mwip.hardware.obstacle",
         "StickSpec": "mwip.hardware.obstacle",
         "PayloadSpec": "mwip.hardware.payload",
@@ -75,7 +76,7 @@ if TYPE_CHECKING:
     from mwip.hardware.firmware import FirmwareSpec
     from mwip.hardware.fusion import FusionSpec
     from mwip.hardware.imu import ImuNoise
-    from mwip.hardware.motor import RE25, DriveSpec, MotorData
+    from mwip.hardware.motor_data import RE25, DriveSpec, MotorData
     from mwip.hardware.obstacle import StickObstacle, StickSpec
     from mwip.hardware.payload import PayloadSpec
     from mwip.hardware.prior import PRIOR, Prior, Unknown

@@ -62,7 +62,7 @@ def _posterior() -> dict[str, Any]:
         return {}
     if not isinstance(doc, dict):
         return {}
-    from mwip.hardware.prior import current_name
+    from mwip.hardware.unknown import current_name
 
     # the record names the unknowns as the calibration's run did
     if isinstance(doc.get("map_values"), dict):
@@ -122,9 +122,9 @@ def status(twin: Any = None) -> dict[str, Any]:
 def wheel_torque_limit() -> float:
     """The default twin's largest wheel torque (N m per wheel,
     :meth:`~mwip.hardware.motor.DriveSpec.wheel_torque_limit`), from ``book-twin.json`` alone
-    (no robot file is parsed: ``mwip simulate`` reports it for every run and stays fast; a test
-    checks it against :func:`default_twin`)."""
-    from mwip.hardware.motor import RE25, DriveSpec
+    (no robot file is parsed and no compiled element imported: ``mwip simulate`` reports it for
+    every run and stays fast; a test checks it against :func:`default_twin`)."""
+    from mwip.hardware.motor_data import RE25, DriveSpec
 
     v = _posterior().get("map_values", {})
     drive = DriveSpec(gear_ratio=float(v.get("drive.gear_ratio", 23.0)),

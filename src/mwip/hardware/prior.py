@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from mwip.hardware.unknown import Unknown
+from mwip.hardware.unknown import LEGACY_NAMES, Unknown, current_name
 
 __all__ = ["Unknown", "Prior", "PRIOR", "declared", "ORDER", "LEGACY_NAMES", "current_name"]
 
@@ -53,20 +53,6 @@ ORDER = (
     "imu.gyro_bias", "imu.accel_bias", "imu.accel_sigma", "imu.gyro_sigma", "imu.height",
     "firmware.fusion.tau", "payload.height", "payload.radius", "stick.height",
 )  # fmt: skip
-
-#: Names of unknowns before the robot file (``[twin]`` files, records of earlier runs) and
-#: their names now.
-LEGACY_NAMES: dict[str, str] = {
-    "delay": "firmware.delay",
-    "drive.emf_compensation": "firmware.emf_compensation",
-    "fusion.tau": "firmware.fusion.tau",
-}
-
-
-def current_name(name: str) -> str:
-    """``name``, or its name now if it is a :data:`LEGACY_NAMES` one."""
-    return LEGACY_NAMES.get(name, name)
-
 
 _ENTRY_KEYS = ("low", "high", "unit", "source", "scale")
 

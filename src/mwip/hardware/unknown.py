@@ -3,7 +3,9 @@ range.
 
 Each element module declares its unknowns in a module-level tuple ``UNKNOWNS`` of
 :class:`Unknown`; :mod:`mwip.hardware.prior` collects them into the declared prior. Kept in a
-module of its own so that the element modules can declare without importing the collector.
+module of its own so that the element modules can declare without importing the collector;
+the names of unknowns before the robot file (:data:`LEGACY_NAMES`) are here too, so that reading
+a record (:mod:`mwip.hardware.identified`) imports no element.
 """
 
 from __future__ import annotations
@@ -13,7 +15,20 @@ from typing import Literal
 
 import numpy as np
 
-__all__ = ["Unknown"]
+__all__ = ["Unknown", "LEGACY_NAMES", "current_name"]
+
+#: Names of unknowns before the robot file (``[twin]`` files, records of earlier runs) and
+#: their names now.
+LEGACY_NAMES: dict[str, str] = {
+    "delay": "firmware.delay",
+    "drive.emf_compensation": "firmware.emf_compensation",
+    "fusion.tau": "firmware.fusion.tau",
+}
+
+
+def current_name(name: str) -> str:
+    """``name``, or its name now if it is a :data:`LEGACY_NAMES` one."""
+    return LEGACY_NAMES.get(name, name)
 
 
 @dataclass(frozen=True)

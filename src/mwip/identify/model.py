@@ -1,12 +1,16 @@
 """Prediction models of the fit: pure functions over arrays, leading batch axis = segments.
 
 Wheels-off-ground (the robot on a stand: body fixed, each wheel free) per wheel and sample
-``k`` (docs/twin_fit.md), the twin's drive physics (:mod:`mwip.hardware.motor`,
-:class:`mwip.hardware.twin.TwinActuator`) written batch-first:
+``k`` (docs/twin_fit.md), the twin's drive chain (:class:`mwip.hardware.twin.TwinActuator`,
+the elements of :data:`mwip.hardware.registry.DRIVE_CHAIN` in their order) written
+batch-first:
 
-1. duty command ``d_k`` (logged, or ``R u_k / (N eta k_t V_0)`` from a torque command) plus
-   the firmware's back-EMF compensation ``c k_e omega_m / V_0`` (``omega_m = N w``);
-2. delay: ``D d'_{k-1} + (1 - D) d'_k``; clipped to [-1, 1]; the dead-band
+1. delay (:mod:`mwip.hardware.delay`, on the command, before the firmware): the duty command
+   ``d_k`` (logged, or ``R u_k / (N eta k_t V_0)`` from a torque command) held as
+   ``D d_{k-1} + (1 - D) d_k``;
+2. the firmware (:mod:`mwip.hardware.firmware`) adds the back-EMF compensation
+   ``c k_e omega_m / V_0`` of the speed at the sample (``omega_m = N w_k``); the driver
+   (:mod:`mwip.hardware.motor`) clips to [-1, 1] and takes the dead-band
    ``sign(d) max(|d| - db, 0)`` (smooth: ``sp(d - db) - sp(-d - db)``, ``sp`` the softplus of
    width :data:`DEADBAND_WIDTH`);
 3. the battery ``V_s = V_0 - R_s I_bat`` (previous sample), the current limit
@@ -14,7 +18,7 @@ Wheels-off-ground (the robot on a stand: body fixed, each wheel free) per wheel 
 4. the current integrated exactly over the sample (inductance), the torque of the mean
    current ``eta N k_t i_mean`` plus the held part of the back-EMF ``eta N k_t k_e omega_m / R``;
 5. Coulomb friction in the discrete stick-slip form of
-   :func:`mwip.hardware.drivetrain.coulomb_torque` (the sliding ``sign`` smoothed by
+   :mod:`mwip.hardware.friction` (the sliding ``sign`` smoothed by
    ``tanh(x / COULOMB_WIDTH)``), mobility ``1 / J``, ``J = I_wa + N^2 J_rotor``;
 6. ``J w' = T - (c_emf + b_v + D_b) w`` integrated exactly over the sample
    (``c_emf = eta N^2 k_t k_e / R``, the back-EMF's continuous viscous torque).
@@ -121,16 +125,16 @@ def stand_rollout(
     the wheel speeds at the segments' first samples. Each parameter of ``p`` is a number or
     one per segment (S,) (a batch of parameter sets in one call).
 
-    The state a segment starts from is more than ``w0``: the delayed command of the sample
-    before, ``d'_{-1} = d_{-1} + c k_e N w_{-1} / V_0``, holds the back-EMF compensation of
-    the speed ``w_prev`` (S, 2) of the sample before (default ``w0``), and the current and
-    battery load at the start are the steady ones of the voltage held over the sample before,
-    the delay's mix ``D d'_{-2} + (1 - D) d'_{-1}`` (``cmd_prev2`` (S, 2), the command two
-    samples before; default ``cmd[:, 0]``; ``w_{-2}`` taken as ``w_prev``: the current's
-    transient carries over only ``f = (tau_e / Ts)(1 - e^{-Ts/tau_e})`` of it). With
-    ``w_prev = w0`` and no ``cmd_prev2`` the first step is off by
-    ``D c k_e N (w0 - w_{-1}) / V_0`` of duty, which after a step or in a chirp is of the
-    order of 0.01-0.03 and biased the fit (docs/twin_fit.md).
+    The state a segment starts from is more than ``w0``: the current and battery load at the
+    start are the steady ones of the voltage held over the sample before, the delay's mix
+    ``D d_{-2} + (1 - D) d_{-1}`` (``cmd_prev2`` (S, 2), the command two samples before;
+    default ``cmd[:, 0]``) plus the back-EMF compensation ``c k_e N w_{-1} / V_0`` of the
+    speed ``w_prev`` (S, 2) of the sample before (default ``w0``; the current's transient
+    carries over only ``f = (tau_e / Ts)(1 - e^{-Ts/tau_e})`` of it). The delay mixes the
+    commands before the firmware compensates, as the twin's chain does: the first sample's
+    duty holds the compensation of ``w0`` only (an earlier model delayed the compensated
+    duty, ``D c k_e N w_{-1} / V_0`` on the first sample and one sample late after, and
+    covered the truth's 2-sigma intervals 168 times of 200; docs/twin_fit.md).
 
     PWM quantisation: with ``k.pwm_levels`` the clipped duty of each sample (index 0: the one
     held before the segment) is rounded as the twin does, and ``qerr_out`` (S, L, 2), if
@@ -175,11 +179,12 @@ def stand_rollout(
 
     w = np.array(w0, dtype=float)
     emf = k.ke * N * (w if w_prev is None else np.asarray(w_prev, dtype=float))
-    dprev = duty_cmd[:, 0] + c * emf / k.Vs
-    if cmd_prev2 is None:
-        dheld = dprev
-    else:
-        dheld = dl * (cmd_prev2 * scale + c * emf / k.Vs) + (1.0 - dl) * dprev
+    # the twin's order: the delay mixes the commands (mwip.hardware.delay), then the firmware
+    # adds the back-EMF compensation of the speed it reads at the sample
+    # (mwip.hardware.firmware)
+    dprev = duty_cmd[:, 0]
+    dheld = dprev if cmd_prev2 is None else dl * cmd_prev2 * scale + (1.0 - dl) * dprev
+    dheld = dheld + c * emf / k.Vs
     vs0 = np.full((S, 1), k.Vs)
     v = voltage(dheld, emf, vs0, 0)
     i = (v - emf) / k.R
@@ -190,8 +195,8 @@ def stand_rollout(
     out_w[:, 0] = w
     for j in range(L - 1):
         emf = k.ke * N * w
-        dj = duty_cmd[:, j + 1] + c * emf / k.Vs
-        dmix = dl * dprev + (1.0 - dl) * dj
+        dj = duty_cmd[:, j + 1]
+        dmix = dl * dprev + (1.0 - dl) * dj + c * emf / k.Vs
         dprev = dj
         vs = np.maximum(k.Vs - k.Rs * ibat, 0.0)
         v = voltage(dmix, emf, vs, j + 1)

@@ -23,7 +23,7 @@ with the ideal robot too in Case 2.
 
 Settings (``scenarios/exp-asta.toml``, :mod:`mwip.studies.settings`): ``theta0``,
 ``lambdas``, ``K``, ``Gamma_rate``, ``Gamma0``, ``eps``, ``duration``, ``rms_window``,
-``record_every``, ``seed`` (the twin's numbers are the twin file's).
+``record_every``, ``seed`` (the twin's numbers are the robot file's).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Experiments ``exp-hodosmc-{balance,speed,obstacle}`` (Sec. 6.2.1) emulated on the twin.
 
-Set-up (SPEC.md section 5): the digital twin of the run (``ctx.twin``: the twin file's
-configuration, default the default twin with every element on; ``mwip run --twin FILE``;
+Set-up (SPEC.md section 5): the digital twin of the run (``ctx.twin``: the robot file's
+twin, default the default robot's with every element on; ``mwip run --robot FILE``;
 :mod:`mwip.studies.twin_settings`); controllers sampled at its ``Ts`` (5 ms); controllers
 designed on the robot's nominal model (Table 6.2 by default) with Table 6.3's
 gains: all ``lambda = (3, 0.01, 0.1, 3)``, ``gamma = 1``; SMC ``K = (25, 21)``, DO1SMC
@@ -39,7 +39,7 @@ too, the steady-speed cap, or the unprinted DO1 gain.
 Settings (``scenarios/exp-hodosmc-{balance,speed,obstacle}.toml``, one file per study,
 :mod:`mwip.studies.settings`): ``theta0``, ``speed``, ``lambdas``, ``smc_K``, ``do1smc_K``,
 ``do4smc_K``, ``do1_gain``, ``phi``, ``duration``, ``record_every``, ``seed`` (the twin's
-numbers are the twin file's); balance and speed also ``rms_window``;
+numbers are the robot file's); balance and speed also ``rms_window``;
 obstacle also ``rms_start``, ``stick_start``, ``stick_height``, ``stick_speed``.
 """
 

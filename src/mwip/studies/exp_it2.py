@@ -3,8 +3,8 @@
 Set-up (SPEC.md section 5; book Sec. 6.2.3): the Chapter 5 controller of Fig. 5.3 - PDC
 balance law (5.10) ``u = sum_i m_i(theta) G_i x`` plus the Mamdani position and direction
 FLSs of Section 5.3.2 (Tables 5.1-5.2), :class:`~mwip.fuzzy.mamdani.FuzzyMWIPController` -
-runs on the digital twin of the run (``ctx.twin``, the twin file's
-configuration, default the default twin; Case 1: the real robot of Table 6.1, sampled at the
+runs on the digital twin of the run (``ctx.twin``, the robot file's
+twin, default the default robot's; Case 1: the real robot of Table 6.1, sampled at the
 twin's ``Ts``) against its type-1
 counterpart (same rules and gains, type-1 sets at the middle of each footprint, weighted
 average; docs/fuzzy.md). Initial condition ``x0 = [0.48, 0, 0, 0]``, 15 s:

@@ -201,8 +201,8 @@ def run_studies(
     and design model (default Tables 3.1, 3.2); ``overrides[name]`` replaces some of study
     ``name``'s settings (:mod:`mwip.studies.settings`). ``damping`` names the reading of
     the book's tables the robot was built with (recorded in ``run.json``). ``twin``: the
-    Chapter 6 studies' twin configuration (default: the default twin; recorded in ``run.json``
-    as its twin file). ``on_done`` is called as each study ends, ``on_run(study)`` as each of
+    Chapter 6 studies' twin (default: the default robot's; recorded in ``run.json``
+    as a robot file). ``on_done`` is called as each study ends, ``on_run(study)`` as each of
     its simulation runs ends (for a progress display; :func:`expected_runs` gives the totals).
     Each study's number of runs is recorded in ``run.json`` (``runs``), and ``robot[name]``,
     when given, says what study ``name`` ran on other than the book's robot (e.g.

@@ -69,9 +69,9 @@ class StudyContext:
     ``[settings]`` (packaged defaults with the user's overrides, validated; read-only);
     ``out`` the study's own folder (``OUT/<name>``); ``quick`` shorter runs for smoke tests;
     ``seed`` the noise seed (the ``seed`` setting where the study has one, else 0); ``twin``
-    the digital twin a Chapter 6 study starts from (:func:`mwip.studies.registry.context`
-    gives the robot's, by default the book's robot's, ``mwip robot show``; constructed
-    directly, the data-sheet twin).
+    the digital twin a Chapter 6 study runs on: the robot file's (``--robot FILE``, a study
+    file's ``[robot] file`` or ``run_study(..., robot=...)``; without one the default
+    robot's, ``mwip robot show``; a context constructed directly: the data-sheet twin).
     """
 
     name: str

@@ -1,12 +1,12 @@
 """The digital twin a Chapter 6 study runs on, and its ablation.
 
-One source of the twin's numbers: the twin configuration (:mod:`mwip.hardware.twin_config`,
-``[twin]`` TOML tables; the default twin is the hardware data with their sources,
-``mwip twin show``). A run takes it from ``mwip run/reproduce --twin FILE`` or from a study
-file's ``[robot] twin = FILE`` / ``[twin]`` tables (:mod:`mwip.studies.study_file`), through
-the context's ``twin`` (:class:`~mwip.studies.study.StudyContext`). The studies' own
-settings hold only what the book prints for the experiment (gains, initial state,
-durations); the controllers sample at the twin's ``Ts``.
+One source of the twin's numbers: the robot file (:mod:`mwip.robot`, its hardware tables with
+their sources; the default robot's twin is the identified one, ``mwip robot show``). A run
+takes it from ``mwip run/reproduce --robot FILE`` or from a study file's ``[robot] file =
+FILE`` (:mod:`mwip.studies.study_file`), through the context's ``twin``
+(:class:`~mwip.studies.study.StudyContext`). The studies' own settings hold only what the book
+prints for the experiment (gains, initial state, durations); the controllers sample at the
+twin's ``Ts``.
 
 Every Chapter 6 study also runs the ablation of :mod:`mwip.hardware.ablation`: the ideal
 robot, then each physical element added in turn (cumulative, in the order of
