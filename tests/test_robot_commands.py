@@ -240,6 +240,31 @@ def test_export_verify(tmp_path: Path, robots: dict[str, Path],
     assert peaks[1] > 1.4 * peaks[0], peaks
 
 
+def test_twin_fit(tmp_path: Path) -> None:
+    """`mwip twin fit --robot`: the body is the robot's and held fixed. Stand logs of a robot
+    whose wheels are 3x as heavy (Iwa) as the book's: the fit on that robot's body recovers the
+    gear ratio better than the fit on the book's body, which must explain the slower wheels
+    with another drive; the written robot file carries the given body."""
+    from mwip.identify import excite, synth
+
+    r = default_robot()
+    heavy = replace(r, body=replace(r.body, Iwa=3.0 * r.body.Iwa))
+    robot_file = save_robot(heavy, tmp_path / "heavy.toml")
+    _, duty, mode = excite.schedule(static=0.3, step=0.06, chirp=0.5)
+    truth = synth.draw_truth(7)
+    log = synth.write_csv(tmp_path / "log.csv",
+                          synth.stand_log(truth, duty, mode, seed=7, body=heavy.body))  # fmt: skip
+    err = {}
+    for name, extra in (("book", []), ("heavy", ["--robot", str(robot_file)])):
+        out = tmp_path / name
+        assert main(["twin", "fit", str(log), "--out", str(out), "--fix", "firmware.delay=0.5",
+                     *extra]) == 0  # fmt: skip
+        fitted = load_robot(out / "robot.toml")
+        assert fitted.body == (heavy.body if name == "heavy" else r.body)
+        err[name] = abs(fitted.twin.drive.gear_ratio - truth["drive.gear_ratio"])
+    assert err["heavy"] < 0.6 * err["book"], err
+
+
 def test_gym_keyword(robots: dict[str, Path]) -> None:
     """`MwipEnv(robot=...)`, `MwipVectorEnv(robot=...)`: the robot's body, sample period and
     its drive's largest wheel torque (the action bound, in proportion to the gear ratio)."""

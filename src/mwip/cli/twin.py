@@ -169,16 +169,17 @@ def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: st
                            f"most for one fit (--max-rows {limit}); raise it or cut the logs")
         read.append(read_log(p, max_rows=left))
     held = read.pop() if validate is not None else None
-    result = fit(read, base, free=names, fixed=fixed, segment=segment,
+    result = fit(read, base, free=names, fixed=fixed, segment=segment, body=robot.body,
                  progress=lambda line: click.echo(line, err=True))  # fmt: skip
     if held is not None:
         from mwip.identify.model import Known
 
         prior = {n: centre(n) for n in result.estimates}
         prior.update(result.fixed)
-        known = Known.from_twin(base, held.Ts)
-        fitted = predict_error(held, result.estimates, known, segment, twin=base)
-        at_prior = predict_error(held, prior, known, segment, twin=base)
+        known = Known.from_twin(base, held.Ts, robot.body)
+        fitted = predict_error(held, result.estimates, known, segment, twin=base,
+                               body=robot.body)  # fmt: skip
+        at_prior = predict_error(held, prior, known, segment, twin=base, body=robot.body)
         result.validation = {"log": str(validate), "sha256": held.sha256,
                              "fitted": fitted, "prior_centre": at_prior}  # fmt: skip
     outdir.claim(target, "twin fit")

@@ -82,13 +82,14 @@ def _twin_with(base: Any, values: Mapping[str, float]) -> Any:
     return base.with_values({n: float(values[n]) for n in STAND_PARAMS})
 
 
-def rollout(twin: Any, seg: BalanceSegments, x0: NDArray[np.float64],
-            Ts: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
-    """Predicted encoders (S, H, 2) and pitch rates (S, H) from the start states ``x0``."""
+def rollout(twin: Any, seg: BalanceSegments, x0: NDArray[np.float64], Ts: float,
+            body: Any = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # fmt: skip
+    """Predicted encoders (S, H, 2) and pitch rates (S, H) from the start states ``x0``, the
+    robot's ``body`` (default Table 6.1) in ``twin``."""
     from mwip.models.reduced import accelerations
     from mwip.params import REAL
 
-    plant = twin.plant(REAL)
+    plant = twin.plant(REAL if body is None else body)
     act = twin.actuator(plant)
     S, H1, _ = seg.cmd.shape
     H = H1 - 1
@@ -132,10 +133,10 @@ def rollout(twin: Any, seg: BalanceSegments, x0: NDArray[np.float64],
 
 
 def balance_error(log: Log, values: Mapping[str, float], base: Any = None,
-                  H: int = 10) -> dict[str, float]:  # fmt: skip
+                  H: int = 10, body: Any = None) -> dict[str, float]:  # fmt: skip
     """Prediction error of ``values`` on the balancing rows of ``log``: the RMS of the
     encoder (rad) and gyro (rad/s) residuals with each segment's start state fitted; ``{}``
-    when the log has no balancing segment."""
+    when the log has no balancing segment (``body``: the robot's, default Table 6.1)."""
     from scipy.optimize import least_squares
     from scipy.sparse import lil_matrix
 
@@ -150,7 +151,7 @@ def balance_error(log: Log, values: Mapping[str, float], base: Any = None,
     scale = np.array([0.1, 1.0, 10.0, 10.0])  # theta rad, rates rad/s
 
     def resid(z: NDArray[np.float64]) -> NDArray[np.float64]:
-        enc, rate = rollout(twin, seg, z.reshape(S, 4) * scale, log.Ts)
+        enc, rate = rollout(twin, seg, z.reshape(S, 4) * scale, log.Ts, body)
         re = seg.enc - enc
         re = re - re.mean(axis=1, keepdims=True)
         rg = seg.gyro - bias - rate

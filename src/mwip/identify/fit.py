@@ -540,9 +540,11 @@ def fit(
     segment: int = 40,
     search: bool = True,
     progress: Callable[[str], None] | None = None,
+    body: object | None = None,
 ) -> FitResult:
     """Fit the twin's parameters (:data:`mwip.identify.bounds.BOUNDS`) to ``logs``
-    (``progress`` receives a line every 100 model evaluations of each stage).
+    (``progress`` receives a line every 100 model evaluations of each stage) on the robot's
+    ``body`` (its :class:`mwip.params.Params`, held fixed; default Table 6.1).
 
     ``free``: the names to fit (default: every name an experiment present informs);
     ``fixed``: name -> value held (and not fitted). A free name no segment informs keeps its
@@ -585,7 +587,7 @@ def fit(
             status[n] = "not informed"
     residuals: dict[str, dict[str, float]] = {}
     trace: dict[str, NDArray[np.float64]] = {}
-    known = Known.from_twin(tw, Ts)
+    known = Known.from_twin(tw, Ts, body)
     seg = stand_segments(logs, segment)
     corr: dict[str, Any] = {"names": [], "matrix": []}
     flags: list[str] = []
@@ -666,13 +668,14 @@ def fit(
 
 
 def predict_error(log: Log, values: Mapping[str, float], known: Known,
-                  segment: int = 40, twin: object | None = None) -> dict[str, float]:  # fmt: skip
+                  segment: int = 40, twin: object | None = None,
+                  body: object | None = None) -> dict[str, float]:  # fmt: skip
     """Prediction error of ``values`` on a held-out log: the wheels-off-ground encoder RMS
     (segment start states refitted with the parameters held), the rest rows' gyro RMS about
     ``imu.gyro_bias`` and, for balancing rows (whatever controller drove them), the encoder
     and gyro RMS of 50 ms predictions from fitted start states
     (:func:`mwip.identify.balance.balance_error` on the base ``twin``, default the default
-    twin, with ``values``)."""
+    twin, with ``values``; ``body`` the robot's, default Table 6.1, as ``known``'s)."""
     from dataclasses import replace
 
     from mwip.identify.balance import balance_error
@@ -694,5 +697,5 @@ def predict_error(log: Log, values: Mapping[str, float], known: Known,
     if log.has("accel_x") and on.any():
         a = log.columns["accel_x"][on] - values["imu.accel_bias"]
         out["accel_x_rms"] = float(np.sqrt(np.mean(a**2)))
-    out.update(balance_error(log, values, twin))
+    out.update(balance_error(log, values, twin, body=body))
     return out

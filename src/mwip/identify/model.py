@@ -68,16 +68,20 @@ class Known:
     pwm_levels: int = 0
 
     @classmethod
-    def from_twin(cls, twin: object, Ts: float) -> Known:
+    def from_twin(cls, twin: object, Ts: float, body: object | None = None) -> Known:
+        """The constants of ``twin`` at sample period ``Ts``, the wheel's inertia ``Iwa`` and
+        the viscous ``Db`` from the robot's ``body`` (its :class:`mwip.params.Params`;
+        default Table 6.1)."""
         from mwip.params import REAL
 
+        b = REAL if body is None else body
         m = twin.motor  # type: ignore[attr-defined]
         d = twin.drive  # type: ignore[attr-defined]
         sag = "sag" in twin.active  # type: ignore[attr-defined]
         return cls(Ts=float(Ts), R=m.resistance, tau_e=m.tau_e, ke=m.k_e,
                    eta=d.gear_efficiency, Vs=d.supply_voltage,
-                   Rs=d.supply_resistance if sag else 0.0, Iwa=float(REAL.Iwa),
-                   Jr=m.rotor_inertia, Db=float(REAL.Db),
+                   Rs=d.supply_resistance if sag else 0.0, Iwa=float(b.Iwa),  # type: ignore[attr-defined]
+                   Jr=m.rotor_inertia, Db=float(b.Db),  # type: ignore[attr-defined]
                    pwm_levels=int(d.pwm_levels) if "pwm" in twin.active else 0)  # type: ignore[attr-defined]  # fmt: skip
 
 

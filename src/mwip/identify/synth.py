@@ -71,25 +71,29 @@ def stand_log(
     seed: int = 0,
     torque: bool = False,
     base: object | None = None,
+    body: object | None = None,
 ) -> dict[str, NDArray]:
     """A wheels-off-ground / static log for the schedule ``duty`` (n, 2): columns of the
-    log schema (``u_r, u_l`` instead of duties with ``torque``)."""
+    log schema (``u_r, u_l`` instead of duties with ``torque``); ``body`` the robot's
+    (:class:`mwip.params.Params`, default Table 6.1)."""
     from mwip.hardware.twin import TwinActuator, TwinSensor
-    from mwip.params import REAL
+    from mwip.params import REAL, Params
+
+    bd: Params = REAL if body is None else body  # type: ignore[assignment]
 
     tw = twin_for(truth, base)
     m, d, Ts = tw.motor, tw.drive, tw.Ts
     N = d.gear_ratio
     gain = N * d.gear_efficiency * m.k_t
-    J = float(REAL.Iwa) + N * N * m.rotor_inertia
-    D = d.emf_damping(m) + tw.gearbox.viscous + float(REAL.Db)
+    J = float(bd.Iwa) + N * N * m.rotor_inertia
+    D = d.emf_damping(m) + tw.gearbox.viscous + float(bd.Db)
     a = np.exp(-D * Ts / J)
-    br = float(REAL.b / REAL.r)
+    br = float(bd.b / bd.r)
     # the body at rest on the stand: the accelerometer feels no motion
     still = replace(tw, elements=tw.elements - {"accel_motion"})
-    sensor = TwinSensor(REAL, still)
+    sensor = TwinSensor(bd, still)
     sensor.reset(1, seed)
-    act = TwinActuator(REAL, tw, mobility=1.0 / J)
+    act = TwinActuator(bd, tw, mobility=1.0 / J)
     act.reset(1)
     n = duty.shape[0]
     rng = np.random.default_rng(seed + 10_000)
@@ -126,22 +130,24 @@ def stand_log(
 def balancing_log(
     truth: Mapping[str, float], controller: str = "lqr", duration: float = 5.0, seed: int = 0,
     base: object | None = None,
+    body: object | None = None,
 ) -> dict[str, NDArray]:
-    """A balancing log: ``controller`` (registry name) on the twin with ``truth``."""
+    """A balancing log: ``controller`` (registry name) on the twin with ``truth`` and the
+    robot's ``body`` (default Table 6.1)."""
     from mwip.hardware.twin import run_on_twin
     from mwip.laws.registry import build
 
     tw = twin_for(truth, base)
     ctrl = build(controller, Ts=tw.Ts)
     res = run_on_twin(ctrl, twin=tw, q0=(0.0, 0.05, 0.0), duration=duration,
-                      record_every=1, seed=seed)  # fmt: skip
+                      record_every=1, seed=seed, plant=body)  # type: ignore[arg-type]  # fmt: skip
     y = np.asarray(res.logs["y_meas"])[0]
     gyro = np.asarray(res.logs["imu_gyro"])[0]
     u = np.asarray(res.u)
     u = u[0] if u.ndim == 3 else u
     from mwip.params import REAL
 
-    plant = tw.plant(REAL)
+    plant = tw.plant(REAL if body is None else body)
     br = float(np.mean(plant.b / plant.r))
     rel = y[:, 0] - y[:, 1] - (y[0, 0] - y[0, 1])
     half = br * (y[:, 2] - y[0, 2])
