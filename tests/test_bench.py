@@ -255,9 +255,15 @@ def test_the_posterior_level_draws_the_packaged_members(reference: tuple[Path, P
     # prior's unknowns by their names now (mwip.hardware.prior.LEGACY_NAMES)
     box = {current_name(k): b
            for k, b in zip(doc["prior"]["names"], doc["prior"]["bounds"], strict=True)}
+    from mwip.hardware.identified import default_twin
+
+    known = default_twin().values()
     for m in members:
-        assert set(m) == set(box)
-        assert all(box[k][0] <= v <= box[k][1] for k, v in m.items())
+        # every unknown of the robot now; those the calibration did not vary (declared after
+        # it, e.g. firmware.torque_gain) at the default twin's value
+        assert set(m) == set(known) and set(box) <= set(m)
+        assert all(box[k][0] <= m[k] <= box[k][1] for k in box)
+        assert all(m[k] == known[k] for k in set(known) - set(box))
     ref, _ = reference
     res = pd.read_parquet(ref / "results.parquet")
     mine = res[res["controller"] == "dlqr"]

@@ -156,7 +156,10 @@ def test_a_robot_file_value_reaches_the_run(tmp_path: Path) -> None:
     assert tw.imu == default_twin().imu  # the rest: the default robot's
     base = _run("exp-asta", tmp_path / "base")
     new = run_study("exp-asta", tmp_path / "new", quick=True, twin=tw)
-    assert "tau 0.2 s" in new["settings"]["twin"] and "tau 0.5 s" in base["settings"]["twin"]
+    # the base run: run_study's default, the default robot's twin (as `mwip run`)
+    tau = default_twin().firmware.fusion.tau
+    assert tau != 0.2
+    assert "tau 0.2 s" in new["settings"]["twin"] and f"tau {tau:g} s" in base["settings"]["twin"]
     assert not _same(base["metrics"]["asmc.case1.u_tv"], new["metrics"]["asmc.case1.u_tv"])
 
 
