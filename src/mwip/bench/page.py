@@ -32,7 +32,11 @@ _CSS = ("body{font-family:sans-serif;max-width:1200px;margin:1em auto;padding:0 
 
 
 def _png(path: Path, fig: Figure) -> Path:
-    return write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=100))
+    import warnings
+
+    with warnings.catch_warnings():  # a label with a control character draws a box, silently
+        warnings.filterwarnings("ignore", message="Glyph .* missing from font")
+        return write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=100))
 
 
 def _heatmap(board: Any, bench: Bench) -> Figure:

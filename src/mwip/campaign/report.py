@@ -157,7 +157,11 @@ def plane_rates(df: Any, x: str, y: str) -> tuple[Any, Any, dict[str, Any]]:
 
 
 def _save(fig: Figure, path: Path) -> str:
-    write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=110))
+    import warnings
+
+    with warnings.catch_warnings():  # a label with a control character draws a box, silently
+        warnings.filterwarnings("ignore", message="Glyph .* missing from font")
+        write_atomic(path, lambda fh: fig.savefig(fh, format="png", dpi=110))
     return path.name
 
 
