@@ -268,15 +268,9 @@ def _scenario_from_data(data: dict[str, Any], p: Path) -> Scenario:
     kwargs: dict[str, Any] = dict(sc)
     body, design = REAL, NOMINAL
     if "robot" in sc:
-        from mwip.robot import load_robot
+        from mwip.robot import load_named_robot
 
-        if not isinstance(sc["robot"], str) or not sc["robot"].strip():
-            raise ValueError(f"[scenario] robot must be a robot file path, got {sc['robot']!r}")
-        robot_path = Path(sc["robot"])
-        robot_path = robot_path if robot_path.is_absolute() else p.parent / robot_path
-        if not robot_path.is_file():
-            raise ValueError(f"[scenario] robot: no such robot file {str(robot_path)!r}")
-        kwargs["robot"] = load_robot(robot_path)
+        kwargs["robot"] = load_named_robot(sc["robot"], "[scenario] robot", p.parent)
         body, design = kwargs["robot"].body, kwargs["robot"].design
     if isinstance(kwargs.get("twin"), str):
         raise ValueError("[scenario] twin must be true or false (a twin file is now a robot "

@@ -324,17 +324,9 @@ def _robot(table: dict[str, Any], folder: Path | None, robot: Any) -> Any:
         return robot_or_default(robot)
     if "file" not in table:
         return None
-    value = table["file"]
-    if not isinstance(value, str) or not value.strip():
-        raise ValueError(f"robot.file must be a robot file path, got {value!r}")
-    path = Path(value)
-    if not path.is_absolute():
-        path = (folder or Path.cwd()) / path
-    if not path.is_file():
-        raise ValueError(f"robot.file: no such robot file {str(path)!r}")
-    from mwip.robot import load_robot
+    from mwip.robot import load_named_robot
 
-    return load_robot(path)
+    return load_named_robot(table["file"], "robot.file", folder)
 
 
 def _controllers(items: Any) -> tuple[ControllerEntry, ...]:

@@ -271,9 +271,7 @@ def _report(sc: Any, res: Any, out: Path | None, plot: bool, as_json: bool) -> N
     )
     from mwip.hardware.identified import wheel_torque_limit  # the drive's, not the twin
 
-    tw = sc.robot.twin if sc.robot is not None else None
-    limit = float(wheel_torque_limit() if tw is None
-                  else tw.drive.wheel_torque_limit(tw.motor))  # fmt: skip
+    limit = float(wheel_torque_limit()) if sc.robot is None else sc.robot.wheel_torque_limit
     peak = float(summary.get("max_abs_u") or 0.0)
     over = math.isfinite(peak) and peak > limit
     summary.update(torque_limit=limit, over_torque_limit=bool(over))

@@ -93,7 +93,7 @@ class EnvConfig:
             plant = robot.body
             Ts = robot.Ts if Ts is None else Ts
             if max_torque is None:
-                max_torque = float(robot.twin.drive.wheel_torque_limit(robot.twin.motor))
+                max_torque = robot.wheel_torque_limit
         plant = REAL if plant is None else plant
         Ts = 0.005 if Ts is None else Ts
         max_torque = WHEEL_TORQUE_LIMIT if max_torque is None else max_torque

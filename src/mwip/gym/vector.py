@@ -48,23 +48,16 @@ class MwipVectorEnv(VectorEnv):
     ) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        if config.get("robot") is not None:
-            if plant is not None:
-                raise ValueError("robot: give the robot or a plant, not both (the robot's body "
-                                 "is the plant)")  # fmt: skip
-            from mwip.robot import robot_or_default
-
-            robot = robot_or_default(config.pop("robot"))  # as EnvConfig(robot=...) reads it
-            plant = robot.body
-            if config.get("Ts") is None:
-                config["Ts"] = robot.Ts
-            if config.get("max_torque") is None:
-                config["max_torque"] = float(robot.twin.drive.wheel_torque_limit(robot.twin.motor))
-        plant = REAL if plant is None else plant
-        shape = plant.batch_shape
-        if shape not in ((), (num_envs,)):
-            raise ValueError(f"plant fields must be scalars or of shape ({num_envs},), got {shape}")
-        self.cfg = EnvConfig(plant=plant[0] if shape else plant, **config)
+        if config.get("robot") is not None:  # EnvConfig reads it: its body is the plant
+            self.cfg = EnvConfig(plant=plant, **config)
+            plant = self.cfg.plant
+        else:
+            plant = REAL if plant is None else plant
+            shape = plant.batch_shape
+            if shape not in ((), (num_envs,)):
+                raise ValueError(f"plant fields must be scalars or of shape ({num_envs},), "
+                                 f"got {shape}")  # fmt: skip
+            self.cfg = EnvConfig(plant=plant[0] if shape else plant, **config)
         self.num_envs = num_envs
         self.plant = plant
         self.coef = np.ascontiguousarray(

@@ -16,11 +16,19 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from mwip.robot.file import RobotFileError, load_robot, robot_from_dict, robot_to_toml, save_robot
+from mwip.robot.file import (
+    RobotFileError,
+    load_named_robot,
+    load_robot,
+    robot_from_dict,
+    robot_to_toml,
+    save_robot,
+)  # fmt: skip
 from mwip.robot.spec import Robot
 
 __all__ = [
-    "Robot", "load_robot", "robot_from_dict", "robot_to_toml", "save_robot", "RobotFileError",
+    "Robot", "load_robot", "load_named_robot", "robot_from_dict", "robot_to_toml", "save_robot",
+    "RobotFileError",
     "default_robot", "datasheet_robot", "BOOK_FILE", "robot_or_default",
 ]  # fmt: skip
 

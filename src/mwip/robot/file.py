@@ -30,7 +30,8 @@ from mwip.params import PARAM_FIELDS, Params, book_params
 from mwip.robot.schema import BODY_TO_PARAMS, TABLES, FieldInfo
 from mwip.robot.spec import Robot
 
-__all__ = ["load_robot", "robot_from_dict", "robot_to_toml", "save_robot", "RobotFileError"]
+__all__ = ["load_robot", "load_named_robot", "robot_from_dict", "robot_to_toml", "save_robot",
+           "RobotFileError"]  # fmt: skip
 
 
 class RobotFileError(ValueError):
@@ -345,6 +346,20 @@ def load_robot(path: str | os.PathLike[str], base: Robot | None = None, *,
         data = {**data, "robot": {**(rb if isinstance(rb, Mapping) else {}),
                                   "name": Path(path).stem}}  # fmt: skip
     return robot_from_dict(data, base, where=where, damping=damping)
+
+
+def load_named_robot(value: Any, where: str, folder: str | os.PathLike[str] | None) -> Robot:
+    """The robot of a robot file another file names in its field ``where`` (a campaign's
+    ``robot.file``, an objective's ``robots.robot``, ...): ``value`` a path, relative to that
+    file's ``folder`` (default the current folder); one-line errors naming ``where``."""
+    if not isinstance(value, str) or not value.strip():
+        raise RobotFileError(f"{where} must be a robot file path, got {value!r}")
+    path = Path(value)
+    if not path.is_absolute():
+        path = Path(folder if folder is not None else Path.cwd()) / path
+    if not path.is_file():
+        raise RobotFileError(f"{where}: no such robot file {str(path)!r}")
+    return load_robot(path)
 
 
 # ------------------------------------------------------------------------------ writing

@@ -58,6 +58,12 @@ class Robot:
         return self.twin.prior
 
     @property
+    def wheel_torque_limit(self) -> float:
+        """The largest wheel torque its drive gives (N m per wheel,
+        :meth:`mwip.hardware.motor_data.DriveSpec.wheel_torque_limit`)."""
+        return float(self.twin.drive.wheel_torque_limit(self.twin.motor))
+
+    @property
     def Ts(self) -> float:
         """The firmware's sample period (s)."""
         return self.twin.Ts

@@ -115,18 +115,12 @@ def _parse(path: Path, data: dict[str, Any], damping: str | None) -> StudyFile:
         )
     rb = None
     if "file" in robot:
-        from mwip.robot import load_robot
+        from mwip.robot import load_named_robot
 
-        value = robot["file"]
-        if not isinstance(value, str) or not value.strip():
-            raise ValueError(f"[robot] file must be a robot file path, got {value!r}")
-        full = (folder / value).resolve()
-        if not full.is_file():
-            raise ValueError(f"[robot] file: no such robot file {str(full)!r}")
         if "damping" in robot:
             raise ValueError("[robot] damping reads the book's tables; the robot file gives "
                              "its own Db, Dw: give one of file and damping")  # fmt: skip
-        rb = load_robot(full)
+        rb = load_named_robot(robot["file"], "[robot] file", folder)
         plant, nominal = rb.body, rb.design
     else:
         plant, nominal = book_params("real", reading), book_params("nominal", reading)

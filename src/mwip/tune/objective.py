@@ -175,17 +175,9 @@ def _robot_file(rob: dict[str, Any], folder: Path | None) -> Any:
     """The robot of ``[robots] robot`` (a file relative to ``folder``), or ``None``."""
     if "robot" not in rob:
         return None
-    value = rob["robot"]
-    if not isinstance(value, str) or not value.strip():
-        raise ValueError(f"objective robots.robot must be a robot file path, got {value!r}")
-    path = Path(value)
-    if not path.is_absolute():
-        path = (folder or Path.cwd()) / path
-    if not path.is_file():
-        raise ValueError(f"objective robots.robot: no such robot file {str(path)!r}")
-    from mwip.robot import load_robot
+    from mwip.robot import load_named_robot
 
-    return load_robot(path)
+    return load_named_robot(rob["robot"], "objective robots.robot", folder)
 
 
 def parse_objective(data: dict[str, Any], name: str = "file", *, robot: Any = None,
@@ -214,7 +206,7 @@ def parse_objective(data: dict[str, Any], name: str = "file", *, robot: Any = No
     else:
         robot = _robot_file(rob, folder)
     if limit_raw == "drive" and robot is not None:
-        limit = float(robot.twin.drive.wheel_torque_limit(robot.twin.motor))
+        limit = robot.wheel_torque_limit
     elif limit_raw == "drive":
         from mwip.hardware.identified import wheel_torque_limit
 
