@@ -195,7 +195,12 @@ def close_storage(storage: Any) -> None:
     engine = getattr(storage, "engine", None)
     if engine is None:
         return
+    import gc
+
     try:
+        with warnings.catch_warnings():  # SQLAlchemy's word on a connection it did not get back
+            warnings.simplefilter("ignore")
+            gc.collect()  # connections an interruption left unreferenced go back to the pool
         engine.dispose()
     except Exception:  # noqa: BLE001 - closing after a failure: nothing more to do
         pass
