@@ -1,6 +1,6 @@
 """docs/extending.md, "Adding a twin element": the element file and the registration it shows
 make a working element. The package is copied, the file written as ``hardware/lag.py`` and
-the registration lines into ``hardware/registry.py`` and ``hardware/dispatch.py``; a fresh
+the three registration lines into ``hardware/dispatch.py``; a fresh
 process (its own caches) then checks that the element runs in the compiled twin loop (its log
 is the analytic lag of the law's command, sample by sample), that its effect is the physics'
 (a slow lag makes the robot fall, none passes the command bit for bit), that it runs batched
@@ -124,11 +124,52 @@ def _registration(tag: str) -> list[str]:
     return block.strip("\n").splitlines()
 
 
-def test_the_page_shows_one_file_and_five_lines_of_registration():
+def test_the_page_shows_one_file_and_three_lines_of_registration():
     assert sorted(_element()) == ["lag.py"]
-    registry, dispatch = _registration("element-registry"), _registration("element-dispatch")
-    assert len(registry) == 2 and len(dispatch) == 3
-    assert "five lines in two files" in " ".join(DOC.split())
+    assert "element-registry" not in DOC
+    assert len(_registration("element-dispatch")) == 3
+    assert "three lines in one file" in " ".join(DOC.split())
+
+
+def test_an_element_imported_without_its_branch_is_refused():
+    """The registry reads the chains from the dispatcher's imports: an element module imported
+    there without its branch would be packed and never run, so it is refused."""
+    from mwip.hardware import delay, firmware
+    from mwip.hardware.registry import registered
+
+    source = "elif code == firmware.CODE:\n    firmware.step(k, p, s, bus, yi, z, lg)"
+    assert [e.name for e in registered({"firmware": firmware}, source)] == ["firmware"]
+    with pytest.raises(ImportError, match="'delay'.*without its branch"):
+        registered({"firmware": firmware, "delay": delay}, source)
+
+
+def test_elements_sharing_a_code_or_a_place_are_refused():
+    import dataclasses
+    import types
+
+    from mwip.hardware import delay, firmware
+    from mwip.hardware.registry import registered
+
+    source = "code == firmware.CODE firmware.step( code == other.CODE other.step("
+    other = types.ModuleType("other")
+    other.ELEMENT = dataclasses.replace(delay.ELEMENT, name="other", code=99,  # type: ignore
+                                        place=firmware.ELEMENT.place)  # fmt: skip
+    with pytest.raises(ImportError, match="'firmware' and 'other' share the place 30"):
+        registered({"firmware": firmware, "other": other}, source)
+    other.ELEMENT = dataclasses.replace(other.ELEMENT, code=firmware.CODE, place=35)
+    with pytest.raises(ImportError, match="share the code"):
+        registered({"firmware": firmware, "other": other}, source)
+    other.ELEMENT = dataclasses.replace(other.ELEMENT, code=99, place=25)  # before firmware
+    assert [e.name for e in registered({"firmware": firmware, "other": other}, source)] == [
+        "other", "firmware"]
+
+
+def test_the_shipped_chains():
+    from mwip.hardware.registry import DRIVE_CHAIN, SENSOR_CHAIN
+
+    assert [e.name for e in SENSOR_CHAIN] == ["imu", "fusion", "encoder"]
+    assert [e.name for e in DRIVE_CHAIN] == ["command", "delay", "firmware", "motor",
+                                             "friction", "backlash"]  # fmt: skip
 
 
 @pytest.mark.slow
@@ -141,15 +182,7 @@ def test_the_example_element_works_in_a_copy_of_the_package(tmp_path):
         (hw / name).write_text(code)
     imports = "from mwip.hardware import backlash, command, delay, encoder, firmware, friction, " \
               "fusion, imu, motor\n"  # fmt: skip
-    # registry.py: the import after the chains' imports, the entry first in DRIVE_CHAIN
-    reg_import, reg_entry = _registration("element-registry")
-    registry = hw / "registry.py"
-    text = registry.read_text()
-    chain = "DRIVE_CHAIN: tuple[Element, ...] = (\n"
-    assert imports in text and chain in text
-    registry.write_text(text.replace(imports, imports + reg_import + "\n")
-                        .replace(chain, chain + reg_entry + "\n"))  # fmt: skip
-    # dispatch.py: the import, and the branch after the last one
+    # dispatch.py, the whole registration: the import, and the branch after the last one
     disp_import, *branch = _registration("element-dispatch")
     dispatch = hw / "dispatch.py"
     text = dispatch.read_text()

@@ -89,6 +89,6 @@ def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
 
 
 ELEMENT = Element(
-    name="backlash", code=CODE, stage="drive", params=PARAMS, state=STATE, pack=_pack,
+    name="backlash", code=CODE, stage="drive", place=60, params=PARAMS, state=STATE, pack=_pack,
     init=_init, switches=("backlash",), doc="gearbox backlash",
 )  # fmt: skip

@@ -86,6 +86,7 @@ def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
 
 
 ELEMENT = Element(
-    name="command", code=CODE, stage="drive", params=PARAMS, state=STATE, pack=_pack, noise=2,
+    name="command", code=CODE, stage="drive", place=10, params=PARAMS, state=STATE,
+    pack=_pack, noise=2,
     optional=True, doc="torque noise, whole-sample delay and lag of the command (mwip bench)",
 )  # fmt: skip

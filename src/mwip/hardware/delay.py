@@ -42,7 +42,7 @@ def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
 
 
 ELEMENT = Element(
-    name="delay", code=CODE, stage="drive", params=PARAMS, state=STATE, pack=_pack,
+    name="delay", code=CODE, stage="drive", place=20, params=PARAMS, state=STATE, pack=_pack,
     switches=("delay", "motor", "pwm", "sag", "friction", "backlash"),
     doc="computation and actuation delay (it runs wherever the drive does: d = 0 passes)",
 )  # fmt: skip

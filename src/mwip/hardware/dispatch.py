@@ -3,7 +3,8 @@
 Every element (:mod:`mwip.hardware.element`) has a kernel ``step(k, p, s, bus, yi, z, lg)``;
 :func:`element_step` picks it by code. The compiled twin loop and the Python loop's batch
 steps (:mod:`mwip.hardware.loop`) both call it. A new element adds one import and its branch
-here (and its entry in :mod:`mwip.hardware.registry`).
+here, and that is its whole registration: :mod:`mwip.hardware.registry` builds the chains from
+the element modules imported here (each element declares its stage and its place).
 """
 
 from __future__ import annotations

@@ -92,12 +92,14 @@ Packer = Callable[[PackContext], Mapping[str, Any]]
 class Element:
     """A twin element (module docstring): ``name``, its unique ``code`` (the dispatcher's
     branch), the ``stage`` it runs in (``"sensor"``: from the true state to the measurement;
-    ``"drive"``: from the commanded to the applied torque), its layouts, its ``logs``
-    (``(name, width)``, recorded as ``res.logs[name]``), the normal variates it draws per
-    sample (``noise``), the element switches it honours (``switches``; the element runs when a
-    robot of the batch has one of them on; an ``optional`` element runs only when the run
-    asks for it, ``PackContext.extra[name]``) and its packers. ``pack`` gives the parameter
-    vector's fields, ``init`` the state's at the start of a run (fields it omits start at 0)."""
+    ``"drive"``: from the commanded to the applied torque), its ``place`` in that stage's
+    chain (the elements of a stage run in increasing place; unique within the stage), its
+    layouts, its ``logs`` (``(name, width)``, recorded as ``res.logs[name]``), the normal
+    variates it draws per sample (``noise``), the element switches it honours (``switches``;
+    the element runs when a robot of the batch has one of them on; an ``optional`` element
+    runs only when the run asks for it, ``PackContext.extra[name]``) and its packers. ``pack``
+    gives the parameter vector's fields, ``init`` the state's at the start of a run (fields it
+    omits start at 0)."""
 
     name: str
     code: int
@@ -111,12 +113,16 @@ class Element:
     switches: tuple[str, ...] = ()
     optional: bool = False
     doc: str = ""
+    place: int = 0
 
     def __post_init__(self) -> None:
         if self.stage not in ("sensor", "drive"):
             raise ValueError(f"element {self.name!r}: stage must be 'sensor' or 'drive'")
         if not (isinstance(self.code, int) and self.code > 0):
             raise ValueError(f"element {self.name!r}: code must be a positive integer")
+        if not (isinstance(self.place, int) and self.place > 0):
+            raise ValueError(f"element {self.name!r}: place must be a positive integer (its "
+                             "place in its stage's chain)")  # fmt: skip
 
     @property
     def log_width(self) -> int:

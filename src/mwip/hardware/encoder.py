@@ -126,7 +126,7 @@ def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
 
 
 ELEMENT = Element(
-    name="encoder", code=CODE, stage="sensor", params=PARAMS, state=STATE, pack=_pack,
+    name="encoder", code=CODE, stage="sensor", place=30, params=PARAMS, state=STATE, pack=_pack,
     logs=(("encoder_angles", 2),), switches=("encoder",),
     doc="quadrature encoders on the motor shafts, odometry",
 )  # fmt: skip

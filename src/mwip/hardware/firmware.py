@@ -129,7 +129,7 @@ def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
 
 
 ELEMENT = Element(
-    name="firmware", code=CODE, stage="drive", params=PARAMS, state=Layout(), pack=_pack,
+    name="firmware", code=CODE, stage="drive", place=30, params=PARAMS, state=Layout(), pack=_pack,
     switches=("motor",), doc="the board's torque-to-duty map: torque gain, back-EMF compensation",
 )  # fmt: skip
 

@@ -63,7 +63,7 @@ def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
 
 
 ELEMENT = Element(
-    name="friction", code=CODE, stage="drive", params=PARAMS, state=Layout(), pack=_pack,
+    name="friction", code=CODE, stage="drive", place=50, params=PARAMS, state=Layout(), pack=_pack,
     logs=(("drive_friction", 2),), switches=("friction",),
     doc="gearbox Coulomb friction and stiction",
 )  # fmt: skip

@@ -177,7 +177,7 @@ def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
 
 
 ELEMENT = Element(
-    name="fusion", code=CODE, stage="sensor", params=PARAMS, state=STATE, pack=_pack,
+    name="fusion", code=CODE, stage="sensor", place=20, params=PARAMS, state=STATE, pack=_pack,
     switches=("fusion", "accel_motion", "imu_noise", "imu_bias"),
     doc="the board's pitch estimate: gyro zeroing, complementary or Kalman fusion",
 )  # fmt: skip

@@ -180,7 +180,8 @@ def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
 
 
 ELEMENT = Element(
-    name="imu", code=CODE, stage="sensor", params=PARAMS, state=STATE, pack=_pack, init=_init,
+    name="imu", code=CODE, stage="sensor", place=10, params=PARAMS, state=STATE, pack=_pack,
+    init=_init,
     logs=(("imu_theta_acc", 1), ("imu_gyro", 1), ("imu_gyro_bias", 1), ("imu_accel", 2)),
     noise=4,
     switches=("fusion", "accel_motion", "imu_noise", "imu_bias"),

@@ -152,7 +152,7 @@ def step(k, p, s, bus, yi, z, lg):  # noqa: ANN001, ANN201 - compiled kernel
 
 
 ELEMENT = Element(
-    name="motor", code=CODE, stage="drive", params=PARAMS, state=STATE, pack=_pack,
+    name="motor", code=CODE, stage="drive", place=40, params=PARAMS, state=STATE, pack=_pack,
     logs=(("drive_duty", 2), ("drive_current", 2), ("drive_voltage", 2), ("drive_supply", 1),
           ("drive_torque", 2), ("drive_limited", 2)),
     switches=("motor",), doc="DC motors and H-bridge PWM driver",
