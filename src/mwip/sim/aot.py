@@ -248,7 +248,7 @@ def build(force: bool = False) -> Path:
 
 def _compile(name: str, out: Path) -> None:
     """Numba's ahead-of-time compiler: the extension module ``name`` into folder ``out``."""
-    _import_pycc()  # says once that Numba marks pycc pending deprecation
+    _import_pycc()
     from numba.pycc import CC
 
     from mwip.sim import loop
@@ -263,23 +263,12 @@ def _compile(name: str, out: Path) -> None:
 
 
 def _import_pycc() -> None:
-    """Import :mod:`numba.pycc` and say once, on stderr (:mod:`mwip.notice`), that Numba marks
-    it pending deprecation: Python's default filters hide a ``PendingDeprecationWarning``, and
-    the user should know what the ahead-of-time build stands on (pyproject.toml bounds Numba
-    to the versions tested; without pycc the JIT loop runs)."""
-    from mwip.notice import once
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", PendingDeprecationWarning)
+    """Import :mod:`numba.pycc` without its ``PendingDeprecationWarning`` (issue 40: no
+    deprecation warning reaches a user; what the build stands on, and why, is said in the
+    README and docs/engine.md; without pycc the build fails and the JIT loop runs)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=PendingDeprecationWarning)
         import numba.pycc  # noqa: F401
-    for w in caught:
-        if issubclass(w.category, PendingDeprecationWarning) and "pycc" in str(w.message):
-            (numba_version,) = versions(["numba"])
-            text = str(w.message).splitlines()[0]
-            once("pycc", f"Numba {numba_version}: {text} mwip builds its ahead-of-time loop "
-                 "with numba.pycc (pyproject.toml bounds Numba to the versions tested); "
-                 "should it go, the JIT loop runs instead (MWIP_AOT=off)")  # fmt: skip
-            break
 
 
 def run_function() -> Callable[..., int] | None:
