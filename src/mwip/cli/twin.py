@@ -4,7 +4,9 @@
   assumptions and the gear ratio, varied (:mod:`mwip.hardware.sensitivity`);
 - ``mwip twin fit LOG... --out DIR [--robot FILE]``: the robot's twin identified from its
   logs, starting from its robot file (:mod:`mwip.identify`, docs/twin_fit.md);
-- ``mwip twin excite --out FILE``: the excitation schedule to record those logs.
+- ``mwip twin excite --out FILE``: the excitation schedule to record those logs;
+- ``mwip twin log (--excite FILE | --controller NAME) --out LOG [--robot FILE]``: the log the
+  robot would write, simulated on its twin (try the fit before touching hardware).
 
 Hardware modules are imported per command.
 """
@@ -289,3 +291,64 @@ def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float,
     write_text_atomic(out, "\n".join(lines) + "\n")
     record_file(out)
     click.echo(f"wrote {out} ({t.size} samples, {t[-1] + Ts:g} s)")
+
+
+@twin.command("log")
+@ROBOT_OPTION
+@click.option("--excite", "excite_file", type=click.Path(dir_okay=False, path_type=Path),
+              default=None, help="A schedule of 'mwip twin excite': the wheels-off-ground and "
+              "static log of running it on the robot held on a stand.")  # fmt: skip
+@click.option("--controller", default=None, metavar="NAME",
+              help="A controller of 'mwip controllers' (designed on the robot's design model): "
+              "the log of the robot balancing under it.")  # fmt: skip
+@click.option("--duration", type=click.FloatRange(0.1, 600.0), default=5.0, show_default=True,
+              help="Seconds of balancing (with --controller).")
+@click.option("--theta0", type=click.FloatRange(-0.3, 0.3), default=0.05, show_default=True,
+              help="Initial lean (rad; with --controller).")
+@click.option("--torque", is_flag=True,
+              help="Write the commanded torques (u_r, u_l) instead of the duties (with --excite).")
+@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True,
+              help="Seed of the sensors' noise.")
+@click.option("--out", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="The log (CSV, the columns 'mwip twin fit' reads).")
+@FILE_FORCE
+def twin_log(robot_file: Path | None, excite_file: Path | None, controller: str | None,
+             duration: float, theta0: float, torque: bool, seed: int, out: Path,
+             force: bool) -> None:  # fmt: skip
+    """Simulate the log ROBOT would write (its body, drive, firmware and sensors, from the robot
+    file): on a stand for an excitation schedule, or balancing under a controller. The whole
+    chain (log -> `mwip twin fit` -> tune, bench, export) can so be tried before hardware."""
+    from mwip.identify import excite, synth
+    from mwip.io import write_text_atomic
+
+    if (excite_file is None) == (controller is None):
+        raise click.UsageError("give one of --excite FILE (a stand log) or --controller NAME "
+                               "(a balancing log)")  # fmt: skip
+    if torque and excite_file is None:
+        raise click.UsageError("--torque applies to --excite (a balancing log holds the torques)")
+    robot = robot_option(robot_file)
+    file_ok(out, force)
+    if excite_file is not None:
+        try:
+            duty, mode = excite.read_schedule(excite_file, robot.Ts)
+        except ValueError as exc:
+            raise click.UsageError(f"--excite: {exc}") from None
+        cols = synth.stand_log_on(robot.twin, robot.body, duty, mode, seed=seed, torque=torque)
+        what = f"on a stand, {excite_file}"
+    else:
+        from mwip.laws.registry import build, get
+
+        name = str(controller)  # given: checked above
+        try:
+            get(name)
+        except ValueError as exc:
+            raise click.UsageError(f"--controller: {exc}") from None
+        ctrl = build(name, robot.design, {}, Ts=robot.Ts)
+        cols = synth.balancing_log_on(robot.twin, robot.body, ctrl, duration, seed,
+                                      q0=(0.0, theta0, 0.0))  # fmt: skip
+        what = f"balancing under {name} from a lean of {theta0:g} rad"
+    write_text_atomic(out, synth.csv_text(cols))
+    record_file(out)
+    n = len(cols["t"])
+    who = f"robot {robot_file}" if robot_file is not None else "the default robot"
+    click.echo(f"wrote {out} ({n} samples, {n * robot.Ts:g} s; {who}, {what})")

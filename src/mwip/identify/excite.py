@@ -15,10 +15,12 @@ The schedule (one row per control sample, a ``mode`` column):
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["schedule", "schedule_length", "STEP_LEVELS", "MAX_SAMPLES"]
+__all__ = ["schedule", "schedule_length", "read_schedule", "STEP_LEVELS", "MAX_SAMPLES"]
 
 #: Rows of a schedule, at most (``max_samples``; ``mwip twin excite --max-samples``): 2
 #: million rows are some 90 MB of CSV, 2.8 hours at 5 ms.
@@ -87,3 +89,63 @@ def schedule(
     t = np.arange(len(left), dtype=float) * Ts
     duty = np.column_stack([right, left]).astype(float)
     return t, duty, mode.astype(np.str_)
+
+
+def read_schedule(path: str | Path, Ts: float, max_samples: int = MAX_SAMPLES,
+                  ) -> tuple[NDArray[np.float64], NDArray[np.str_]]:  # fmt: skip
+    """The schedule file ``mwip twin excite`` writes (CSV: ``t, duty_r, duty_l, mode``) as
+    ``(duty (n, 2), mode (n,))``, checked for a robot of sample period ``Ts``: one row per
+    sample (``t`` steps of ``Ts``, to 1e-6 s), duties within +-1, modes ``static`` or
+    ``wheels-off-ground``. A problem is a ``ValueError``, one line naming the file and the
+    column."""
+    import csv
+
+    where = f"schedule {str(path)!r}"
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            rows = list(csv.reader(fh))
+    except UnicodeDecodeError:
+        raise ValueError(f"{where}: not UTF-8 text (a binary file?), not a schedule CSV") from None
+    except OSError as exc:
+        raise ValueError(f"{where}: {exc.strerror or exc}") from None
+    if not rows:
+        raise ValueError(f"{where}: empty (want the header t,duty_r,duty_l,mode)")
+    header = [h.strip() for h in rows[0]]
+    want = ("t", "duty_r", "duty_l", "mode")
+    missing = [c for c in want if c not in header]
+    if missing:
+        raise ValueError(f"{where}: no column {missing[0]!r} (want t,duty_r,duty_l,mode, as "
+                         "'mwip twin excite' writes)")  # fmt: skip
+    body = [r for r in rows[1:] if any(c.strip() for c in r)]
+    if not body:
+        raise ValueError(f"{where}: no rows")
+    if len(body) > max_samples:
+        raise ValueError(f"{where}: {len(body)} rows, more than {max_samples}")
+    idx = {c: header.index(c) for c in want}
+    cols: dict[str, NDArray[np.float64]] = {}
+    for c in want[:3]:
+        vals = np.empty(len(body))
+        for i, r in enumerate(body):
+            try:
+                vals[i] = float(r[idx[c]])
+            except (ValueError, IndexError):
+                raise ValueError(f"{where}, column {c!r}: row {i + 2} is not a number") from None
+        if not np.all(np.isfinite(vals)):
+            raise ValueError(f"{where}, column {c!r}: not finite (NaN or inf)")
+        cols[c] = vals
+    for c in ("duty_r", "duty_l"):
+        if np.any(np.abs(cols[c]) > 1.0):
+            raise ValueError(f"{where}, column {c!r}: duties are within -1..1 "
+                             f"(max |duty| {np.max(np.abs(cols[c])):.3g})")  # fmt: skip
+    t = cols["t"]
+    if t.size > 1 and np.max(np.abs(np.diff(t) - Ts)) > 1e-6:
+        step = float(np.median(np.diff(t)))
+        raise ValueError(f"{where}, column 't': steps of {step:g} s, the robot samples every "
+                         f"{Ts:g} s (write the schedule with 'mwip twin excite --ts {Ts:g}')")
+    mode = np.array([(r[idx["mode"]] if len(r) > idx["mode"] else "").strip() for r in body])
+    bad = ~np.isin(mode, ("static", "wheels-off-ground"))
+    if np.any(bad):
+        first = int(np.argmax(bad))
+        raise ValueError(f"{where}, column 'mode': row {first + 2} is {str(mode[first])!r}; a "
+                         "schedule's rows are 'static' or 'wheels-off-ground'")  # fmt: skip
+    return np.column_stack([cols["duty_r"], cols["duty_l"]]), mode

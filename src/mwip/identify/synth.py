@@ -17,6 +17,7 @@ Balancing logs: :func:`mwip.hardware.twin.run_on_twin` with a controller of
 from __future__ import annotations
 
 import csv
+import io
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -27,7 +28,8 @@ from numpy.typing import NDArray
 
 from mwip.identify.bounds import BOUNDS
 
-__all__ = ["draw_truth", "twin_for", "stand_log", "balancing_log", "write_csv"]
+__all__ = ["draw_truth", "twin_for", "stand_log", "stand_log_on", "balancing_log",
+           "balancing_log_on", "csv_text", "write_csv"]
 
 
 def draw_truth(seed: int, inner: float = 0.1) -> dict[str, float]:
@@ -73,15 +75,31 @@ def stand_log(
     base: object | None = None,
     body: object | None = None,
 ) -> dict[str, NDArray]:
-    """A wheels-off-ground / static log for the schedule ``duty`` (n, 2): columns of the
-    log schema (``u_r, u_l`` instead of duties with ``torque``); ``body`` the robot's
+    """A wheels-off-ground / static log for the schedule ``duty`` (n, 2) on the twin with
+    ``truth``'s values (:func:`twin_for`): :func:`stand_log_on`; ``body`` the robot's
     (:class:`mwip.params.Params`, default Table 6.1)."""
+    from mwip.params import REAL
+
+    return stand_log_on(twin_for(truth, base), REAL if body is None else body, duty, mode,
+                        seed=seed, torque=torque)  # fmt: skip
+
+
+def stand_log_on(
+    tw: Any,
+    body: Any,
+    duty: NDArray[np.float64],
+    mode: NDArray[np.str_] | None = None,
+    *,
+    seed: int = 0,
+    torque: bool = False,
+) -> dict[str, NDArray]:
+    """A wheels-off-ground / static log of the twin ``tw`` (a :class:`mwip.hardware.twin.Twin`,
+    its elements as they are) and ``body`` for the schedule ``duty`` (n, 2) (module
+    docstring): columns of the log schema (``u_r, u_l``, the commanded torques, instead of
+    duties with ``torque``)."""
     from mwip.hardware.twin import TwinActuator, TwinSensor
-    from mwip.params import REAL, Params
 
-    bd: Params = REAL if body is None else body  # type: ignore[assignment]
-
-    tw = twin_for(truth, base)
+    bd = body
     m, d, Ts = tw.motor, tw.drive, tw.Ts
     N = d.gear_ratio
     gain = N * d.gear_efficiency * m.k_t
@@ -132,15 +150,26 @@ def balancing_log(
     base: object | None = None,
     body: object | None = None,
 ) -> dict[str, NDArray]:
-    """A balancing log: ``controller`` (registry name) on the twin with ``truth`` and the
-    robot's ``body`` (default Table 6.1)."""
-    from mwip.hardware.twin import run_on_twin
+    """A balancing log: ``controller`` (registry name, designed on the book's nominal
+    parameters) on the twin with ``truth`` and the robot's ``body`` (default Table 6.1):
+    :func:`balancing_log_on`."""
     from mwip.laws.registry import build
 
     tw = twin_for(truth, base)
-    ctrl = build(controller, Ts=tw.Ts)
-    res = run_on_twin(ctrl, twin=tw, q0=(0.0, 0.05, 0.0), duration=duration,
-                      record_every=1, seed=seed, plant=body)  # type: ignore[arg-type]  # fmt: skip
+    return balancing_log_on(tw, body, build(controller, Ts=tw.Ts), duration, seed)
+
+
+def balancing_log_on(
+    tw: Any, body: Any, ctrl: Any, duration: float = 5.0, seed: int = 0,
+    q0: tuple[float, float, float] = (0.0, 0.05, 0.0),
+) -> dict[str, NDArray]:
+    """A balancing log of the controller ``ctrl`` on the twin ``tw`` and ``body`` (``None``:
+    Table 6.1) from the lean ``q0``: what the board records each sample (its pitch estimate,
+    the gyro, the encoders relative to the body, the commanded torques)."""
+    from mwip.hardware.twin import run_on_twin
+
+    res = run_on_twin(ctrl, twin=tw, q0=q0, duration=duration,
+                      record_every=1, seed=seed, plant=body)  # fmt: skip
     y = np.asarray(res.logs["y_meas"])[0]
     gyro = np.asarray(res.logs["imu_gyro"])[0]
     u = np.asarray(res.u)
@@ -160,14 +189,21 @@ def balancing_log(
     }  # fmt: skip
 
 
-def write_csv(path: str | Path, cols: Mapping[str, NDArray]) -> Path:
-    """Write log columns as CSV (floats with ``repr`` precision)."""
+def csv_text(cols: Mapping[str, NDArray]) -> str:
+    """Log columns as CSV text (floats with ``repr`` precision)."""
     names = list(cols)
     n = len(next(iter(cols.values())))
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\r\n")
+    w.writerow(names)
+    for i in range(n):
+        w.writerow([cols[k][i] if isinstance(cols[k][i], str) else repr(float(cols[k][i]))
+                    for k in names])  # fmt: skip
+    return buf.getvalue()
+
+
+def write_csv(path: str | Path, cols: Mapping[str, NDArray]) -> Path:
+    """Write log columns as CSV (:func:`csv_text`)."""
     with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(names)
-        for i in range(n):
-            w.writerow([cols[k][i] if isinstance(cols[k][i], str) else repr(float(cols[k][i]))
-                        for k in names])  # fmt: skip
+        fh.write(csv_text(cols))
     return Path(path)

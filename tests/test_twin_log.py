@@ -1,0 +1,104 @@
+"""`mwip twin log` (issue 37, item 6): the log a robot would write, simulated on its twin from
+its robot file, so the chain (log -> `mwip twin fit` -> ...) can be tried without hardware.
+
+Synthetic truth through the command line: a robot of gear ratio 12 (the default's 5.3) and
+heavier wheels writes a stand log for `mwip twin excite`'s schedule; `mwip twin fit` on that
+robot's file gives the gear ratio back within three of its standard errors. A balancing log
+passes the fit's log checks and depends on the robot. Bad input: one line, exit 2, no file."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mwip.cli import main
+from mwip.identify.logs import read_log
+from mwip.robot import default_robot, save_robot
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("twin_log")
+    r = default_robot()
+    g12 = r.with_values({"drive.gear_ratio": 12.0})
+    g12 = replace(g12, body=replace(g12.body, Iwa=2.0 * g12.body.Iwa))
+    sched = d / "sched.csv"
+    assert main(["twin", "excite", "--out", str(sched), "--static", "0.3", "--step", "0.06",
+                 "--chirp", "0.5"]) == 0  # fmt: skip
+    return {"dir": d, "sched": sched, "g12": save_robot(g12, d / "g12.toml")}
+
+
+def _log(files: dict[str, Path], name: str, *args: str) -> Path:
+    out = files["dir"] / name
+    assert main(["twin", "log", *args, "--out", str(out)]) == 0
+    return out
+
+
+def test_a_stand_log_gives_its_robot_back(files: dict[str, Path]) -> None:
+    log = _log(files, "stand.csv", "--robot", str(files["g12"]), "--excite", str(files["sched"]))
+    lg = read_log(str(log))
+    assert set(np.unique(lg.mode)) == {"static", "wheels-off-ground"} and lg.inputs == "duty"
+    fit = files["dir"] / "fit"
+    assert main(["twin", "fit", str(log), "--robot", str(files["g12"]), "--out", str(fit)]) == 0
+    doc = json.loads((fit / "fit.json").read_text())
+    n, se = doc["estimates"]["drive.gear_ratio"], doc["stderr"]["drive.gear_ratio"]
+    assert abs(n - 12.0) <= 3.0 * se and se < 1.0, (n, se)  # the default's 5.3 is far outside
+
+
+def test_a_balancing_log_passes_the_checks_and_follows_the_robot(files: dict[str, Path]) -> None:
+    robots = {"default": [], "g12": ["--robot", str(files["g12"])]}
+    logs = {name: read_log(str(_log(files, f"bal-{name}.csv", *extra, "--controller", "lqr",
+                                    "--duration", "1")))
+            for name, extra in robots.items()}  # fmt: skip
+    for lg in logs.values():
+        assert lg.n == 201 and lg.inputs == "torque" and np.all(lg.mode == "balancing")
+    # the same law and lean on another drive and wheels: another trajectory
+    assert not np.allclose(logs["default"].enc, logs["g12"].enc, atol=1e-4)
+
+
+def test_the_seed_decides_the_noise(files: dict[str, Path]) -> None:
+    a = _log(files, "s0a.csv", "--excite", str(files["sched"]))
+    b = _log(files, "s0b.csv", "--excite", str(files["sched"]))
+    c = _log(files, "s1.csv", "--excite", str(files["sched"]), "--seed", "1")
+    assert a.read_bytes() == b.read_bytes() != c.read_bytes()
+
+
+@pytest.mark.parametrize(("case", "needle"), [
+    ("neither", "give one of --excite"),
+    ("both", "give one of --excite"),
+    ("torque-balancing", "--torque applies to --excite"),
+    ("unknown-controller", "--controller: unknown controller 'nope'"),
+    ("no-mode", "no column 'mode'"),
+    ("other-ts", "steps of 0.01 s, the robot samples every 0.005 s"),
+    ("duty-over-1", "column 'duty_r': duties are within -1..1"),
+    ("bad-mode", "column 'mode': row 3 is 'balancing'"),
+    ("not-a-number", "column 'duty_l': row 2 is not a number"),
+    ("foreign-file", "--force"),
+])  # fmt: skip
+def test_bad_input_is_one_line(files: dict[str, Path], tmp_path: Path, capsys, case: str,
+                               needle: str) -> None:  # fmt: skip
+    sched = tmp_path / "s.csv"
+    rows = {"no-mode": "t,duty_r,duty_l\n0,0,0\n0.005,0,0\n",
+            "other-ts": "t,duty_r,duty_l,mode\n0,0,0,static\n0.01,0,0,static\n",
+            "duty-over-1": "t,duty_r,duty_l,mode\n0,0,0,static\n0.005,1.5,0,static\n",
+            "bad-mode": "t,duty_r,duty_l,mode\n0,0,0,static\n0.005,0,0,balancing\n",
+            "not-a-number": "t,duty_r,duty_l,mode\n0,0,x,static\n"}  # fmt: skip
+    sched.write_text(rows.get(case, "t,duty_r,duty_l,mode\n0,0,0,static\n"))
+    out = tmp_path / "log.csv"
+    args = {"neither": [],
+            "both": ["--excite", str(sched), "--controller", "lqr"],
+            "torque-balancing": ["--controller", "lqr", "--torque"],
+            "unknown-controller": ["--controller", "nope"],
+            }.get(case, ["--excite", str(sched)])  # fmt: skip
+    if case == "foreign-file":
+        out.write_text("mine\n")
+    code = main(["twin", "log", *args, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert len(err.strip().splitlines()) == 1 and err.startswith("mwip: error:"), err
+    assert needle in err, err
+    assert (out.read_text() == "mine\n") if case == "foreign-file" else not out.exists()
