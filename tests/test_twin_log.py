@@ -70,7 +70,7 @@ def test_the_seed_decides_the_noise(files: dict[str, Path]) -> None:
 @pytest.mark.parametrize(("case", "needle"), [
     ("neither", "give one of --excite"),
     ("both", "give one of --excite"),
-    ("torque-balancing", "--torque applies to --excite"),
+    ("bad-inputs", "--inputs"),
     ("unknown-controller", "--controller: unknown controller 'nope'"),
     ("no-mode", "no column 'mode'"),
     ("other-ts", "steps of 0.01 s, the robot samples every 0.005 s"),
@@ -91,7 +91,7 @@ def test_bad_input_is_one_line(files: dict[str, Path], tmp_path: Path, capsys, c
     out = tmp_path / "log.csv"
     args = {"neither": [],
             "both": ["--excite", str(sched), "--controller", "lqr"],
-            "torque-balancing": ["--controller", "lqr", "--torque"],
+            "bad-inputs": ["--controller", "lqr", "--inputs", "volts"],
             "unknown-controller": ["--controller", "nope"],
             }.get(case, ["--excite", str(sched)])  # fmt: skip
     if case == "foreign-file":

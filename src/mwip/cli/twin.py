@@ -305,15 +305,17 @@ def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float,
               help="Seconds of balancing (with --controller).")
 @click.option("--theta0", type=click.FloatRange(-0.3, 0.3), default=0.05, show_default=True,
               help="Initial lean (rad; with --controller).")
-@click.option("--torque", is_flag=True,
-              help="Write the commanded torques (u_r, u_l) instead of the duties (with --excite).")
+@click.option("--inputs", type=click.Choice(["duty", "torque", "both"]), default=None,
+              help="The command columns: the duties before the back-EMF compensation (duty_r, "
+              "duty_l; the default with --excite), the torques the law commanded (u_r, u_l; "
+              "the default with --controller) or both, as a board logs them.")  # fmt: skip
 @click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True,
               help="Seed of the sensors' noise.")
 @click.option("--out", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="The log (CSV, the columns 'mwip twin fit' reads).")
 @FILE_FORCE
 def twin_log(robot_file: Path | None, excite_file: Path | None, controller: str | None,
-             duration: float, theta0: float, torque: bool, seed: int, out: Path,
+             duration: float, theta0: float, inputs: str | None, seed: int, out: Path,
              force: bool) -> None:  # fmt: skip
     """Simulate the log ROBOT would write (its body, drive, firmware and sensors, from the robot
     file): on a stand for an excitation schedule, or balancing under a controller. The whole
@@ -324,8 +326,6 @@ def twin_log(robot_file: Path | None, excite_file: Path | None, controller: str 
     if (excite_file is None) == (controller is None):
         raise click.UsageError("give one of --excite FILE (a stand log) or --controller NAME "
                                "(a balancing log)")  # fmt: skip
-    if torque and excite_file is None:
-        raise click.UsageError("--torque applies to --excite (a balancing log holds the torques)")
     robot = robot_option(robot_file)
     file_ok(out, force)
     if excite_file is not None:
@@ -333,7 +333,8 @@ def twin_log(robot_file: Path | None, excite_file: Path | None, controller: str 
             duty, mode = excite.read_schedule(excite_file, robot.Ts)
         except ValueError as exc:
             raise click.UsageError(f"--excite: {exc}") from None
-        cols = synth.stand_log_on(robot.twin, robot.body, duty, mode, seed=seed, torque=torque)
+        cols = synth.stand_log_on(robot.twin, robot.body, duty, mode, seed=seed,
+                                  inputs=inputs or "duty")  # fmt: skip
         what = f"on a stand, {excite_file}"
     else:
         from mwip.laws.registry import build, get
@@ -345,7 +346,7 @@ def twin_log(robot_file: Path | None, excite_file: Path | None, controller: str 
             raise click.UsageError(f"--controller: {exc}") from None
         ctrl = build(name, robot.design, {}, Ts=robot.Ts)
         cols = synth.balancing_log_on(robot.twin, robot.body, ctrl, duration, seed,
-                                      q0=(0.0, theta0, 0.0))  # fmt: skip
+                                      q0=(0.0, theta0, 0.0), inputs=inputs or "torque")  # fmt: skip
         what = f"balancing under {name} from a lean of {theta0:g} rad"
     write_text_atomic(out, synth.csv_text(cols))
     record_file(out)

@@ -95,10 +95,10 @@ def rollout(twin: Any, seg: BalanceSegments, x0: NDArray[np.float64], Ts: float,
     H = H1 - 1
     br = float(np.mean(plant.b / plant.r))
     cmd = seg.cmd
-    if seg.is_duty:  # a duty command as the torque it asks for against the nominal supply
-        m, d = twin.motor, twin.drive
+    if seg.is_duty:  # a duty command as the torque the firmware was asked for (its torque gain
+        m, d = twin.motor, twin.drive  # k maps that torque to this duty: mwip.hardware.firmware)
         cmd = cmd * d.supply_voltage * twin.drive.gear_ratio * d.gear_efficiency * m.k_t \
-            / m.resistance  # fmt: skip
+            / m.resistance / twin.firmware.torque_gain  # fmt: skip
     act.reset(S)
     act.u_prev = cmd[:, 0].copy()
     q = np.zeros((S, 3))

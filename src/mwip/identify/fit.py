@@ -54,6 +54,7 @@ from mwip.identify.solve import (
     nuisance_solve,
     project_out,
 )
+from mwip.identify.torque_map import TorqueMap, torque_to_duty
 
 __all__ = ["FitResult", "Segments", "fit", "stand_segments", "predict_error", "whiteness"]
 
@@ -213,6 +214,9 @@ class FitResult:
     validation: dict[str, Any] | None = None
     trace: dict[str, NDArray[np.float64]] = field(default_factory=dict, repr=False)
     known: Known | None = field(default=None, repr=False)
+    #: the firmware's torque gain from logs with both pairs (:mod:`mwip.identify.torque_map`):
+    #: ``{"torque_gain", "stderr", "a", "se_a", "misfit", "rows"}``, else ``None``
+    torque_map: dict[str, float] | None = None
 
     def to_json(self) -> dict[str, Any]:
         def num(x: Any) -> Any:
@@ -237,6 +241,7 @@ class FitResult:
             "segment": self.segment,
             "experiments": dict(self.experiments),
             "validation": self.validation,
+            "torque_to_duty": self.torque_map,
         }
 
 
@@ -562,6 +567,7 @@ def fit(
                            f"from the first log's {Ts:g} s")  # fmt: skip
     if not (5 <= segment <= 400):
         raise ValueError(f"'segment' must be in [5, 400] samples, got {segment!r}")
+    tm = torque_to_duty(logs)  # before any fitting: duties that follow no map are refused
     fixed = dict(fixed or {})
     for n, v in fixed.items():
         if n not in BOUNDS:
@@ -659,12 +665,27 @@ def fit(
             flags.append(f"{n}: no segment informs it; left at its prior value {values[n]:g}")
     experiments = {m: int(sum(int(np.sum(lg.mode == m)) for lg in logs))
                    for m in ("balancing", "wheels-off-ground", "static")}  # fmt: skip
+    tmap = None if tm is None else _torque_gain(tm, values, stderr, status, known, flags)
     return FitResult(
         estimates=values, stderr=stderr, status=status,
         free=[n for n in want if status[n] == "fitted"], fixed=fixed, correlation=corr,
         flags=flags, condition=cond, residuals=residuals, Ts=Ts, segment=segment,
-        experiments=experiments, trace=trace, known=known,
+        experiments=experiments, trace=trace, known=known, torque_map=tmap,
     )  # fmt: skip
+
+
+def _torque_gain(tm: TorqueMap, values: Mapping[str, float],
+                 stderr: Mapping[str, float | None], status: Mapping[str, str], known: Known,
+                 flags: list[str]) -> dict[str, float]:  # fmt: skip
+    """The firmware's torque gain from the torque-to-duty map ``tm`` of the logs that hold
+    both pairs (:mod:`mwip.identify.torque_map`), with the gear ratio of this fit and the
+    robot's motor data (the stand model's ``k_e`` is its ``k_t``, SI units)."""
+    n = "drive.gear_ratio"
+    k, se = tm.torque_gain(values[n], stderr[n], known.eta, known.ke, known.Vs, known.R)
+    if status[n] not in ("fitted", "fixed"):
+        flags.append(f"firmware.torque_gain: the gear ratio is {status[n]}, so the torque gain "
+                     f"{k:.4g} rests on its value {values[n]:g}")  # fmt: skip
+    return {"torque_gain": k, "stderr": se, **tm.to_json()}
 
 
 def predict_error(log: Log, values: Mapping[str, float], known: Known,

@@ -2,9 +2,11 @@
 
 Required columns: ``t`` (s), ``theta`` (rad, the board's pitch estimate), ``theta_rate``
 (rad/s, gyro), ``enc_r``, ``enc_l`` (rad, wheel angle relative to the body) and either
-``u_r``, ``u_l`` (N m, commanded wheel torque) or ``duty_r``, ``duty_l`` (-1..1). Optional:
-``accel_x``, ``accel_y`` (m/s^2) and ``mode`` (``balancing``, the default,
-``wheels-off-ground`` or ``static``).
+``u_r``, ``u_l`` (N m, commanded wheel torque) or ``duty_r``, ``duty_l`` (-1..1), or both as a
+board logs them (the duty then drives the motor model and the pair gives the firmware's
+torque-to-duty map, :mod:`mwip.identify.torque_map`). A column with no value in any row is an
+absent column. Optional: ``accel_x``, ``accel_y`` (m/s^2) and ``mode`` (``balancing``, the
+default, ``wheels-off-ground`` or ``static``).
 
 Every problem is a :class:`LogError` (a ``ValueError``) whose message is one line naming the
 file and the column.
@@ -92,6 +94,11 @@ class Log:
         """(n, 2) command: torques (N m) or duties."""
         a, b = ("u_r", "u_l") if self.inputs == "torque" else ("duty_r", "duty_l")
         return np.column_stack([self.columns[a], self.columns[b]])
+
+    @property
+    def both_inputs(self) -> bool:
+        """Both the commanded torques and the duties were logged (``inputs`` is ``duty``)."""
+        return self.inputs == "duty" and "u_r" in self.columns
 
     @property
     def enc(self) -> NDArray[np.float64]:
@@ -193,6 +200,17 @@ def _read_parquet(path: str, data: bytes, max_rows: int) -> dict[str, list[str] 
     return {n: (np.concatenate(v) if v else np.empty(0)) for n, v in parts.items()}
 
 
+def _all_empty(values: list[str] | NDArray) -> bool:
+    """A column with no value in any row (blank text, or nulls / NaN of a Parquet column)."""
+    if isinstance(values, list):
+        return all(not str(v).strip() for v in values)
+    arr = np.asarray(values)
+    if arr.dtype.kind in "fc":
+        return bool(np.all(np.isnan(arr)))
+    return all(v is None or (isinstance(v, float) and math.isnan(v)) or not str(v).strip()
+               for v in arr.tolist())  # fmt: skip
+
+
 def _floats(path: str, name: str, values: list[str] | NDArray) -> NDArray[np.float64]:
     if isinstance(values, np.ndarray) and values.dtype.kind == "f":
         return values.astype(np.float64, copy=False)  # (Parquet: None is NaN)
@@ -241,6 +259,7 @@ def read_log(path: str | Path, max_rows: int = MAX_ROWS) -> Log:
         raise _err(p, None, f"is larger than {_MAX_BYTES // 2**20} MiB")
     sha = hashlib.sha256(data).hexdigest()
     raw = _read_table(p, data, max_rows)
+    raw = {k: v for k, v in raw.items() if not _all_empty(v)}  # an empty column is absent
     header = list(raw)
     for name in REQUIRED:
         if name not in raw:
@@ -251,17 +270,18 @@ def read_log(path: str | Path, max_rows: int = MAX_ROWS) -> Log:
             difflib.get_close_matches("duty_r", header, n=1, cutoff=0.6)  # fmt: skip
         hint = f" (found {close[0]!r})" if close else ""
         raise _err(p, "u_r", f"is missing{hint}: give u_r, u_l (N m) or duty_r, duty_l")
-    if len(have) > 1:
-        raise _err(p, "duty_r", "both torque (u_r, u_l) and duty columns given; keep one pair")
-    pair = have[0]
-    for name in pair:
+    # both pairs, as a board logs them: the duty drives the motor model, and the pair gives
+    # the firmware's torque-to-duty map (mwip.identify.torque_map)
+    pairs = have
+    pair = have[-1]
+    for name in (n for pr in pairs for n in pr):
         if name not in raw:
             raise _missing(p, name, header)
     n = len(raw["t"])
     if n < 3:
         raise _err(p, "t", f"has {n} row{'s' if n != 1 else ''}; a log needs at least 3")
     cols: dict[str, NDArray[np.float64]] = {}
-    for name in (*REQUIRED, *pair, "accel_x", "accel_y"):
+    for name in (*REQUIRED, *(n for pr in pairs for n in pr), "accel_x", "accel_y"):
         if name in raw:
             cols[name] = _floats(p, name, raw[name])
             bad = ~np.isfinite(cols[name])
@@ -302,12 +322,12 @@ def read_log(path: str | Path, max_rows: int = MAX_ROWS) -> Log:
         hint = "deg/s instead of rad/s?" if top < 50 * 57.3 else "mrad/s or deg/s instead of rad/s?"
         raise _err(p, "theta_rate", f"up to {top:.4g}, above 50 rad/s: {hint}")
     inputs = "torque" if pair[0] == "u_r" else "duty"
-    for name in pair:
+    for name in (n for pr in pairs for n in pr):
         x = cols[name]
-        if inputs == "duty" and np.max(np.abs(x)) > 1.0 + 1e-9:
+        if name.startswith("duty") and np.max(np.abs(x)) > 1.0 + 1e-9:
             raise _err(p, name, f"duty {x[np.argmax(np.abs(x))]:g} outside [-1, 1] "
                        "(percent instead of a fraction?)")  # fmt: skip
-        if inputs == "torque" and np.max(np.abs(x)) > TORQUE_MAX:
+        if name.startswith("u_") and np.max(np.abs(x)) > TORQUE_MAX:
             raise _err(p, name, f"|u| up to {np.max(np.abs(x)):g} N m, far above any drive's "
                        f"limit ({TORQUE_MAX:g} N m): mN m instead of N m?")  # fmt: skip
     if "accel_x" in cols:

@@ -6,7 +6,8 @@ the elements of :data:`mwip.hardware.registry.DRIVE_CHAIN` in their order) writt
 batch-first:
 
 1. delay (:mod:`mwip.hardware.delay`, on the command, before the firmware): the duty command
-   ``d_k`` (logged, or ``R u_k / (N eta k_t V_0)`` from a torque command) held as
+   ``d_k`` (logged, or ``k R u_k / (N eta k_t V_0)`` from a torque command, ``k`` the
+   firmware's torque gain of the robot file) held as
    ``D d_{k-1} + (1 - D) d_k``;
 2. the firmware (:mod:`mwip.hardware.firmware`) adds the back-EMF compensation
    ``c k_e omega_m / V_0`` of the speed at the sample (``omega_m = N w_k``); the driver
@@ -66,6 +67,9 @@ class Known:
     Jr: float
     Db: float
     pwm_levels: int = 0
+    #: the firmware's torque gain ``k`` (:mod:`mwip.hardware.firmware`): a torque command
+    #: ``u`` is the duty ``k R u / (N eta k_t V_0)``
+    torque_gain: float = 1.0
 
     @classmethod
     def from_twin(cls, twin: object, Ts: float, body: object | None = None) -> Known:
@@ -82,7 +86,8 @@ class Known:
                    eta=d.gear_efficiency, Vs=d.supply_voltage,
                    Rs=d.supply_resistance if sag else 0.0, Iwa=float(b.Iwa),  # type: ignore[attr-defined]
                    Jr=m.rotor_inertia, Db=float(b.Db),  # type: ignore[attr-defined]
-                   pwm_levels=int(d.pwm_levels) if "pwm" in twin.active else 0)  # type: ignore[attr-defined]  # fmt: skip
+                   pwm_levels=int(d.pwm_levels) if "pwm" in twin.active else 0,  # type: ignore[attr-defined]
+                   torque_gain=float(twin.firmware.torque_gain))  # type: ignore[attr-defined]  # fmt: skip
 
 
 def _softplus(x: NDArray[np.float64], w: float) -> NDArray[np.float64]:
@@ -162,7 +167,7 @@ def stand_rollout(
     mob = 1.0 / J
     e_el = np.exp(-k.Ts / k.tau_e)
     f_el = (k.tau_e / k.Ts) * (1.0 - e_el)
-    scale = np.where(is_duty[:, None], 1.0, k.R / (gain * k.Vs))
+    scale = np.where(is_duty[:, None], 1.0, k.torque_gain * k.R / (gain * k.Vs))
     duty_cmd = cmd * scale[:, :, None]
     band = k.R * imax
     Jd = J / D * (1.0 - a)

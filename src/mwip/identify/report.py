@@ -39,6 +39,13 @@ def fitted_robot(result: FitResult, logs: Sequence[Log], base: Any = None) -> An
         else:
             err = f" +- {se:.3g} (1 standard error)" if se is not None and np.isfinite(se) else ""
             sources[n] = f"{st}: `mwip twin fit`{err} on the logs {sha}"
+    tm = result.torque_map
+    if tm is not None:  # both pairs logged: the firmware's torque-to-duty map
+        use["firmware.torque_gain"] = tm["torque_gain"]
+        sources["firmware.torque_gain"] = (
+            f"fitted: `mwip twin fit`, torque-to-duty map d = a u of the logged torque and duty "
+            f"(a = {tm['a']:.5g}, misfit {100 * tm['misfit']:.2g} %) with the fitted gear ratio"
+            f" +- {tm['stderr']:.3g} (1 standard error) on the logs {sha}")  # fmt: skip
     notes = ["Fitted by `mwip twin fit` (docs/twin_fit.md) from the logs (SHA-256):"]
     notes += [f"  {lg.sha256}  {os.path.basename(lg.path)}" for lg in logs]
     notes.append(f"free: {', '.join(result.free) or '(none)'}")

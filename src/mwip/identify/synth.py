@@ -92,11 +92,17 @@ def stand_log_on(
     *,
     seed: int = 0,
     torque: bool = False,
+    inputs: str | None = None,
 ) -> dict[str, NDArray]:
     """A wheels-off-ground / static log of the twin ``tw`` (a :class:`mwip.hardware.twin.Twin`,
-    its elements as they are) and ``body`` for the schedule ``duty`` (n, 2) (module
-    docstring): columns of the log schema (``u_r, u_l``, the commanded torques, instead of
-    duties with ``torque``)."""
+    its elements as they are) and ``body`` for the schedule ``duty`` (n, 2) of the duties the
+    firmware writes before its back-EMF compensation (module docstring): columns of the log
+    schema, the command as ``inputs`` says: ``"duty"`` (default; ``"torque"`` with
+    ``torque``), ``"torque"`` (``u_r, u_l``: the torques the firmware was asked for, which its
+    torque gain ``k`` maps to those duties) or ``"both"``."""
+    inputs = inputs or ("torque" if torque else "duty")
+    if inputs not in ("duty", "torque", "both"):
+        raise ValueError(f"inputs must be 'duty', 'torque' or 'both', got {inputs!r}")
     from mwip.hardware.twin import TwinActuator, TwinSensor
 
     bd = body
@@ -120,6 +126,7 @@ def stand_log_on(
     cols: dict[str, list[float]] = {k: [] for k in (
         "t", "theta", "theta_rate", "enc_r", "enc_l", "accel_x", "accel_y")}  # fmt: skip
     cmd_out = np.zeros((n, 2))
+    k_fw = float(tw.firmware.torque_gain)
     for k in range(n):
         psi, alpha = 0.5 * (phi[0] + phi[1]), (phi[0] - phi[1]) / (2.0 * br)
         state = np.array([[psi, 0.0, alpha, 0.5 * (w[0] + w[1]), 0.0,
@@ -132,15 +139,17 @@ def stand_log_on(
                          ("enc_r", enc[0]), ("enc_l", enc[1]), ("accel_x", acc[0]),
                          ("accel_y", acc[1])):  # fmt: skip
             cols[key].append(float(val))
-        u = duty[k] * d.supply_voltage * gain / m.resistance
-        cmd_out[k] = u if torque else duty[k]
+        u = duty[k] * d.supply_voltage * gain / m.resistance / k_fw
+        cmd_out[k] = u
         T = act(k * Ts, u[None, :], state)[0]
         wss = T / D
         phi = phi + wss * Ts + (w - wss) * (J / D) * (1.0 - a)
         w = wss + (w - wss) * a
     out: dict[str, NDArray] = {key: np.asarray(v) for key, v in cols.items()}
-    names = ("u_r", "u_l") if torque else ("duty_r", "duty_l")
-    out[names[0]], out[names[1]] = cmd_out[:, 0], cmd_out[:, 1]
+    if inputs in ("torque", "both"):
+        out["u_r"], out["u_l"] = cmd_out[:, 0], cmd_out[:, 1]
+    if inputs in ("duty", "both"):
+        out["duty_r"], out["duty_l"] = duty[:, 0].copy(), duty[:, 1].copy()
     out["mode"] = np.asarray(mode if mode is not None else np.full(n, "wheels-off-ground"))
     return out
 
@@ -161,11 +170,15 @@ def balancing_log(
 
 def balancing_log_on(
     tw: Any, body: Any, ctrl: Any, duration: float = 5.0, seed: int = 0,
-    q0: tuple[float, float, float] = (0.0, 0.05, 0.0),
+    q0: tuple[float, float, float] = (0.0, 0.05, 0.0), inputs: str = "torque",
 ) -> dict[str, NDArray]:
     """A balancing log of the controller ``ctrl`` on the twin ``tw`` and ``body`` (``None``:
     Table 6.1) from the lean ``q0``: what the board records each sample (its pitch estimate,
-    the gyro, the encoders relative to the body, the commanded torques)."""
+    the gyro, the encoders relative to the body, and as ``inputs`` says the commanded torques
+    ``"torque"``, the duties its firmware computes from them before the back-EMF compensation,
+    ``k R u / (N eta k_t V_0)``, ``"duty"``, or ``"both"``)."""
+    if inputs not in ("duty", "torque", "both"):
+        raise ValueError(f"inputs must be 'duty', 'torque' or 'both', got {inputs!r}")
     from mwip.hardware.twin import run_on_twin
 
     res = run_on_twin(ctrl, twin=tw, q0=q0, duration=duration,
@@ -181,12 +194,20 @@ def balancing_log_on(
     rel = y[:, 0] - y[:, 1] - (y[0, 0] - y[0, 1])
     half = br * (y[:, 2] - y[0, 2])
     n = min(len(y), len(u))
-    return {
+    out = {
         "t": np.arange(n) * tw.Ts,
         "theta": y[:n, 1], "theta_rate": gyro[:n],
         "enc_r": (rel + half)[:n], "enc_l": (rel - half)[:n],
-        "u_r": u[:n, 0], "u_l": u[:n, 1], "mode": np.full(n, "balancing"),
     }  # fmt: skip
+    if inputs in ("torque", "both"):
+        out["u_r"], out["u_l"] = u[:n, 0], u[:n, 1]
+    if inputs in ("duty", "both"):
+        m, d = tw.motor, tw.drive
+        duty = tw.firmware.torque_gain * m.resistance * u[:n] / (
+            d.gear_ratio * d.gear_efficiency * m.k_t * d.supply_voltage)
+        out["duty_r"], out["duty_l"] = duty[:, 0], duty[:, 1]
+    out["mode"] = np.full(n, "balancing")
+    return out
 
 
 def csv_text(cols: Mapping[str, NDArray]) -> str:
