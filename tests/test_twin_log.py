@@ -102,3 +102,38 @@ def test_bad_input_is_one_line(files: dict[str, Path], tmp_path: Path, capsys, c
     assert len(err.strip().splitlines()) == 1 and err.startswith("mwip: error:"), err
     assert needle in err, err
     assert (out.read_text() == "mine\n") if case == "foreign-file" else not out.exists()
+
+
+def test_the_fit_prints_its_estimates_and_validation(files: dict[str, Path], capsys) -> None:
+    """Issue 37, item 5: the terminal shows every estimate with its standard error, status and
+    prior range, and the validation log's prediction errors beside the prior centre's."""
+    stand = _log(files, "p-stand.csv", "--excite", str(files["sched"]))
+    bal = _log(files, "p-bal.csv", "--controller", "lqr", "--duration", "1")
+    capsys.readouterr()
+    out = files["dir"] / "p-fit"
+    assert main(["twin", "fit", str(stand), "--validate", str(bal), "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    doc = json.loads((out / "fit.json").read_text())
+    lines = {ln.split()[0]: ln for ln in text.splitlines() if ln.split()}
+    for name, value in doc["estimates"].items():
+        assert f"{value:.5g}" in lines[name] and doc["status"][name] in lines[name], name
+    (val,) = [ln for ln in text.splitlines() if ln.startswith("validation on ")]
+    v = doc["validation"]
+    assert f"{v['fitted']['balance_enc_rms']:.3g} rad (prior centre " \
+           f"{v['prior_centre']['balance_enc_rms']:.3g})" in val  # fmt: skip
+
+
+def test_an_estimate_at_a_bound_says_so() -> None:
+    from mwip.identify.bounds import BOUNDS
+    from mwip.identify.fit import FitResult, at_bound, summary_lines
+
+    lo, hi = BOUNDS["gearbox.coulomb"]
+    assert at_bound("gearbox.coulomb", lo) == "lower" and at_bound("gearbox.coulomb", hi) == "upper"
+    assert at_bound("gearbox.coulomb", 0.5 * (lo + hi)) is None
+    res = FitResult(estimates={"gearbox.coulomb": lo, "drive.gear_ratio": 12.0},
+                    stderr={"gearbox.coulomb": 1e-4, "drive.gear_ratio": 0.4},
+                    status={"gearbox.coulomb": "fitted", "drive.gear_ratio": "fitted"},
+                    free=[], fixed={}, correlation={}, flags=[], condition=None, residuals={},
+                    Ts=0.005, segment=40, experiments={})  # fmt: skip
+    text = "\n".join(summary_lines(res))
+    assert "fitted (at its lower bound)" in text and text.count("at its") == 1

@@ -187,6 +187,10 @@ def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: st
     outdir.claim(target, "twin fit")
     files = write_outputs(target, result, read, robot)
     click.echo(f"wrote {', '.join(str(f) for f in files)}")
+    from mwip.identify.fit import summary_lines
+
+    for line in summary_lines(result):
+        click.echo(line)
     enc = (result.residuals or {}).get("enc") or {}
     if enc.get("rms") is not None:  # the units of the progress lines
         click.echo(f"encoder residual RMS {enc['rms']:.3g} rad (fit.json: residuals)")

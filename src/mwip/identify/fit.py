@@ -56,7 +56,8 @@ from mwip.identify.solve import (
 )
 from mwip.identify.torque_map import TorqueMap, torque_to_duty
 
-__all__ = ["FitResult", "Segments", "fit", "stand_segments", "predict_error", "whiteness"]
+__all__ = ["FitResult", "Segments", "fit", "stand_segments", "predict_error", "whiteness",
+           "at_bound", "summary_lines"]
 
 #: Encoder residual scale (rad) the least-squares problem is written in.
 _RES = 1e-3
@@ -663,6 +664,12 @@ def fit(
     for n in NAMES:
         if status[n] == "not informed":
             flags.append(f"{n}: no segment informs it; left at its prior value {values[n]:g}")
+        elif status[n] in ("fitted", "not identified") and (side := at_bound(n, values[n])):
+            lo, hi = BOUNDS[n]
+            flags.append(f"{n}: the estimate {values[n]:g} is at the {side} bound of its "
+                         f"prior range [{lo:g}, {hi:g}]: the logs ask for a value outside it "
+                         "(a structure the model lacks, a confounded partner, or a wrong "
+                         "fixed value?); its standard error does not hold there")  # fmt: skip
     experiments = {m: int(sum(int(np.sum(lg.mode == m)) for lg in logs))
                    for m in ("balancing", "wheels-off-ground", "static")}  # fmt: skip
     tmap = None if tm is None else _torque_gain(tm, values, stderr, status, known, flags)
@@ -672,6 +679,48 @@ def fit(
         flags=flags, condition=cond, residuals=residuals, Ts=Ts, segment=segment,
         experiments=experiments, trace=trace, known=known, torque_map=tmap,
     )  # fmt: skip
+
+
+def at_bound(name: str, value: float) -> str | None:
+    """``"lower"`` / ``"upper"`` where ``value`` sits within 1e-6 of the span of a bound of
+    ``name``'s prior range (:data:`mwip.identify.bounds.BOUNDS`), else ``None``."""
+    lo, hi = BOUNDS[name]
+    tol = 1e-6 * (hi - lo)
+    return "lower" if value <= lo + tol else "upper" if value >= hi - tol else None
+
+
+def summary_lines(result: FitResult) -> list[str]:
+    """The estimates as a person reads them: one line per parameter (estimate, 1 standard
+    error, status, prior range; a value at a bound of its range says so), the torque gain
+    where both pairs were logged, and the validation log's prediction errors against the
+    prior centre's."""
+    rows = [("parameter", "estimate", "+- 1 s.e.", "status", "prior range")]
+    for n in result.estimates:
+        v, se, st = result.estimates[n], result.stderr.get(n), result.status[n]
+        lo, hi = BOUNDS[n]
+        side = at_bound(n, v) if st in ("fitted", "not identified") else None
+        rows.append((n, f"{v:.5g}", "-" if se is None else f"{se:.2g}",
+                     st + (f" (at its {side} bound)" if side else ""), f"[{lo:g}, {hi:g}]"))
+    tm = result.torque_map
+    if tm is not None:
+        rows.append(("firmware.torque_gain", f"{tm['torque_gain']:.5g}", f"{tm['stderr']:.2g}",
+                     "fitted (torque-to-duty map)", "-"))  # fmt: skip
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    out = ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in rows]
+    val = result.validation
+    if val:
+        fit_e, pri_e = val.get("fitted") or {}, val.get("prior_centre") or {}
+        parts = []
+        for key, what, unit in (("enc_rms", "encoders", "rad"),
+                                ("balance_enc_rms", "encoders (balancing, 50 ms ahead)", "rad"),
+                                ("balance_gyro_rms", "gyro (balancing)", "rad/s"),
+                                ("theta_rate_rms", "gyro", "rad/s")):  # fmt: skip
+            if fit_e.get(key) is not None and pri_e.get(key) is not None:
+                parts.append(f"{what} {fit_e[key]:.3g} {unit} (prior centre {pri_e[key]:.3g})")
+        if parts:
+            out.append(f"validation on {val.get('log')}: RMS prediction error: "
+                       + "; ".join(parts))  # fmt: skip
+    return out
 
 
 def _torque_gain(tm: TorqueMap, values: Mapping[str, float],
