@@ -121,6 +121,14 @@ def test_the_fit_prints_its_estimates_and_validation(files: dict[str, Path], cap
     v = doc["validation"]
     assert f"{v['fitted']['balance_enc_rms']:.3g} rad (prior centre " \
            f"{v['prior_centre']['balance_enc_rms']:.3g})" in val  # fmt: skip
+    # the page: the same estimates beside the prior, the validation, correlations, diagnostics
+    page = (out / "index.html").read_text()
+    for name, value in doc["estimates"].items():
+        assert f"<td>{name}</td><td>{value:.5g}</td>" in page, name
+    for head in ("Validation on", "Correlation of the fitted parameters", "Residual diagnostics",
+                 "<img src='fit.png'"):  # fmt: skip
+        assert head in page, head
+    assert f"<td>balance_enc_rms</td><td>{v['fitted']['balance_enc_rms']:.4g}</td>" in page
 
 
 def test_an_estimate_at_a_bound_says_so() -> None:

@@ -64,7 +64,8 @@ def twin_sensitivity(robot_file: Path | None, as_json: bool) -> None:
 @twin.command("fit")
 @click.argument("logs", nargs=-1, required=False, type=click.Path())
 @click.option("--out", "out", required=True, type=click.Path(path_type=Path),
-              help="Output folder (robot.toml, fit.json, fit.png); new, empty or mwip's own.")
+              help="Output folder (robot.toml, fit.json, fit.png, index.html); new, empty or "
+              "mwip's own.")
 @ROBOT_OPTION
 @gone_option("--twin", hint="the starting robot is --robot FILE (a robot file)")
 @click.option("--free", "free", default=None,
