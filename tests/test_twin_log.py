@@ -145,3 +145,22 @@ def test_an_estimate_at_a_bound_says_so() -> None:
                     Ts=0.005, segment=40, experiments={})  # fmt: skip
     text = "\n".join(summary_lines(res))
     assert "fitted (at its lower bound)" in text and text.count("at its") == 1
+
+
+@pytest.mark.parametrize(("log", "name", "needs"), [
+    ("stand", "imu.height", "measure it"),
+    ("balancing", "drive.gear_ratio", "wheels-off-ground rows"),
+])  # fmt: skip
+def test_a_parameter_nothing_informs_is_not_fitted(files: dict[str, Path], tmp_path: Path,
+                                                   capsys, log: str, name: str,
+                                                   needs: str) -> None:  # fmt: skip
+    """Issue 37, item 4: `--free NAME` where no log informs NAME is refused with what would
+    inform it, and the way to hold it instead."""
+    path = (_log(files, "r-stand.csv", "--excite", str(files["sched"])) if log == "stand"
+            else _log(files, "r-bal.csv", "--controller", "lqr", "--duration", "1"))  # fmt: skip
+    capsys.readouterr()
+    out = tmp_path / "fit"
+    assert main(["twin", "fit", str(path), "--free", name, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"--free {name}: no log informs it" in err, err
+    assert needs in err and f"--fix {name}=VALUE" in err and not out.exists()

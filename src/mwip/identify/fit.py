@@ -246,6 +246,19 @@ class FitResult:
         }
 
 
+_STAND = ("wheels-off-ground rows (the robot on a stand running the steps and chirp of "
+          "`mwip twin excite`)")  # fmt: skip
+#: What informs each parameter (:func:`_informed`), for the refusal of ``--free``.
+NEEDS: dict[str, str] = {
+    **{n: _STAND for n in STAND_PARAMS},
+    "imu.gyro_bias": "static or wheels-off-ground rows (the body held still)",
+    "imu.accel_bias": "static or wheels-off-ground rows with accel_x, accel_y",
+    "firmware.fusion.tau": "a log with accel_x, accel_y",
+    "imu.height": "an experiment no schedule of `mwip twin excite` holds (the accelerometer's "
+                  "height above the axle: measure it)",
+}  # fmt: skip
+
+
 def _informed(logs: Sequence[Log]) -> dict[str, str]:
     """name -> experiment that informs it (absent: none)."""
     modes = set().union(*(set(lg.mode.tolist()) for lg in logs))
@@ -586,6 +599,9 @@ def fit(
                 raise ValueError(f"--free: unknown parameter {n!r}; allowed: {', '.join(NAMES)}")
             if n in fixed:
                 raise ValueError(f"parameter {n!r} is both --free and --fix")
+            if n not in informed:  # issue 37: a parameter nothing informs is not fitted
+                raise ValueError(f"--free {n}: no log informs it; it needs {NEEDS[n]}. Give "
+                                 f"such a log, or hold it with --fix {n}=VALUE")  # fmt: skip
     values = {n: fixed.get(n, centre(n)) for n in NAMES}
     status = {n: ("fixed" if n in fixed else "prior") for n in NAMES}
     stderr: dict[str, float | None] = {n: None for n in NAMES}
