@@ -93,6 +93,22 @@ def _exit_with_parent(parent: int) -> None:
     os._exit(1)
 
 
+def _openmp_started() -> bool:
+    """Whether this process has started Numba's worker threads on the OpenMP layer: a child
+    forked from it aborts when it runs a threaded loop ("fork() called from a process already
+    using GNU OpenMP"), so its studies run in this process instead (the workers are forked,
+    and a fork server or spawned workers would re-run a user's script without a main guard)."""
+    import sys
+
+    parallel = sys.modules.get("numba.np.ufunc.parallel")
+    if parallel is None or not getattr(parallel, "_is_initialized", False):
+        return False
+    try:
+        return bool(parallel.threading_layer() == "omp")
+    except ValueError:  # (no layer launched)
+        return False
+
+
 def _stop_pool(pool: ProcessPoolExecutor) -> None:
     """Stop ``pool`` at once: kill its workers (their studies are abandoned), then reap them,
     so that nothing is left for the interpreter to join at exit."""
@@ -231,6 +247,13 @@ def run_studies(
         if on_done is not None:
             on_done(outcome)
 
+    if jobs > 1 and len(names) > 1 and _openmp_started():
+        from mwip.notice import once
+
+        once("fork-openmp", "running the studies one after another in this process: it has "
+             "already run Numba's OpenMP threads (a threaded batch), which a forked worker "
+             "cannot use (GNU OpenMP aborts it)")  # fmt: skip
+        jobs = 1
     with Staging(out) as stage:
         assert stage.path is not None
         if jobs <= 1 or len(names) == 1:
