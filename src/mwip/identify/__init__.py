@@ -4,7 +4,9 @@
 - :mod:`mwip.identify.logs`: reading and validating logs (:class:`~mwip.identify.logs.LogError`);
 - :mod:`mwip.identify.model`: the batched prediction models (wheels-off-ground drive model);
 - :mod:`mwip.identify.fit`: multiple-shooting prediction-error fit and its statistics;
-- :mod:`mwip.identify.report`: ``twin.toml``, ``fit.json``, ``fit.png``;
+- :mod:`mwip.identify.report`: ``robot.toml``, ``fit.json``, ``fit.png``, ``index.html``;
+- :mod:`mwip.identify.torque_map`: the firmware's torque gain from logs of torques and duties;
 - :mod:`mwip.identify.excite`: the excitation schedule (``mwip twin excite``);
-- :mod:`mwip.identify.synth`: synthetic logs from the twin's own elements (tests, benchmark).
+- :mod:`mwip.identify.synth`: synthetic logs from the twin's own elements (``mwip twin log``,
+  tests, benchmarks).
 """

@@ -272,16 +272,16 @@ def read_log(path: str | Path, max_rows: int = MAX_ROWS) -> Log:
         raise _err(p, "u_r", f"is missing{hint}: give u_r, u_l (N m) or duty_r, duty_l")
     # both pairs, as a board logs them: the duty drives the motor model, and the pair gives
     # the firmware's torque-to-duty map (mwip.identify.torque_map)
-    pairs = have
     pair = have[-1]
-    for name in (n for pr in pairs for n in pr):
+    given = [n for pr in have for n in pr]  # every input column, of one pair or both
+    for name in given:
         if name not in raw:
             raise _missing(p, name, header)
     n = len(raw["t"])
     if n < 3:
         raise _err(p, "t", f"has {n} row{'s' if n != 1 else ''}; a log needs at least 3")
     cols: dict[str, NDArray[np.float64]] = {}
-    for name in (*REQUIRED, *(n for pr in pairs for n in pr), "accel_x", "accel_y"):
+    for name in (*REQUIRED, *given, "accel_x", "accel_y"):
         if name in raw:
             cols[name] = _floats(p, name, raw[name])
             bad = ~np.isfinite(cols[name])
@@ -322,7 +322,7 @@ def read_log(path: str | Path, max_rows: int = MAX_ROWS) -> Log:
         hint = "deg/s instead of rad/s?" if top < 50 * 57.3 else "mrad/s or deg/s instead of rad/s?"
         raise _err(p, "theta_rate", f"up to {top:.4g}, above 50 rad/s: {hint}")
     inputs = "torque" if pair[0] == "u_r" else "duty"
-    for name in (n for pr in pairs for n in pr):
+    for name in given:
         x = cols[name]
         if name.startswith("duty") and np.max(np.abs(x)) > 1.0 + 1e-9:
             raise _err(p, name, f"duty {x[np.argmax(np.abs(x))]:g} outside [-1, 1] "

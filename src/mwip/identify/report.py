@@ -207,8 +207,9 @@ def page_html(result: FitResult, logs: Sequence[Log]) -> str:
                    f"<td>{v.get('whiteness', float('nan')):.3g}</td><td>{v.get('n', 0):.0f}"
                    "</td></tr>" for k, v in (result.residuals or {}).items())  # fmt: skip
     parts.append("<h2>Residual diagnostics</h2><p>RMS of each signal's residual, and its "
-                 "whiteness (the fit.json statistic: near 1 for white residuals; larger: "
-                 "structure the model lacks).</p><table><tr><th>signal</th><th>RMS</th>"
+                 "whiteness (the fit.json statistic: the share of its autocorrelations at lags "
+                 "1-20 inside white noise's 95 % band; near 1 for white residuals, lower where "
+                 "the model lacks a structure).</p><table><tr><th>signal</th><th>RMS</th>"
                  f"<th>whiteness</th><th>values</th></tr>{diag}</table>")  # fmt: skip
     parts.append("<h2>Measured and predicted</h2><img src='fit.png' alt='fit.png' "
                  "style='max-width:100%'></body></html>")  # fmt: skip

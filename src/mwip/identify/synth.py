@@ -81,7 +81,7 @@ def stand_log(
     from mwip.params import REAL
 
     return stand_log_on(twin_for(truth, base), REAL if body is None else body, duty, mode,
-                        seed=seed, torque=torque)  # fmt: skip
+                        seed=seed, inputs="torque" if torque else "duty")  # fmt: skip
 
 
 def stand_log_on(
@@ -91,16 +91,14 @@ def stand_log_on(
     mode: NDArray[np.str_] | None = None,
     *,
     seed: int = 0,
-    torque: bool = False,
-    inputs: str | None = None,
+    inputs: str = "duty",
 ) -> dict[str, NDArray]:
     """A wheels-off-ground / static log of the twin ``tw`` (a :class:`mwip.hardware.twin.Twin`,
     its elements as they are) and ``body`` for the schedule ``duty`` (n, 2) of the duties the
     firmware writes before its back-EMF compensation (module docstring): columns of the log
-    schema, the command as ``inputs`` says: ``"duty"`` (default; ``"torque"`` with
-    ``torque``), ``"torque"`` (``u_r, u_l``: the torques the firmware was asked for, which its
-    torque gain ``k`` maps to those duties) or ``"both"``."""
-    inputs = inputs or ("torque" if torque else "duty")
+    schema, the command as ``inputs`` says: ``"duty"``, ``"torque"`` (``u_r, u_l``: the
+    torques the firmware was asked for, which its torque gain ``k`` maps to those duties) or
+    ``"both"``."""
     if inputs not in ("duty", "torque", "both"):
         raise ValueError(f"inputs must be 'duty', 'torque' or 'both', got {inputs!r}")
     from mwip.hardware.twin import TwinActuator, TwinSensor
