@@ -54,6 +54,7 @@ from mwip.identify.solve import (
     nuisance_solve,
     project_out,
 )
+from mwip.identify.structure import StructureCheck, check_structure, residual_floor
 from mwip.identify.torque_map import TorqueMap, torque_to_duty
 
 __all__ = ["FitResult", "Segments", "fit", "stand_segments", "predict_error", "whiteness",
@@ -169,6 +170,21 @@ def cluster_covariance(
     ``u_s = A~_s^T (I - H_s)^-1 r_s``: the same numbers as the full matrices, without
     inverting the ill-conditioned full normal matrix. Returns ``(V, B)`` of the globals.
     """
+    u, B, _ = cluster_scores(A, N, r, offsets)
+    return sandwich(u, B), B
+
+
+def sandwich(u: NDArray[np.float64], B: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(G - 1) / G  B (sum_s u_s u_s^T) B`` (:func:`cluster_covariance`)."""
+    G = u.shape[0]
+    return np.asarray((G - 1) / max(G, 1) * (B @ (u.T @ u) @ B), dtype=float)
+
+
+def cluster_scores(
+    A: NDArray[np.float64], N: NDArray[np.float64], r: NDArray[np.float64], offsets: int = 0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The pieces of :func:`cluster_covariance`: the clusters' leave-one-out scores ``u``
+    (G, g), the bread ``B`` (g, g) and the nuisance-projected Jacobians ``A~`` (G, n, g)."""
     G, n, g = A.shape
     Pe = np.zeros((n, n))
     if offsets:
@@ -191,9 +207,7 @@ def cluster_covariance(
     inv = np.where(lam > 1e-9, 1.0 / np.maximum(lam, 1e-9), 0.0)
     loo = np.einsum("snk,sk->sn", U, inv * np.einsum("snk,sn->sk", U, r))
     u = np.einsum("sni,sn->si", At, loo)
-    M = u.T @ u
-    V: NDArray[np.float64] = (G - 1) / max(G, 1) * (B @ M @ B)
-    return V, np.asarray(B, dtype=float)
+    return u, np.asarray(B, dtype=float), At
 
 
 @dataclass
@@ -218,6 +232,8 @@ class FitResult:
     #: the firmware's torque gain from logs with both pairs (:mod:`mwip.identify.torque_map`):
     #: ``{"torque_gain", "stderr", "a", "se_a", "misfit", "rows"}``, else ``None``
     torque_map: dict[str, float] | None = None
+    #: the block comparison of the stand fit (:mod:`mwip.identify.structure`), else ``None``
+    structure: StructureCheck | None = None
 
     def to_json(self) -> dict[str, Any]:
         def num(x: Any) -> Any:
@@ -243,6 +259,7 @@ class FitResult:
             "experiments": dict(self.experiments),
             "validation": self.validation,
             "torque_to_duty": self.torque_map,
+            "structure": None if self.structure is None else self.structure.to_json(),
         }
 
 
@@ -615,13 +632,15 @@ def fit(
     corr: dict[str, Any] = {"names": [], "matrix": []}
     flags: list[str] = []
     cond: float | None = None
+    check: StructureCheck | None = None
     stand_free = [n for n in STAND_PARAMS if n in want and n in informed]
     if seg is not None and stand_free:
         sf = _fit_stand(seg, known, stand_free, values, search, progress)
         p, r = sf.p, sf.r
         norms = np.sqrt(np.einsum("sni,sni->i", sf.A, sf.A))
         ok = norms > 1e-6 * max(float(norms.max()), 1e-300)
-        cov_all, bread = cluster_covariance(sf.A[:, :, ok], sf.Jn, r, offsets=2)
+        u, bread, _ = cluster_scores(sf.A[:, :, ok], sf.Jn, r, offsets=2)
+        cov_all = sandwich(u, bread)
         names_ok = [n for n, o in zip(stand_free, ok, strict=True) if o]
         ng = len(names_ok)
         cov = cov_all[:ng, :ng]
@@ -663,6 +682,11 @@ def fit(
         wp = w0 - 10.0 * sf.z[:, 2:]
         phi = _Problem(seg, known, [], values).rollout(values, w0, wp)
         trace = {"t": seg.t, "enc": seg.enc, "pred": phi + (seg.enc - phi).mean(1, keepdims=True)}
+        floor = residual_floor(logs, values, tw, body, known, segment)
+        if floor is not None:
+            check = check_structure(residuals["enc"]["rms"], floor,
+                                    {n: s for n in names_ok if (s := stderr[n]) is not None})
+            flags.append(check.summary())
     walk = float(getattr(getattr(tw, "imu", None), "gyro_bias_walk", 0.0))
     for n, fn in (("imu.gyro_bias", lambda: _gyro_bias(logs, walk)),
                   ("imu.accel_bias", lambda: _accel_bias(logs)),
@@ -694,6 +718,7 @@ def fit(
         free=[n for n in want if status[n] == "fitted"], fixed=fixed, correlation=corr,
         flags=flags, condition=cond, residuals=residuals, Ts=Ts, segment=segment,
         experiments=experiments, trace=trace, known=known, torque_map=tmap,
+        structure=check,
     )  # fmt: skip
 
 
@@ -753,6 +778,35 @@ def _torque_gain(tm: TorqueMap, values: Mapping[str, float],
     return {"torque_gain": k, "stderr": se, **tm.to_json()}
 
 
+def _start_states(smooth: _Problem, seg: Segments, Ts: float) -> NDArray[np.float64]:
+    """Each segment's start state (nuisances) for parameters held: the smooth model's own
+    problem solved to convergence from eight first guesses (the encoders' slope and curvature
+    over the first 3 and the first 6 samples; ``w_0 - w_{-1}`` that curvature, 0, and 30 rad/s
+    either way of it), the lowest cost kept per segment. One guess is not enough: on a fast chirp the first samples'
+    parabola misses the start speed by half, and a segment's problem has spurious minima
+    (:class:`mwip.identify.solve.Reduced`): from it, a log's own fitted parameters left a
+    residual 70 times the fit's on the log the fit had seen."""
+    none = np.zeros(0)
+    best_z = best_c = None
+    starts = []
+    for q in (6, 3):
+        guess = [_start_guess(e, Ts, q) for e in seg.enc]
+        w0 = np.array([g[0] for g in guess])
+        dw = np.array([g[1] for g in guess])
+        for curv in (dw, np.zeros_like(dw), dw + 30.0 * np.sign(w0), dw - 30.0 * np.sign(w0)):
+            starts.append(np.concatenate([w0, curv], axis=1) / 10.0)
+    for z0 in starts:
+        z, r, _ = nuisance_solve(smooth.segment_residual, none, z0, max_iter=200)
+        c = np.sum(r * r, axis=1)
+        if best_z is None or best_c is None:
+            best_z, best_c = z, c
+        else:
+            better = c < best_c
+            best_z[better], best_c[better] = z[better], c[better]
+    assert best_z is not None
+    return best_z
+
+
 def predict_error(log: Log, values: Mapping[str, float], known: Known,
                   segment: int = 40, twin: object | None = None,
                   body: object | None = None) -> dict[str, float]:  # fmt: skip
@@ -772,9 +826,10 @@ def predict_error(log: Log, values: Mapping[str, float], known: Known,
         prob = _Problem(seg, known, [], values)
         smooth = _Problem(seg, replace(known, pwm_levels=0), [], values)
         none = np.zeros(0)
-        _, r, _ = nuisance_solve(prob.segment_residual, none,
-                                 prob.x0(values).reshape(seg.n, _NUIS),
-                                 smooth.segment_residual if known.pwm_levels else None)  # fmt: skip
+        z = _start_states(smooth, seg, log.Ts)
+        if known.pwm_levels:
+            _, r, _ = nuisance_solve(prob.segment_residual, none, z,
+                                     smooth.segment_residual, max_iter=50)  # fmt: skip
         out["enc_rms"] = float(np.sqrt(np.mean(r**2))) * _RES
     on = np.isin(log.mode, ("static", "wheels-off-ground"))
     if on.any():
