@@ -130,7 +130,7 @@ def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: st
     if not logs:
         raise click.UsageError("missing LOG files (or --evidence book)")
     from mwip.identify.bounds import NAMES, centre
-    from mwip.identify.fit import fit, predict_error
+    from mwip.identify.fit import fit, predict
     from mwip.identify.logs import read_log
     from mwip.identify.report import write_outputs
 
@@ -180,11 +180,13 @@ def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: st
         prior = {n: centre(n) for n in result.estimates}
         prior.update(result.fixed)
         known = Known.from_twin(base, held.Ts, robot.body)
-        fitted = predict_error(held, result.estimates, known, segment, twin=base,
-                               body=robot.body)  # fmt: skip
-        at_prior = predict_error(held, prior, known, segment, twin=base, body=robot.body)
+        fitted, tr_fit = predict(held, result.estimates, known, segment, twin=base,
+                                 body=robot.body)  # fmt: skip
+        at_prior, tr_prior = predict(held, prior, known, segment, twin=base, body=robot.body)
         result.validation = {"log": str(validate), "sha256": held.sha256,
                              "fitted": fitted, "prior_centre": at_prior}  # fmt: skip
+        result.validation_trace = {"log": str(validate), "fitted": tr_fit,
+                                   "prior_centre": tr_prior}  # fmt: skip
     outdir.claim(target, "twin fit")
     files = write_outputs(target, result, read, robot)
     click.echo(f"wrote {', '.join(str(f) for f in files)}")

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from mwip.identify.logs import Log, window_starts
 
-__all__ = ["BalanceSegments", "balance_segments", "balance_error"]
+__all__ = ["BalanceSegments", "balance_segments", "balance_error", "balance_prediction"]
 
 #: Residual scales: encoder (rad) and gyro (rad/s).
 ENC_SCALE = 1e-3
@@ -48,6 +48,7 @@ class BalanceSegments:
     gyro: NDArray[np.float64]  # (S, H)
     x0: NDArray[np.float64]  # (S, 4) first guess: theta, theta', w_r, w_l
     is_duty: bool
+    t: NDArray[np.float64] | None = None  # (S, H), the log's time of each sample
 
     @property
     def n(self) -> int:
@@ -61,8 +62,9 @@ def balance_segments(log: Log, H: int = 10, bias: float = 0.0) -> BalanceSegment
     on = log.mode == "balancing"
     cmd, enc = log.command, log.enc
     th, om = log.columns["theta"], log.columns["theta_rate"]
-    cmds, encs, gyros, x0s = [], [], [], []
+    cmds, encs, gyros, x0s, ts = [], [], [], [], []
     for k0 in window_starts(on, H):
+        ts.append(log.columns["t"][k0:k0 + H])
         prev = cmd[k0 - 1] if k0 > 0 else np.zeros(2)
         cmds.append(np.concatenate([prev[None], cmd[k0:k0 + H]]))
         e = enc[k0:k0 + H] - enc[k0]
@@ -73,7 +75,7 @@ def balance_segments(log: Log, H: int = 10, bias: float = 0.0) -> BalanceSegment
     if not cmds:
         return None
     return BalanceSegments(np.array(cmds), np.array(encs), np.array(gyros), np.array(x0s),
-                           log.inputs == "duty")  # fmt: skip
+                           log.inputs == "duty", np.array(ts))  # fmt: skip
 
 
 def _twin_with(base: Any, values: Mapping[str, float]) -> Any:
@@ -137,6 +139,19 @@ def balance_error(log: Log, values: Mapping[str, float], base: Any = None,
     """Prediction error of ``values`` on the balancing rows of ``log``: the RMS of the
     encoder (rad) and gyro (rad/s) residuals with each segment's start state fitted; ``{}``
     when the log has no balancing segment (``body``: the robot's, default Table 6.1)."""
+    return balance_prediction(log, values, base, H, body)[0]
+
+
+def balance_prediction(log: Log, values: Mapping[str, float], base: Any = None, H: int = 10,
+                       body: Any = None,
+                       ) -> tuple[dict[str, float], dict[str, NDArray[np.float64]]]:  # fmt: skip
+    """:func:`balance_error` and the traces behind it: ``(errors, trace)``, ``trace`` (empty
+    without a balancing segment) with the segments' times ``t`` (S, H), the measured
+    encoders ``enc`` (S, H, 2, relative to each segment's first sample) and gyro ``gyro``
+    (S, H), and their predictions ``enc_pred`` (with the segment's offset projected out, as
+    in the residual) and ``gyro_pred`` (``theta' + imu.gyro_bias``) from the fitted start
+    states: ``enc - enc_pred`` and ``gyro - gyro_pred`` are the residuals whose RMS the
+    errors are."""
     from scipy.optimize import least_squares
     from scipy.sparse import lil_matrix
 
@@ -145,7 +160,7 @@ def balance_error(log: Log, values: Mapping[str, float], base: Any = None,
     bias = float(values["imu.gyro_bias"])
     seg = balance_segments(log, H, bias)
     if seg is None:
-        return {}
+        return {}, {}
     twin = _twin_with(Twin() if base is None else base, values)
     S = seg.n
     scale = np.array([0.1, 1.0, 10.0, 10.0])  # theta rad, rates rad/s
@@ -166,6 +181,10 @@ def balance_error(log: Log, values: Mapping[str, float], base: Any = None,
     r = res.fun.reshape(S, 3 * H)
     re = r[:, :2 * H] * ENC_SCALE
     rg = r[:, 2 * H:] * GYRO_SCALE
-    return {"balance_enc_rms": float(np.sqrt(np.mean(re**2))),
-            "balance_gyro_rms": float(np.sqrt(np.mean(rg**2))),
-            "balance_segments": float(S)}  # fmt: skip
+    errors = {"balance_enc_rms": float(np.sqrt(np.mean(re**2))),
+              "balance_gyro_rms": float(np.sqrt(np.mean(rg**2))),
+              "balance_segments": float(S)}  # fmt: skip
+    assert seg.t is not None
+    trace = {"t": seg.t, "enc": seg.enc, "enc_pred": seg.enc - re.reshape(S, H, 2),
+             "gyro": seg.gyro, "gyro_pred": seg.gyro - rg}  # fmt: skip
+    return errors, trace

@@ -57,8 +57,8 @@ from mwip.identify.solve import (
 from mwip.identify.structure import StructureCheck, check_structure, residual_floor
 from mwip.identify.torque_map import TorqueMap, torque_to_duty
 
-__all__ = ["FitResult", "Segments", "fit", "stand_segments", "predict_error", "whiteness",
-           "at_bound", "summary_lines"]
+__all__ = ["FitResult", "Segments", "fit", "stand_segments", "predict_error", "predict",
+           "whiteness", "at_bound", "summary_lines"]
 
 #: Encoder residual scale (rad) the least-squares problem is written in.
 _RES = 1e-3
@@ -227,7 +227,18 @@ class FitResult:
     segment: int
     experiments: dict[str, int]
     validation: dict[str, Any] | None = None
-    trace: dict[str, NDArray[np.float64]] = field(default_factory=dict, repr=False)
+    #: measured and predicted signals of the fitted logs per mode present (``fit.png``; not in
+    #: ``fit.json``): ``"wheels-off-ground"`` (``t`` (S, L), ``enc``, ``pred`` (S, L, 2): each
+    #: segment from its own start), ``"static"`` (the rows with the body held still, static
+    #: and wheels-off-ground: ``t``, ``theta_rate``, ``theta_rate_pred`` (the gyro bias) and
+    #: with an accelerometer ``accel_x``, ``accel_x_pred``), ``"balancing"``
+    #: (:func:`mwip.identify.balance.balance_prediction`'s trace) and ``"fusion"`` (``t``,
+    #: ``theta``, ``theta_pred``: the complementary filter one sample ahead with the fitted
+    #: ``firmware.fusion.tau``, logs with ``accel_x, accel_y``)
+    trace: dict[str, dict[str, NDArray[np.float64]]] = field(default_factory=dict, repr=False)
+    #: the validation log's traces (:func:`predict`): ``{"log": name, "fitted": trace,
+    #: "prior_centre": trace}`` (``trace`` as :attr:`trace`, without ``"fusion"``), else ``{}``
+    validation_trace: dict[str, Any] = field(default_factory=dict, repr=False)
     known: Known | None = field(default=None, repr=False)
     #: the firmware's torque gain from logs with both pairs (:mod:`mwip.identify.torque_map`):
     #: ``{"torque_gain", "stderr", "a", "se_a", "misfit", "rows"}``, else ``None``
@@ -626,7 +637,7 @@ def fit(
         if n not in informed and n not in fixed:
             status[n] = "not informed"
     residuals: dict[str, dict[str, float]] = {}
-    trace: dict[str, NDArray[np.float64]] = {}
+    trace: dict[str, dict[str, NDArray[np.float64]]] = {}
     known = Known.from_twin(tw, Ts, body)
     seg = stand_segments(logs, segment)
     corr: dict[str, Any] = {"names": [], "matrix": []}
@@ -681,7 +692,8 @@ def fit(
         w0 = 10.0 * sf.z[:, :2]
         wp = w0 - 10.0 * sf.z[:, 2:]
         phi = _Problem(seg, known, [], values).rollout(values, w0, wp)
-        trace = {"t": seg.t, "enc": seg.enc, "pred": phi + (seg.enc - phi).mean(1, keepdims=True)}
+        trace["wheels-off-ground"] = {"t": seg.t, "enc": seg.enc,
+                                      "pred": phi + (seg.enc - phi).mean(1, keepdims=True)}
         floor = residual_floor(logs, values, tw, body, known, segment)
         if floor is not None:
             check = check_structure(residuals["enc"]["rms"], floor,
@@ -712,6 +724,7 @@ def fit(
                          "fixed value?); its standard error does not hold there")  # fmt: skip
     experiments = {m: int(sum(int(np.sum(lg.mode == m)) for lg in logs))
                    for m in ("balancing", "wheels-off-ground", "static")}  # fmt: skip
+    trace.update(_traces(logs, values, tw, body))
     tmap = None if tm is None else _torque_gain(tm, values, stderr, status, known, flags)
     return FitResult(
         estimates=values, stderr=stderr, status=status,
@@ -720,6 +733,57 @@ def fit(
         experiments=experiments, trace=trace, known=known, torque_map=tmap,
         structure=check,
     )  # fmt: skip
+
+
+def _cat(parts: Sequence[Mapping[str, NDArray[np.float64]]]) -> dict[str, NDArray]:
+    """The traces of several logs, joined along their first axis (the keys all share)."""
+    parts = [p for p in parts if p]
+    if not parts:
+        return {}
+    keys = [k for k in parts[0] if all(k in p for p in parts)]
+    return {k: np.concatenate([p[k] for p in parts]) for k in keys}
+
+
+def _rest_trace(log: Log, values: Mapping[str, float]) -> dict[str, NDArray[np.float64]]:
+    """The rows with the body held still: the gyro against ``imu.gyro_bias`` and the
+    accelerometer's ``accel_x`` against ``imu.accel_bias``."""
+    on = np.isin(log.mode, ("static", "wheels-off-ground"))
+    if not on.any():
+        return {}
+    c = log.columns
+    out = {"t": c["t"][on], "theta_rate": c["theta_rate"][on],
+           "theta_rate_pred": np.full(int(on.sum()), float(values["imu.gyro_bias"]))}
+    if log.has("accel_x"):
+        out["accel_x"] = c["accel_x"][on]
+        out["accel_x_pred"] = np.full(int(on.sum()), float(values["imu.accel_bias"]))
+    return out
+
+
+def _fusion_trace(log: Log, tau: float) -> dict[str, NDArray[np.float64]]:
+    """The logged pitch against the complementary filter one sample ahead,
+    ``a (theta_{k-1} + omega_k Ts) + (1 - a) atan2(a_x, a_y)``, ``a = tau / (tau + Ts)``."""
+    if not log.has("accel_x") or log.n < 2:
+        return {}
+    c = log.columns
+    a = tau / (tau + log.Ts)
+    tilt = np.arctan2(c["accel_x"], c["accel_y"])
+    th = c["theta"]
+    pred = a * (th[:-1] + c["theta_rate"][1:] * log.Ts) + (1.0 - a) * tilt[1:]
+    return {"t": c["t"][1:], "theta": th[1:], "theta_pred": pred}
+
+
+def _traces(logs: Sequence[Log], values: Mapping[str, float], twin: Any,
+            body: Any) -> dict[str, dict[str, NDArray[np.float64]]]:  # fmt: skip
+    """:attr:`FitResult.trace` of the modes other than wheels-off-ground (that one is the
+    stand fit's own)."""
+    from mwip.identify.balance import balance_prediction
+
+    out = {"static": _cat([_rest_trace(lg, values) for lg in logs]),
+           "balancing": _cat([balance_prediction(lg, values, twin, body=body)[1]
+                              for lg in logs if np.any(lg.mode == "balancing")]),
+           "fusion": _cat([_fusion_trace(lg, float(values["firmware.fusion.tau"]))
+                           for lg in logs])}  # fmt: skip
+    return {k: v for k, v in out.items() if v}
 
 
 def at_bound(name: str, value: float) -> str | None:
@@ -816,27 +880,44 @@ def predict_error(log: Log, values: Mapping[str, float], known: Known,
     and gyro RMS of 50 ms predictions from fitted start states
     (:func:`mwip.identify.balance.balance_error` on the base ``twin``, default the default
     twin, with ``values``; ``body`` the robot's, default Table 6.1, as ``known``'s)."""
+    return predict(log, values, known, segment, twin, body)[0]
+
+
+def predict(log: Log, values: Mapping[str, float], known: Known, segment: int = 40,
+            twin: object | None = None, body: object | None = None,
+            ) -> tuple[dict[str, float], dict[str, dict[str, NDArray[np.float64]]]]:  # fmt: skip
+    """:func:`predict_error` and the traces behind it: ``(errors, trace)``, ``trace`` per mode
+    present as :attr:`FitResult.trace` (``"wheels-off-ground"``: ``enc - pred`` are the
+    residuals of ``enc_rms``; ``"static"``; ``"balancing"``), without ``"fusion"``."""
     from dataclasses import replace
 
-    from mwip.identify.balance import balance_error
+    from mwip.identify.balance import balance_prediction
 
     out: dict[str, float] = {}
+    trace: dict[str, dict[str, NDArray[np.float64]]] = {}
     seg = stand_segments([log], segment)
     if seg is not None:
         prob = _Problem(seg, known, [], values)
         smooth = _Problem(seg, replace(known, pwm_levels=0), [], values)
         none = np.zeros(0)
         z = _start_states(smooth, seg, log.Ts)
+        r = smooth.segment_residual(none, z)
         if known.pwm_levels:
             _, r, _ = nuisance_solve(prob.segment_residual, none, z,
                                      smooth.segment_residual, max_iter=50)  # fmt: skip
         out["enc_rms"] = float(np.sqrt(np.mean(r**2))) * _RES
+        trace["wheels-off-ground"] = {"t": seg.t, "enc": seg.enc,
+                                      "pred": seg.enc - r.reshape(seg.enc.shape) * _RES}
     on = np.isin(log.mode, ("static", "wheels-off-ground"))
     if on.any():
         g = log.columns["theta_rate"][on] - values["imu.gyro_bias"]
         out["theta_rate_rms"] = float(np.sqrt(np.mean(g**2)))
+        trace["static"] = _rest_trace(log, values)
     if log.has("accel_x") and on.any():
         a = log.columns["accel_x"][on] - values["imu.accel_bias"]
         out["accel_x_rms"] = float(np.sqrt(np.mean(a**2)))
-    out.update(balance_error(log, values, twin, body=body))
-    return out
+    errors, btr = balance_prediction(log, values, twin, body=body)
+    out.update(errors)
+    if btr:
+        trace["balancing"] = btr
+    return out, trace

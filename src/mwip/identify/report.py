@@ -9,7 +9,8 @@ the logs, the free and fixed parameters; no date, so the same logs give the same
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -19,8 +20,8 @@ from numpy.typing import NDArray
 from mwip.identify.fit import FitResult
 from mwip.identify.logs import Log
 
-__all__ = ["fitted_robot", "robot_text", "fit_json", "write_figure", "page_html",
-           "write_outputs"]
+__all__ = ["fitted_robot", "robot_text", "fit_json", "Panel", "figure_panels", "write_figure",
+           "page_html", "write_outputs"]
 
 
 def fitted_robot(result: FitResult, logs: Sequence[Log], base: Any = None) -> Any:
@@ -77,11 +78,184 @@ def fit_json(result: FitResult, logs: Sequence[Log]) -> dict[str, Any]:
     return out
 
 
-def write_figure(result: FitResult, path: Path) -> None:
-    """``fit.png``: the wheels-off-ground rows of the whole log, measured against predicted
-    (each segment from its own start: the encoder angle from the segment's start, per wheel),
-    the residuals over time, and their autocorrelation against the 95 % band of white noise
-    (the residual diagnostics: structure the model lacks shows as correlated residuals)."""
+#: Segments shown per time panel of fit.png (evenly spread over the log).
+SHOWN = 6
+
+_MEAS = {"color": "k", "marker": ".", "ls": "none", "ms": 2.0}
+_FIT = {"color": "tab:red", "lw": 1.0}
+_PRIOR = {"color": "tab:blue", "lw": 1.0, "ls": "--"}
+
+
+@dataclass
+class Panel:
+    """One panel of ``fit.png``: its ``title``, the sentence ``index.html`` says of it, and
+    ``draw(ax)``; ``wide`` spans the row."""
+
+    title: str
+    text: str
+    draw: Callable[[Any], None]
+    wide: bool = False
+
+
+def _pick(S: int, k: int = SHOWN) -> list[int]:
+    """``k`` segments of ``S`` evenly spread (first and last included)."""
+    return sorted({int(round(x)) for x in np.linspace(0, S - 1, min(k, S))})
+
+
+def _segments(ax: Any, t: NDArray, meas: NDArray, preds: Sequence[tuple[str, NDArray, dict]],
+              ylabel: str) -> None:  # fmt: skip
+    """Measured and predicted (label, (S, L), style) of a few segments against time."""
+    for n, s in enumerate(_pick(t.shape[0])):
+        ax.plot(t[s], meas[s], label="measured" if n == 0 else None, **_MEAS)
+        for label, pr, style in preds:
+            ax.plot(t[s], pr[s], label=label if n == 0 else None, **style)
+    _label(ax, ylabel)
+
+
+def _series(ax: Any, t: NDArray, meas: NDArray, preds: Sequence[tuple[str, NDArray, dict]],
+            ylabel: str) -> None:  # fmt: skip
+    """Measured and predicted over time, each log apart (the logs' times may overlap)."""
+    cuts = np.flatnonzero(np.diff(t) <= 0) + 1
+    for n, part in enumerate(np.split(np.arange(t.size), cuts)):
+        ax.plot(t[part], meas[part], label="measured" if n == 0 else None,
+                **{**_MEAS, "ms": 1.0})  # fmt: skip
+        for label, pr, style in preds:
+            ax.plot(t[part], pr[part], label=label if n == 0 else None, **style)
+    _label(ax, ylabel)
+
+
+def _label(ax: Any, ylabel: str) -> None:
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel(ylabel)
+    ax.legend(loc="best", fontsize=7)
+
+
+def _mode_panels(tr: dict[str, dict[str, NDArray]], prior: dict[str, dict[str, NDArray]] | None,
+                 where: str) -> list[list[Panel]]:  # fmt: skip
+    """Rows of panels of one log set's traces (:attr:`FitResult.trace`): the fitted twin's
+    predictions, and the prior centre's where ``prior`` (the validation log's) is given."""
+    rows: list[list[Panel]] = []
+    pre = "" if prior is None else "validation, "
+    also = "" if prior is None else ", and the prior centre's prediction"
+
+    def preds(mode: str, key: str, sl: Any = Ellipsis) -> list[tuple[str, NDArray, dict]]:
+        out = [("fitted twin", tr[mode][key][sl], _FIT)]
+        if prior is not None and mode in prior:
+            out.append(("prior centre", prior[mode][key][sl], _PRIOR))
+        return out
+
+    wog = tr.get("wheels-off-ground")
+    if wog:
+        S, L = wog["t"].shape
+        k = len(_pick(S))
+        def wheel(w: int, side: str) -> Callable[[Any], None]:
+            sl = (slice(None), slice(None), w)
+            return lambda ax: _segments(ax, wog["t"], wog["enc"][sl],
+                                        preds("wheels-off-ground", "pred", sl),
+                                        f"enc_{side[0]} (rad)")  # fmt: skip
+
+        row = []
+        for w, side in ((0, "right"), (1, "left")):
+            row.append(Panel(
+                f"{pre}wheels-off-ground: {side}-wheel encoder ({k} of {S} segments)",
+                f"The {side} wheel's encoder angle in {k} of the {S} wheels-off-ground segments "
+                f"of {L} samples {where} (each from its own start), measured and as the fitted "
+                f"twin predicts it from the segment's fitted start speeds{also}.",
+                wheel(w, side)))  # fmt: skip
+        rows.append(row)
+        if prior is None:
+            res = wog["enc"] - wog["pred"]
+
+            def residuals(ax: Any) -> None:
+                for w in range(2):
+                    ax.plot(wog["t"].ravel(), res[:, :, w].ravel(), ".", ms=1.5,
+                            label=f"enc_{'rl'[w]}")  # fmt: skip
+                _label(ax, "residual (rad)")
+
+            def acf(ax: Any) -> None:
+                lags, a = _autocorrelation(res)
+                ax.stem(lags, a, basefmt=" ")
+                band = 1.96 / np.sqrt(max(res.size, 1))
+                ax.axhspan(-band, band, color="0.85", label="white noise, 95 %")
+                ax.set_xlabel("lag (samples)")
+                ax.set_ylabel("autocorrelation")
+                ax.legend(loc="best", fontsize=7)
+
+            rows.append([
+                Panel("wheels-off-ground: encoder residuals",
+                      "The encoder residuals (measured minus predicted) of every "
+                      "wheels-off-ground segment over time.", residuals),
+                Panel("wheels-off-ground: residual autocorrelation",
+                      "Their autocorrelation within segments at lags 1-20 against white "
+                      "noise's 95 % band: correlated residuals show a structure the model "
+                      "lacks.", acf)])  # fmt: skip
+    st = tr.get("static")
+    if st:
+        row = [Panel(f"{pre}static: gyro (body held still)",
+                     f"The gyro in the rows with the body held still (static and "
+                     f"wheels-off-ground) {where} against the fitted imu.gyro_bias{also}.",
+                     lambda ax: _series(ax, st["t"], st["theta_rate"],
+                                        preds("static", "theta_rate_pred"),
+                                        "theta_rate (rad/s)"))]  # fmt: skip
+        if "accel_x" in st:
+            row.append(Panel(f"{pre}static: accelerometer (body held still)",
+                             f"accel_x in those rows against the fitted imu.accel_bias{also}.",
+                             lambda ax: _series(ax, st["t"], st["accel_x"],
+                                                preds("static", "accel_x_pred"),
+                                                "accel_x (m/s^2)")))  # fmt: skip
+        rows.append(row)
+    bal = tr.get("balancing")
+    if bal:
+        S, H = bal["t"].shape
+        k = len(_pick(S))
+        rows.append([
+            Panel(f"{pre}balancing: right-wheel encoder ({k} of {S} segments, "
+                  f"{H} samples ahead)",
+                  f"The right wheel's encoder angle in {k} of the {S} balancing segments of "
+                  f"{H} samples {where}, measured and as the fitted twin predicts it from the "
+                  f"segment's fitted start state (pitch, pitch rate, wheel speeds){also}.",
+                  lambda ax: _segments(ax, bal["t"], bal["enc"][:, :, 0],
+                                       preds("balancing", "enc_pred",
+                                             (slice(None), slice(None), 0)),
+                                       "enc_r (rad)")),
+            Panel(f"{pre}balancing: gyro ({k} of {S} segments, {H} samples ahead)",
+                  f"The gyro in the same segments, measured and predicted (pitch rate plus "
+                  f"the fitted imu.gyro_bias){also}.",
+                  lambda ax: _segments(ax, bal["t"], bal["gyro"], preds("balancing", "gyro_pred"),
+                                       "theta_rate (rad/s)"))])  # fmt: skip
+    fu = tr.get("fusion")
+    if fu:
+        def fres(ax: Any) -> None:
+            ax.plot(fu["t"], fu["theta"] - fu["theta_pred"], ".", ms=1.0, color="k")
+            ax.set_xlabel("t (s)")
+            ax.set_ylabel("theta residual (rad)")
+
+        rows.append([
+            Panel(f"{pre}fusion: pitch, one sample ahead",
+                  f"The logged pitch theta {where} against the board's complementary filter "
+                  "one sample ahead (the previous theta, the gyro and the accelerometer) with "
+                  "the fitted firmware.fusion.tau.",
+                  lambda ax: _series(ax, fu["t"], fu["theta"], preds("fusion", "theta_pred"),
+                                     "theta (rad)")),
+            Panel("fusion: pitch residual", "Their difference over time.", fres)])  # fmt: skip
+    return rows
+
+
+def figure_panels(result: FitResult) -> list[list[Panel]]:
+    """The rows of ``fit.png``: a row (or two) per mode present in the fitted logs, then the
+    validation log's rows (measured, the fitted twin's and the prior centre's predictions)."""
+    rows = _mode_panels(result.trace, None, "of the fitted logs")
+    vt = result.validation_trace
+    if vt:
+        name = os.path.basename(str(vt.get("log")))
+        rows += _mode_panels(vt.get("fitted") or {}, vt.get("prior_centre") or {},
+                             f"of the validation log {name}")  # fmt: skip
+    return rows
+
+
+def write_figure(result: FitResult, path: Path) -> list[str]:
+    """``fit.png``: the panels of :func:`figure_panels`, two a row; returns their titles.
+    Without any trace, one panel says so."""
     import io
 
     import matplotlib
@@ -91,43 +265,29 @@ def write_figure(result: FitResult, path: Path) -> None:
 
     from mwip.io import write_atomic
 
-    fig, axes = plt.subplots(4, 1, figsize=(9, 10))
-    tr = result.trace
-    if tr:
-        S = tr["t"].shape[0]
-        res = tr["enc"] - tr["pred"]
-        for wheel, ax in enumerate(axes[:2]):
-            for s in range(S):
-                ax.plot(tr["t"][s], tr["enc"][s, :, wheel], "k.", ms=1.5,
-                        label="measured" if s == 0 else None)  # fmt: skip
-                ax.plot(tr["t"][s], tr["pred"][s, :, wheel], "r-", lw=0.8,
-                        label="predicted" if s == 0 else None)  # fmt: skip
-            ax.set_ylabel(f"enc_{'rl'[wheel]} (rad)")
-            ax.legend(loc="best", fontsize=8)
-            ax.set_title(f"{'right' if wheel == 0 else 'left'} wheel, {S} segments of "
-                         f"{tr['t'].shape[1]} samples, each from its own start", fontsize=9)
-        for wheel in range(2):
-            axes[2].plot(tr["t"].ravel(), res[:, :, wheel].ravel(), ".", ms=1.5,
-                         label=f"enc_{'rl'[wheel]}")  # fmt: skip
-        axes[2].set_ylabel("residual (rad)")
-        axes[2].set_xlabel("t (s)")
-        axes[2].legend(loc="best", fontsize=8)
-        lags, acf = _autocorrelation(res)
-        axes[3].stem(lags, acf, basefmt=" ")
-        band = 1.96 / np.sqrt(max(res.size, 1))
-        axes[3].axhspan(-band, band, color="0.85", label="white noise, 95 %")
-        axes[3].set_xlabel("lag (samples)")
-        axes[3].set_ylabel("residual autocorrelation")
-        axes[3].legend(loc="best", fontsize=8)
+    rows = figure_panels(result)
+    fig = plt.figure(figsize=(11, 2.8 * max(len(rows), 1)))
+    titles: list[str] = []
+    if rows:
+        grid = fig.add_gridspec(len(rows), 2)
+        for i, row in enumerate(rows):
+            for j, panel in enumerate(row):
+                ax = fig.add_subplot(grid[i, :] if len(row) == 1 else grid[i, j])
+                panel.draw(ax)
+                ax.set_title(panel.title, fontsize=9)
+                titles.append(panel.title)
     else:
-        axes[0].text(0.5, 0.5, "no wheels-off-ground segments", ha="center",
-                     transform=axes[0].transAxes)  # fmt: skip
-    fig.suptitle("mwip twin fit: wheels-off-ground rows, measured and predicted")
-    fig.tight_layout()
+        ax = fig.add_subplot(1, 1, 1)
+        ax.text(0.5, 0.5, "no measured signal to show", ha="center", transform=ax.transAxes)
+        ax.set_axis_off()
+    height = 2.8 * max(len(rows), 1)
+    fig.suptitle("mwip twin fit: measured and predicted")
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.35 / height))
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=80, metadata={"Software": None})
     plt.close(fig)
     write_atomic(path, lambda fh: fh.write(buf.getvalue()))
+    return titles
 
 
 def _autocorrelation(res: NDArray[np.float64], max_lag: int = 20,
@@ -211,8 +371,12 @@ def page_html(result: FitResult, logs: Sequence[Log]) -> str:
                  "1-20 inside white noise's 95 % band; near 1 for white residuals, lower where "
                  "the model lacks a structure).</p><table><tr><th>signal</th><th>RMS</th>"
                  f"<th>whiteness</th><th>values</th></tr>{diag}</table>")  # fmt: skip
-    parts.append("<h2>Measured and predicted</h2><img src='fit.png' alt='fit.png' "
-                 "style='max-width:100%'></body></html>")  # fmt: skip
+    items = "".join(f"<li><b>{e(p.title)}</b>: {e(p.text)}</li>"
+                    for row in figure_panels(result) for p in row)  # fmt: skip
+    parts.append("<h2>Measured and predicted</h2><p>fit.png, row by row (measured: black "
+                 "dots; the fitted twin: red; the prior centre: dashed blue):</p>"
+                 f"<ul>{items}</ul><img src='fit.png' alt='fit.png' style='max-width:100%'>"
+                 "</body></html>")  # fmt: skip
     return "\n".join(parts) + "\n"
 
 
