@@ -847,9 +847,9 @@ def _start_states(smooth: _Problem, seg: Segments, Ts: float) -> NDArray[np.floa
     problem solved to convergence from eight first guesses (the encoders' slope and curvature
     over the first 3 and the first 6 samples; ``w_0 - w_{-1}`` that curvature, 0, and 30 rad/s
     either way of it), the lowest cost kept per segment. One guess is not enough: on a fast
-    chirp the first samples' parabola misses the start speed by half, and a segment's problem has spurious minima
-    (:class:`mwip.identify.solve.Reduced`): from it, a log's own fitted parameters left a
-    residual 70 times the fit's on the log the fit had seen."""
+    chirp the first samples' parabola misses the start speed by half, and a segment's problem
+    has spurious minima (:class:`mwip.identify.solve.Reduced`): from one guess, a log's own
+    fitted parameters left a residual 70 times the fit's on the log the fit had seen."""
     none = np.zeros(0)
     best_z = best_c = None
     starts = []
