@@ -46,7 +46,7 @@ __all__ = ["R_CRIT", "StructureCheck", "check_structure", "residual_floor"]
 
 #: The structure is rejected when the fit's encoder residual exceeds the floor of the twin's
 #: own structure by this factor.
-R_CRIT = 1.5
+R_CRIT = 2.0
 
 
 @dataclass(frozen=True)
