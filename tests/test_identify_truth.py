@@ -117,6 +117,10 @@ def test_the_fit_says_how_far_it_has_come() -> None:
     lg = _log(synth.stand_log(synth.draw_truth(3), duty, mode, seed=3))
     lines: list[str] = []
     res = fit([lg], progress=lines.append)
+    # issue 37, item 4: the identifiability check's findings come first
+    first = [line for line in lines if line.startswith("identifiability: ")]
+    assert first and lines[:len(first)] == first
+    lines = lines[len(first):]
     assert lines and all(line.startswith("fit: stage ") for line in lines)
     assert "model evaluations; encoder residual RMS, best so far: " in lines[0]
     # issue 40: in the final residual's units (rad), never below it within a stage's lines

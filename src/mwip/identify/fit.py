@@ -243,8 +243,10 @@ class FitResult:
     #: the firmware's torque gain from logs with both pairs (:mod:`mwip.identify.torque_map`):
     #: ``{"torque_gain", "stderr", "a", "se_a", "misfit", "rows"}``, else ``None``
     torque_map: dict[str, float] | None = None
-    #: the block comparison of the stand fit (:mod:`mwip.identify.structure`), else ``None``
+    #: the structure test of the stand fit (:mod:`mwip.identify.structure`), else ``None``
     structure: StructureCheck | None = None
+    #: what the logs inform, checked before the fit (:mod:`mwip.identify.identifiability`)
+    identifiability: Any = None
 
     def to_json(self) -> dict[str, Any]:
         def num(x: Any) -> Any:
@@ -271,6 +273,8 @@ class FitResult:
             "validation": self.validation,
             "torque_to_duty": self.torque_map,
             "structure": None if self.structure is None else self.structure.to_json(),
+            "identifiability": (None if self.identifiability is None
+                                else self.identifiability.to_json()),
         }
 
 
@@ -590,12 +594,15 @@ def fit(
     body: object | None = None,
 ) -> FitResult:
     """Fit the twin's parameters (:data:`mwip.identify.bounds.BOUNDS`) to ``logs``
-    (``progress`` receives a line every 100 model evaluations of each stage) on the robot's
+    (``progress`` receives the findings of :func:`mwip.identify.identifiability.check`, one
+    line each, then a line every 100 model evaluations of each stage) on the robot's
     ``body`` (its :class:`mwip.params.Params`, held fixed; default Table 6.1).
 
     ``free``: the names to fit (default: every name an experiment present informs);
     ``fixed``: name -> value held (and not fitted). A free name no segment informs keeps its
-    prior centre and is reported ``not informed``.
+    prior centre and is reported ``not informed``; a drive parameter the logs carry no
+    information on (the identifiability check) is refused (``ValueError``) when named in
+    ``free``, else left out of the fit and reported.
     """
     from mwip.hardware.twin import Twin
 
@@ -645,6 +652,21 @@ def fit(
     cond: float | None = None
     check: StructureCheck | None = None
     stand_free = [n for n in STAND_PARAMS if n in want and n in informed]
+    ident = None
+    if seg is not None and stand_free:  # issue 37: what the logs inform, before the fit
+        from mwip.identify.identifiability import check
+
+        ident = check(logs, stand_free, values, known, segment)
+        for n in ident.not_informed:
+            if free is not None:
+                raise ValueError(f"--free {n}: the logs carry no information on it; "
+                                 f"{ident.advice(n)}. Or hold it with --fix {n}=VALUE")
+            stand_free.remove(n)
+            status[n] = "not informed"
+        found = [f"identifiability: {line}" for line in ident.lines()]
+        flags += found
+        for line in found if progress is not None else []:
+            progress(line)  # type: ignore[misc]
     if seg is not None and stand_free:
         sf = _fit_stand(seg, known, stand_free, values, search, progress)
         p, r = sf.p, sf.r
@@ -732,6 +754,7 @@ def fit(
         flags=flags, condition=cond, residuals=residuals, Ts=Ts, segment=segment,
         experiments=experiments, trace=trace, known=known, torque_map=tmap,
         structure=check,
+        identifiability=ident,
     )  # fmt: skip
 
 
