@@ -650,7 +650,7 @@ def fit(
     corr: dict[str, Any] = {"names": [], "matrix": []}
     flags: list[str] = []
     cond: float | None = None
-    check: StructureCheck | None = None
+    structure: StructureCheck | None = None
     stand_free = [n for n in STAND_PARAMS if n in want and n in informed]
     ident = None
     if seg is not None and stand_free:  # issue 37: what the logs inform, before the fit
@@ -718,9 +718,9 @@ def fit(
                                       "pred": phi + (seg.enc - phi).mean(1, keepdims=True)}
         floor = residual_floor(logs, values, tw, body, known, segment)
         if floor is not None:
-            check = check_structure(residuals["enc"]["rms"], floor,
-                                    {n: s for n in names_ok if (s := stderr[n]) is not None})
-            flags.append(check.summary())
+            structure = check_structure(residuals["enc"]["rms"], floor,
+                                        {n: s for n in names_ok if (s := stderr[n]) is not None})
+            flags.append(structure.summary())
     walk = float(getattr(getattr(tw, "imu", None), "gyro_bias_walk", 0.0))
     for n, fn in (("imu.gyro_bias", lambda: _gyro_bias(logs, walk)),
                   ("imu.accel_bias", lambda: _accel_bias(logs)),
@@ -753,7 +753,7 @@ def fit(
         free=[n for n in want if status[n] == "fitted"], fixed=fixed, correlation=corr,
         flags=flags, condition=cond, residuals=residuals, Ts=Ts, segment=segment,
         experiments=experiments, trace=trace, known=known, torque_map=tmap,
-        structure=check,
+        structure=structure,
         identifiability=ident,
     )  # fmt: skip
 
