@@ -821,13 +821,21 @@ def summary_lines(result: FitResult) -> list[str]:
     """The estimates as a person reads them: one line per parameter (estimate, 1 standard
     error, status, prior range; a value at a bound of its range says so), the torque gain
     where both pairs were logged, and the validation log's prediction errors against the
-    prior centre's."""
-    rows = [("parameter", "estimate", "+- 1 s.e.", "status", "prior range")]
+    prior centre's. Where the structure test rejects the twin's structure
+    (:mod:`mwip.identify.structure`), the widened standard errors are shown, and the primary
+    ones beside them."""
+    sc = result.structure
+    wide = sc.widened if sc is not None and sc.rejected else {}
+    head = "+- 1 s.e. (widened; primary)" if wide else "+- 1 s.e."
+    rows = [("parameter", "estimate", head, "status", "prior range")]
     for n in result.estimates:
         v, se, st = result.estimates[n], result.stderr.get(n), result.status[n]
         lo, hi = BOUNDS[n]
         side = at_bound(n, v) if st in ("fitted", "not identified") else None
-        rows.append((n, f"{v:.5g}", "-" if se is None else f"{se:.2g}",
+        err = "-" if se is None else f"{se:.2g}"
+        if n in wide and se is not None:
+            err = f"{wide[n]:.2g}; {se:.2g}"
+        rows.append((n, f"{v:.5g}", err,
                      st + (f" (at its {side} bound)" if side else ""), f"[{lo:g}, {hi:g}]"))
     tm = result.torque_map
     if tm is not None:

@@ -313,11 +313,16 @@ def page_html(result: FitResult, logs: Sequence[Log]) -> str:
 
     e = html.escape
     rows = []
+    sc = result.structure
+    wide = sc.widened if sc is not None and sc.rejected else {}
     for n, v in result.estimates.items():
         se, st = result.stderr.get(n), result.status[n]
         lo, hi = BOUNDS[n]
         side = at_bound(n, v) if st in ("fitted", "not identified") else None
-        rows.append(f"<tr><td>{e(n)}</td><td>{v:.5g}</td><td>{'-' if se is None else f'{se:.2g}'}"
+        err = "-" if se is None else f"{se:.2g}"
+        if n in wide and se is not None:
+            err = f"<b>{wide[n]:.2g}</b> (primary {se:.2g})"
+        rows.append(f"<tr><td>{e(n)}</td><td>{v:.5g}</td><td>{err}"
                     f"</td><td>{e(st)}{f' <b>(at its {side} bound)</b>' if side else ''}</td>"
                     f"<td>[{lo:g}, {hi:g}]</td><td>{centre(n):.4g}</td></tr>")  # fmt: skip
     tm = result.torque_map
@@ -349,6 +354,11 @@ def page_html(result: FitResult, logs: Sequence[Log]) -> str:
                      "errors of the fitted twin and of the prior centre on a log the fit did "
                      "not see.</p><table><tr><th>error</th><th>fitted</th><th>prior centre</th>"
                      f"</tr>{vrows}</table>")  # fmt: skip
+    if sc is not None:
+        parts.append("<h2>Structure</h2><p>" + e(sc.summary()) + ". The test: the fit's "
+                     "encoder residual against the one the twin's own structure leaves on the "
+                     "same commands, simulated with the fitted values and the robot file's "
+                     "sensors (docs/twin_fit.md).</p>")  # fmt: skip
     if result.flags:
         parts.append("<h2>Notes</h2><ul>" + "".join(f"<li>{e(f)}</li>" for f in result.flags)
                      + "</ul>")  # fmt: skip
