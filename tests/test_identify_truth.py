@@ -89,6 +89,18 @@ def test_coverage_of_two_sigma_intervals(fits: list) -> None:
     assert lo <= hits <= hi, (hits, total, lo, hi)
 
 
+@pytest.mark.slow
+def test_the_structure_test_accepts_the_twins_own_structure(fits: list) -> None:
+    """Issue 37, item 3: on logs of the twin's own structure the structure test
+    (mwip.identify.structure) rejects at most 2 of the 20 (declared before this run; on the
+    development seeds of benchmarks/coverage_structure.py --structure twin, 1 of 20: a fit
+    that stopped in a local minimum, 50 times its truth's residual, which the test rightly
+    reports; the other ratios 0.78-1.67 against the limit 2)."""
+    ratios = [res.structure.ratio for _, res, _ in fits]
+    print("\nBirge ratios on the twin's own structure:", " ".join(f"{r:.3g}" for r in ratios))
+    assert sum(res.structure.rejected for _, res, _ in fits) <= 2
+
+
 def test_not_informed_parameters_are_flagged(fits: list) -> None:
     for _, res, _ in fits:
         assert res.status["imu.height"] == "not informed"
