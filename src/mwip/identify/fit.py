@@ -218,6 +218,9 @@ class FitResult:
     #: the firmware's torque gain from logs with both pairs (:mod:`mwip.identify.torque_map`):
     #: ``{"torque_gain", "stderr", "a", "se_a", "misfit", "rows"}``, else ``None``
     torque_map: dict[str, float] | None = None
+    #: the body stage's lumped coefficients of (2.32) from balancing rows
+    #: (:mod:`mwip.identify.body`), else ``None``
+    body: Any = None
 
     def to_json(self) -> dict[str, Any]:
         def num(x: Any) -> Any:
@@ -243,6 +246,7 @@ class FitResult:
             "experiments": dict(self.experiments),
             "validation": self.validation,
             "torque_to_duty": self.torque_map,
+            "body": None if self.body is None else self.body.to_json(),
         }
 
 
@@ -689,11 +693,21 @@ def fit(
     experiments = {m: int(sum(int(np.sum(lg.mode == m)) for lg in logs))
                    for m in ("balancing", "wheels-off-ground", "static")}  # fmt: skip
     tmap = None if tm is None else _torque_gain(tm, values, stderr, status, known, flags)
+    bres = None
+    if experiments["balancing"]:  # the body stage, on the drive values just fitted
+        from mwip.identify.body import body_stage
+        from mwip.params import REAL
+
+        try:
+            bres = body_stage(logs, tw, REAL if body is None else body, values)
+            flags.extend(bres.flags)
+        except ValueError as e:
+            flags.append(f"body: {e}")
     return FitResult(
         estimates=values, stderr=stderr, status=status,
         free=[n for n in want if status[n] == "fitted"], fixed=fixed, correlation=corr,
         flags=flags, condition=cond, residuals=residuals, Ts=Ts, segment=segment,
-        experiments=experiments, trace=trace, known=known, torque_map=tmap,
+        experiments=experiments, trace=trace, known=known, torque_map=tmap, body=bres,
     )  # fmt: skip
 
 
