@@ -194,6 +194,8 @@ def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: st
 
     for line in summary_lines(result):
         click.echo(line)
+    if result.body is not None:
+        click.echo(result.body.summary())
     enc = (result.residuals or {}).get("enc") or {}
     if enc.get("rms") is not None:  # the units of the progress lines
         click.echo(f"encoder residual RMS {enc['rms']:.3g} rad (fit.json: residuals)")

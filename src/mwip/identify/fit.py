@@ -247,6 +247,9 @@ class FitResult:
     structure: StructureCheck | None = None
     #: what the logs inform, checked before the fit (:mod:`mwip.identify.identifiability`)
     identifiability: Any = None
+    #: the body stage's lumped coefficients of (2.32) from balancing rows
+    #: (:mod:`mwip.identify.body`), else ``None``
+    body: Any = None
 
     def to_json(self) -> dict[str, Any]:
         def num(x: Any) -> Any:
@@ -275,6 +278,7 @@ class FitResult:
             "structure": None if self.structure is None else self.structure.to_json(),
             "identifiability": (None if self.identifiability is None
                                 else self.identifiability.to_json()),
+            "body": None if self.body is None else self.body.to_json(),
         }
 
 
@@ -748,13 +752,22 @@ def fit(
                    for m in ("balancing", "wheels-off-ground", "static")}  # fmt: skip
     trace.update(_traces(logs, values, tw, body))
     tmap = None if tm is None else _torque_gain(tm, values, stderr, status, known, flags)
+    bres = None
+    if experiments["balancing"]:  # the body stage, on the drive values just fitted
+        from mwip.identify.body import body_stage
+        from mwip.params import REAL
+
+        try:
+            bres = body_stage(logs, tw, REAL if body is None else body, values)
+            flags.extend(bres.flags)
+        except ValueError as e:
+            flags.append(f"body: {e}")
     return FitResult(
         estimates=values, stderr=stderr, status=status,
         free=[n for n in want if status[n] == "fitted"], fixed=fixed, correlation=corr,
         flags=flags, condition=cond, residuals=residuals, Ts=Ts, segment=segment,
         experiments=experiments, trace=trace, known=known, torque_map=tmap,
-        structure=structure,
-        identifiability=ident,
+        structure=structure, identifiability=ident, body=bres,
     )  # fmt: skip
 
 
