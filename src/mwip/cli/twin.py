@@ -180,7 +180,7 @@ def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: st
         prior = {n: centre(n) for n in result.estimates}
         prior.update(result.fixed)
         known = Known.from_twin(base, held.Ts, robot.body)
-        fitted, tr_fit = predict(held, result.estimates, known, segment, twin=base,
+        fitted, tr_fit = predict(held, result.robot_values(base), known, segment, twin=base,
                                  body=robot.body)  # fmt: skip
         at_prior, tr_prior = predict(held, prior, known, segment, twin=base, body=robot.body)
         result.validation = {"log": str(validate), "sha256": held.sha256,

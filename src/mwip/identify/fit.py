@@ -251,6 +251,15 @@ class FitResult:
     #: (:mod:`mwip.identify.body`), else ``None``
     body: Any = None
 
+    def robot_values(self, twin: Any) -> dict[str, float]:
+        """The values of the robot the fit describes: the fitted and fixed ones, the robot
+        file's twin (``twin``) for the rest (a parameter no log informs keeps the file's value,
+        as the fitted robot.toml does; ``estimates`` holds its prior centre)."""
+        out = {n: float(v) for n, v in twin.values().items() if n in self.estimates}
+        out.update({n: v for n, v in self.estimates.items()
+                    if self.status[n] in ("fitted", "fixed", "not identified")})  # fmt: skip
+        return out
+
     def to_json(self) -> dict[str, Any]:
         def num(x: Any) -> Any:
             if x is None:
@@ -750,7 +759,11 @@ def fit(
                          "fixed value?); its standard error does not hold there")  # fmt: skip
     experiments = {m: int(sum(int(np.sum(lg.mode == m)) for lg in logs))
                    for m in ("balancing", "wheels-off-ground", "static")}  # fmt: skip
-    trace.update(_traces(logs, values, tw, body))
+    file_values: dict[str, float] = tw.values()  # type: ignore[attr-defined]
+    own = {n: float(v) for n, v in file_values.items() if n in values}  # the file's values,
+    own.update({n: values[n] for n in NAMES if status[n] in ("fitted", "fixed",
+                                                             "not identified")})  # fmt: skip
+    trace.update(_traces(logs, own, tw, body))  # (for the rest: FitResult.robot_values)
     tmap = None if tm is None else _torque_gain(tm, values, stderr, status, known, flags)
     bres = None
     if experiments["balancing"]:  # the body stage, on the drive values just fitted
@@ -758,7 +771,7 @@ def fit(
         from mwip.params import REAL
 
         try:
-            bres = body_stage(logs, tw, REAL if body is None else body, values)
+            bres = body_stage(logs, tw, REAL if body is None else body, own)
             flags.extend(bres.flags)
         except ValueError as e:
             flags.append(f"body: {e}")
