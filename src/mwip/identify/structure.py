@@ -93,13 +93,16 @@ def check_structure(rms: float, floor: float, stderr: Mapping[str, float]) -> St
 def residual_floor(logs: Sequence[Any], values: Mapping[str, float], twin: Any, body: Any,
                    known: Any, segment: int) -> float | None:  # fmt: skip
     """The encoder residual RMS the twin's own structure leaves on the wheels-off-ground rows
-    of ``logs`` (module docstring): the twin ``twin`` with ``values``, the robot's ``body``,
+    of ``logs`` (module docstring): the twin ``twin`` with ``values``, the robot's ``body``
+    (``None``: Table 6.1),
     each log's commands (a torque log's as the duties its firmware wrote, by the torque gain
     and the fitted gear ratio) and modes; ``None`` without such rows."""
     from mwip.identify import synth
     from mwip.identify.fit import predict_error
     from mwip.identify.logs import Log
+    from mwip.params import REAL
 
+    body = REAL if body is None else body
     tw = synth.twin_for(values, twin)
     num = den = 0.0
     for lg in logs:
