@@ -78,6 +78,8 @@ def test_the_seed_decides_the_noise(files: dict[str, Path]) -> None:
     ("bad-mode", "column 'mode': row 3 is 'balancing'"),
     ("not-a-number", "column 'duty_l': row 2 is not a number"),
     ("foreign-file", "--force"),
+    ("dither-on-a-stand", "--dither adds to a controller's command: give --controller"),
+    ("dither-too-big", "--dither"),
 ])  # fmt: skip
 def test_bad_input_is_one_line(files: dict[str, Path], tmp_path: Path, capsys, case: str,
                                needle: str) -> None:  # fmt: skip
@@ -93,6 +95,8 @@ def test_bad_input_is_one_line(files: dict[str, Path], tmp_path: Path, capsys, c
             "both": ["--excite", str(sched), "--controller", "lqr"],
             "bad-inputs": ["--controller", "lqr", "--inputs", "volts"],
             "unknown-controller": ["--controller", "nope"],
+            "dither-on-a-stand": ["--excite", str(sched), "--dither", "0.05"],
+            "dither-too-big": ["--controller", "lqr", "--dither", "5"],
             }.get(case, ["--excite", str(sched)])  # fmt: skip
     if case == "foreign-file":
         out.write_text("mine\n")

@@ -314,6 +314,10 @@ def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float,
               help="Seconds of balancing (with --controller).")
 @click.option("--theta0", type=click.FloatRange(-0.3, 0.3), default=0.05, show_default=True,
               help="Initial lean (rad; with --controller).")
+@click.option("--dither", type=click.FloatRange(0.0, 1.0), default=0.0, show_default=True,
+              help="A known random binary torque (N m per wheel, held 50 ms) added to the "
+                   "controller's command and logged with it: excitation the body's fit "
+                   "needs (with --controller; docs/twin_fit.md).")
 @click.option("--inputs", type=click.Choice(["duty", "torque", "both"]), default=None,
               help="The command columns: the duties before the back-EMF compensation (duty_r, "
               "duty_l; the default with --excite), the torques the law commanded (u_r, u_l; "
@@ -324,8 +328,8 @@ def twin_excite(out: Path, Ts: float, static: float, step: float, chirp: float,
               help="The log (CSV, the columns 'mwip twin fit' reads).")
 @FILE_FORCE
 def twin_log(robot_file: Path | None, excite_file: Path | None, controller: str | None,
-             duration: float, theta0: float, inputs: str | None, seed: int, out: Path,
-             force: bool) -> None:  # fmt: skip
+             duration: float, theta0: float, dither: float, inputs: str | None, seed: int,
+             out: Path, force: bool) -> None:  # fmt: skip
     """Simulate the log ROBOT would write (its body, drive, firmware and sensors, from the robot
     file): on a stand for an excitation schedule, or balancing under a controller. The whole
     chain (log -> `mwip twin fit` -> tune, bench, export) can so be tried before hardware."""
@@ -335,6 +339,8 @@ def twin_log(robot_file: Path | None, excite_file: Path | None, controller: str 
     if (excite_file is None) == (controller is None):
         raise click.UsageError("give one of --excite FILE (a stand log) or --controller NAME "
                                "(a balancing log)")  # fmt: skip
+    if dither > 0.0 and controller is None:
+        raise click.UsageError("--dither adds to a controller's command: give --controller")
     robot = robot_option(robot_file)
     file_ok(out, force)
     if excite_file is not None:
@@ -354,9 +360,14 @@ def twin_log(robot_file: Path | None, excite_file: Path | None, controller: str 
         except ValueError as exc:
             raise click.UsageError(f"--controller: {exc}") from None
         ctrl = build(name, robot.design, {}, Ts=robot.Ts)
+        if dither > 0.0:
+            from mwip.identify.dither import Dithered
+
+            ctrl = Dithered(ctrl, dither, robot.Ts, duration, seed=seed)
         cols = synth.balancing_log_on(robot.twin, robot.body, ctrl, duration, seed,
                                       q0=(0.0, theta0, 0.0), inputs=inputs or "torque")  # fmt: skip
-        what = f"balancing under {name} from a lean of {theta0:g} rad"
+        what = f"balancing under {name} from a lean of {theta0:g} rad" + (
+            f", dither {dither:g} N m" if dither > 0.0 else "")
     write_text_atomic(out, synth.csv_text(cols))
     record_file(out)
     n = len(cols["t"])

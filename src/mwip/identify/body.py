@@ -39,10 +39,11 @@ Signals and their biases (measured on the twin: a 5 s log under ``lqr``):
 - the pitch ``th`` is the gyro less its bias (``imu.gyro_bias``: the fit's, else the twin's),
   integrated (trapezoid) over each balancing run, started at the median of the board's fused
   pitch less that integral (the fused pitch itself lags the motion and starts from its own
-  transient); ``th'`` is the gyro less its bias. The start's error is a constant offset
-  ``delta``: it enters row 2 as ``-Gb cos th delta``, fitted as a nuisance ``Gb delta`` per
-  run (``Gb`` comes from the pitch's motion within each run, not from its mean). A constant
-  torque per run in row 1 is a nuisance too;
+  transient); ``th'`` is the gyro less its bias. The pitch's error is its start's offset
+  and a drift (the bias it is corrected with is off by the IMU's bias random walk):
+  ``delta_0 + delta_1 t``; it enters row 2 as ``-Gb cos th (delta_0 + delta_1 t)``, fitted as
+  two nuisances per run (``Gb`` comes from the pitch's motion within each run, not from its
+  mean). A constant torque per run in row 1 is a nuisance too;
 - the delivered torque is not logged: it is the twin's drive chain
   (:meth:`mwip.hardware.twin.Twin.actuator`: delay, torque-to-duty map, back-EMF
   compensation, PWM, dead-band, current limit, sag, Coulomb friction, backlash) driven by
@@ -63,14 +64,16 @@ scaled regressors (a direction with ``sigma / sigma_max`` below :data:`RANK_TOL`
 combination the logs do not inform) and each coefficient's relative standard error (above
 :data:`RSE_MAX`, or an interval that holds 0: not identified).
 
-Noise (measured on the twin, the body's ``l`` +15 %, ``mb`` +10 %, ``lqr`` from a 0.25 rad
-lean, 5 s): with the true states and torques the six coefficients come back within 1.6 %;
-with the true states and the drive model's torque within 2.2 %. With the logged gyro and
-encoders the closed loop's regressors are nearly collinear and the sensors' noise
-(gyro 0.0043 rad/s per sample, encoder quantisation) enters them as errors in variables:
-``m12`` and ``m22`` come back 0.7-0.8x with relative standard errors above
-:data:`RSE_MAX` (not identified), ``Gb`` 0.81 +- 0.15, ``m11`` +2 %. A log whose pitch barely
-moves (a 0.05 rad lean) leaves ``m12, m22, Dw`` unidentified. The mapping of the lumped
+Excitation and accuracy (measured on the twin). Under its controller alone a balancing
+robot's command follows its measured state, the regressors move together and the sensors'
+noise enters them as errors in variables: from a 0.25 rad lean under ``lqr`` (5 s), ``m12``
+and ``m22`` came back 0.7-0.8x with relative standard errors above :data:`RSE_MAX` (reported
+not identified), and a 0.05 rad lean leaves ``m12, m22, Dw`` unidentified. A known signal
+added to the command (``mwip twin log --dither``, :mod:`mwip.identify.dither`; on a robot,
+the firmware adds it and logs the sum) identifies all six: on development seeds 1-4 (10 s,
+dither 0.03 and 0.1 N m) within 0.5 % (m11), 1.5 % (m12), 1.7 % (m22), 2 % (Gb), 3.3 % (Db)
+and 16 % (Dw). The intervals are sampling intervals: the method's bias beyond them is
+:data:`BIAS`, which the comparison with the robot file allows for. The mapping of the lumped
 coefficients to the robot file's body fields is not built.
 """
 
@@ -98,6 +101,15 @@ BLOCK = 0.5
 #: above which a coefficient is not identified.
 RANK_TOL = 1e-3
 RSE_MAX = 0.25
+#: The method's own bias, beyond its sampling intervals, measured on synthetic truth
+#: (development seeds 1-4 of ``lqr`` with a dither of 0.03 and 0.1 N m, 10 s, the book's body
+#: and one with ``l`` +15 %, ``mb`` +10 %; the errors in variables of the gyro and encoders
+#: and the drive model's torque): at most 0.5 % (m11), 1.5 % (m12), 1.7 % (m22), 2.0 % (Gb),
+#: while the 95 % intervals are 0.2-1 % wide. A robot file's coefficient is said to disagree
+#: with the logs only outside the interval widened by :data:`BIAS` of the estimate. The
+#: damping (Db, Dw: errors up to 3 % and 16 %, the drive model's friction) is not compared.
+BIAS = 0.03
+COMPARED: tuple[str, ...] = ("m11", "m12", "m22", "Gb")
 #: Yaw-rate RMS (rad/s) above which the dropped yaw terms are flagged.
 YAW_RATE_FLAG = 0.5
 _P = 4  # w = (1 - s^2)^_P
@@ -119,10 +131,17 @@ class BodyResult:
     residual_rms: float
     flags: list[str] = field(default_factory=list)
 
+    def file_inside(self, n: str) -> bool:
+        """The robot file's ``n`` within its interval widened by :data:`BIAS` of the
+        estimate."""
+        lo, hi = self.interval[n]
+        pad = BIAS * abs(self.estimate[n])
+        return bool(lo - pad <= self.file[n] <= hi + pad)
+
     def file_outside(self) -> list[str]:
-        """The lumped coefficients the robot file's body puts outside their intervals."""
-        return [n for n in LUMPED if self.identifiable[n]
-                and not (self.interval[n][0] <= self.file[n] <= self.interval[n][1])]
+        """The compared coefficients (:data:`COMPARED`) the robot file's body puts outside
+        their intervals widened by the method's measured bias (:data:`BIAS`)."""
+        return [n for n in COMPARED if self.identifiable[n] and not self.file_inside(n)]
 
     def summary(self) -> str:
         """One line: the identified coefficients with their 95 % intervals, the others named."""
@@ -141,12 +160,13 @@ class BodyResult:
         return {
             "method": "weak-form linear least squares of the planar (2.32), "
                       "cluster-robust by blocks (docs/twin_fit.md)",
+            "bias_allowance": BIAS, "compared": list(COMPARED),
             "lumped": {n: {"estimate": num(self.estimate[n]), "stderr": num(self.stderr[n]),
                            "interval_95": [num(v) for v in self.interval[n]],
                            "identifiable": bool(self.identifiable[n]),
                            "file": num(self.file[n]),
-                           "file_inside": bool(self.interval[n][0] <= self.file[n]
-                                               <= self.interval[n][1])}
+                           "file_inside": (self.file_inside(n) if n in COMPARED
+                                           else None)}
                        for n in LUMPED},
             "unidentified_combinations": self.unidentified,
             "condition_number": num(self.condition),
@@ -312,9 +332,13 @@ def regression(logs: Sequence[Log], twin: Any, body: Any,
             small = S((1.0 - cs) * psid, w1) + S(sn * thd * psid, w)
             r2 = np.column_stack([zero, mp + small, -S(thd, w1), -S(sn, w), 2.0 * S(ph, w1),
                                   zero])
-            # nuisances: a constant torque in row 1; the pitch's offset in row 2 (Gb delta)
-            n1 = np.column_stack([S(np.ones(n), w), zero])
-            n2 = np.column_stack([zero, -S(cs, w)])
+            # nuisances: a constant torque in row 1; the pitch's offset and drift in row 2
+            # (Gb (delta_0 + delta_1 t): the integrated gyro drifts by the error of the bias it
+            # is corrected with, a random walk in the IMU; without the drift term m12, m22 and
+            # Gb came back up to 8 % low on development seeds, with it within 2 %)
+            tr = (np.arange(n) - 0.5 * n) * Ts
+            n1 = np.column_stack([S(np.ones(n), w), zero, zero])
+            n2 = np.column_stack([zero, -S(cs, w), -S(cs * tr, w)])
             blk = block0 + ((starts + 0.5 * Lw) * Ts // BLOCK).astype(int)
             block0 = int(blk.max()) + 1
             parts_x.append(np.vstack([r1, r2]))
@@ -409,6 +433,8 @@ def body_stage(logs: Sequence[Log], twin: Any, body: Any,
                              f"{est[n]:.3g} +- {sed[n]:.2g}); the robot file's value is kept")
     for n in out.file_outside():
         out.flags.append(f"body: the robot file's {n} = {filed[n]:.4g} (its plant's) is outside "
-                         f"the logs' 95 % interval [{itv[n][0]:.4g}, {itv[n][1]:.4g}]")
+                         f"the logs' 95 % interval [{itv[n][0]:.4g}, {itv[n][1]:.4g}] widened "
+                         f"by the method's measured bias ({100 * BIAS:g} %): the file's body "
+                         "disagrees with the logs")  # fmt: skip
     return out
 
