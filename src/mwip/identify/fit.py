@@ -901,14 +901,17 @@ def _torque_gain(tm: TorqueMap, values: Mapping[str, float],
 
 def _start_states(smooth: _Problem, seg: Segments, Ts: float) -> NDArray[np.float64]:
     """Each segment's start state (nuisances) for parameters held: the smooth model's own
-    problem solved to convergence from eight first guesses (the encoders' slope and curvature
-    over the first 3 and the first 6 samples; ``w_0 - w_{-1}`` that curvature, 0, and 30 rad/s
-    either way of it), the lowest cost kept per segment. One guess is not enough: on a fast
-    chirp the first samples' parabola misses the start speed by half, and a segment's problem
-    has spurious minima (:class:`mwip.identify.solve.Reduced`): from one guess, a log's own
-    fitted parameters left a residual 70 times the fit's on the log the fit had seen."""
+    problem solved to convergence from the first guesses (the encoders' slope and curvature
+    over the first 6 samples); a segment left with more than 4 times the median segment's
+    cost (as :class:`mwip.identify.solve.Reduced` tests) is solved again from seven more
+    guesses (the slope and curvature over the first 3 samples; ``w_0 - w_{-1}`` that
+    curvature, 0, and 30 rad/s either way of it), the lowest cost kept. One guess is not
+    enough: on a fast chirp the first samples' parabola misses the start speed by half, and a
+    segment's problem has spurious minima: from one guess, a log's own fitted parameters left a
+    residual 70 times the fit's on the log the fit had seen."""
+    from mwip.identify.solve import _Subset
+
     none = np.zeros(0)
-    best_z = best_c = None
     starts = []
     for q in (6, 3):
         guess = [_start_guess(e, Ts, q) for e in seg.enc]
@@ -916,16 +919,17 @@ def _start_states(smooth: _Problem, seg: Segments, Ts: float) -> NDArray[np.floa
         dw = np.array([g[1] for g in guess])
         for curv in (dw, np.zeros_like(dw), dw + 30.0 * np.sign(w0), dw - 30.0 * np.sign(w0)):
             starts.append(np.concatenate([w0, curv], axis=1) / 10.0)
-    for z0 in starts:
-        z, r, _ = nuisance_solve(smooth.segment_residual, none, z0, max_iter=200)
-        c = np.sum(r * r, axis=1)
-        if best_z is None or best_c is None:
-            best_z, best_c = z, c
-        else:
-            better = c < best_c
-            best_z[better], best_c[better] = z[better], c[better]
-    assert best_z is not None
-    return best_z
+    best_z, r, _ = nuisance_solve(smooth.segment_residual, none, starts[0], max_iter=200)
+    best_c = np.sum(r * r, axis=1)
+    bad = np.flatnonzero(best_c > 4.0 * np.median(best_c))
+    if bad.size:
+        sub = _Subset(smooth.segment_residual, bad)
+        for z0 in starts[1:]:
+            z, r, _ = nuisance_solve(sub, none, z0[bad], max_iter=200)
+            c = np.sum(r * r, axis=1)
+            better = c < best_c[bad]
+            best_z[bad[better]], best_c[bad[better]] = z[better], c[better]
+    return np.asarray(best_z, dtype=float)
 
 
 def predict_error(log: Log, values: Mapping[str, float], known: Known,
