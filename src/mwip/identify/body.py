@@ -86,7 +86,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from mwip.identify.logs import Log
+from mwip.identify.logs import Log, runs
 
 __all__ = ["LUMPED", "BodyResult", "body_stage", "delivered_torque", "regression"]
 
@@ -184,21 +184,6 @@ def _drive_twin(twin: Any, values: Mapping[str, float] | None) -> Any:
     return twin.with_values({n: float(v) for n, v in values.items() if n in STAND_PARAMS})
 
 
-def _runs(on: NDArray[np.bool_], min_len: int) -> list[tuple[int, int]]:
-    out, k, n = [], 0, len(on)
-    while k < n:
-        if not on[k]:
-            k += 1
-            continue
-        e = k
-        while e < n and on[e]:
-            e += 1
-        if e - k >= min_len:
-            out.append((k, e))
-        k = e
-    return out
-
-
 def delivered_torque(cmd: NDArray[np.float64], state: NDArray[np.float64], is_duty: bool,
                      twin: Any, plant: Any, chunk: int = 400,
                      warm: int = 40) -> NDArray[np.float64]:  # fmt: skip
@@ -287,7 +272,7 @@ def regression(logs: Sequence[Log], twin: Any, body: Any,
         hop = max(int(round(HOP / Ts)), 1)
         w, w1, w2, _w3, wm, _w1m = _kernels(Lw, Ts)
         c = lg.columns
-        for k0, k1 in _runs(lg.mode == "balancing", Lw + 2):
+        for k0, k1 in runs(lg.mode == "balancing", Lw + 2):
             n = k1 - k0
             gy = c["theta_rate"][k0:k1]
             d2 = np.diff(gy, 2)

@@ -428,20 +428,17 @@ def _check_gyro(p: str, cols: dict[str, NDArray[np.float64]], mode: NDArray[np.s
                        "rate (gyro)?")  # fmt: skip
 
 
+def runs(on: NDArray[np.bool_], min_len: int = 1) -> list[tuple[int, int]]:
+    """``(start, end)`` of each run of ``True`` in ``on`` (a log's rows of one mode) of at
+    least ``min_len`` samples."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], np.asarray(on, dtype=np.int8), [0]])))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)
+            if b - a >= min_len]  # fmt: skip
+
+
 def window_starts(on: NDArray[np.bool_], length: int) -> list[int]:
     """Start indices of the consecutive, non-overlapping windows of ``length`` samples that fit
     inside each run of ``True`` in ``on`` (a log's rows of one mode); a run's tail shorter than
     ``length`` is left out."""
-    out: list[int] = []
-    k, n = 0, len(on)
-    while k < n:
-        if not on[k]:
-            k += 1
-            continue
-        end = k
-        while end < n and on[end]:
-            end += 1
-        out.extend(range(k, end - length + 1, length))
-        k = end
-    return out
+    return [k for a, b in runs(on) for k in range(a, b - length + 1, length)]
 
