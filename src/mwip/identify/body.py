@@ -73,8 +73,8 @@ added to the command (``mwip twin log --dither``, :mod:`mwip.identify.dither`; o
 the firmware adds it and logs the sum) identifies all six: on development seeds 1-4 (10 s,
 dither 0.03 and 0.1 N m) within 0.5 % (m11), 1.5 % (m12), 1.7 % (m22), 2 % (Gb), 3.3 % (Db)
 and 16 % (Dw). The intervals are sampling intervals: the method's bias beyond them is
-:data:`BIAS`, which the comparison with the robot file allows for. The mapping of the lumped
-coefficients to the robot file's body fields is not built.
+:data:`BIAS`, which the comparison with the robot file allows for. The body fields ``l``
+and ``Iyy`` follow with the file's mass held (:func:`physical`).
 """
 
 from __future__ import annotations
@@ -109,6 +109,9 @@ RSE_MAX = 0.25
 #: with the logs only outside the interval widened by :data:`BIAS` of the estimate. The
 #: damping (Db, Dw: errors up to 3 % and 16 %, the drive model's friction) is not compared.
 BIAS = 0.03
+#: A body field derived from the coefficients replaces the robot file's in the fitted
+#: robot.toml when its 95 % sampling interval is within this share of its value.
+WRITE_RSE = 0.05
 COMPARED: tuple[str, ...] = ("m11", "m12", "m22", "Gb")
 #: Yaw-rate RMS (rad/s) above which the dropped yaw terms are flagged.
 YAW_RATE_FLAG = 0.5
@@ -130,6 +133,14 @@ class BodyResult:
     blocks: int
     residual_rms: float
     flags: list[str] = field(default_factory=list)
+    #: the body fields the coefficients give with the file's mass held
+    #: (:func:`physical`): name -> (value, standard error, the file's value)
+    fields: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+
+    def written(self) -> dict[str, float]:
+        """The fields precise enough to replace the file's (:data:`WRITE_RSE`)."""
+        return {n: v for n, (v, se, _) in self.fields.items()
+                if v > 0 and 1.96 * se <= WRITE_RSE * v}  # fmt: skip
 
     def file_inside(self, n: str) -> bool:
         """The robot file's ``n`` within its interval widened by :data:`BIAS` of the
@@ -173,6 +184,10 @@ class BodyResult:
             "windows": self.windows, "blocks": self.blocks,
             "residual_rms": num(self.residual_rms),
             "flags": list(self.flags),
+            "fields": {n: {"estimate": num(v), "stderr": num(se), "file": num(f),
+                           "written": n in self.written()}
+                       for n, (v, se, f) in self.fields.items()},
+            "write_rse": WRITE_RSE,
         }  # fmt: skip
 
 
@@ -354,6 +369,33 @@ def _solve(phi: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float
     return np.asarray(np.linalg.lstsq(phi / d, y, rcond=None)[0] / d, dtype=float)
 
 
+def physical(est: Mapping[str, float], cov: NDArray[np.float64], ok: Mapping[str, bool],
+             twin: Any, body: Any) -> dict[str, tuple[float, float, float]]:  # fmt: skip
+    """The body fields the lumped coefficients give, the robot file's mass ``mb`` held (the
+    user weighs it): from (2.32), ``Gb = mb g l`` gives the centre of mass's height
+    ``l = Gb / (mb g)``, and ``m22 = mb l^2 + Iby + c`` the body's pitch inertia
+    ``Iyy = Iby = m22 - mb l^2 - c``, with ``c`` what the twin's plant adds to ``m22`` for this
+    robot (the reflected rotor inertia ``2 (N - 1)^2 J_r``, :meth:`mwip.hardware.twin.Twin.
+    plant`; taken from the plant itself). Standard errors by the delta method with the
+    coefficients' covariance ``cov`` (order :data:`LUMPED`). Only from identified
+    coefficients: ``{"l": (value, se, file's)}``, and ``"Iyy"`` where ``m22`` is too."""
+    out: dict[str, tuple[float, float, float]] = {}
+    if not ok["Gb"]:
+        return out
+    ig, i22 = LUMPED.index("Gb"), LUMPED.index("m22")
+    mb, g = float(body.mb), float(body.g)
+    lv = est["Gb"] / (mb * g)
+    out["l"] = (lv, float(np.sqrt(max(cov[ig, ig], 0.0))) / (mb * g), float(body.l))
+    if ok["m22"]:
+        plant = twin.plant(body)
+        c = float(plant.m22) - mb * float(body.l) ** 2 - float(body.Iby)
+        iv = est["m22"] - mb * lv * lv - c
+        d = -2.0 * lv / g  # d Iyy / d Gb
+        var = cov[i22, i22] + d * d * cov[ig, ig] + 2.0 * d * cov[i22, ig]
+        out["Iyy"] = (iv, float(np.sqrt(max(var, 0.0))), float(body.Iby))
+    return out
+
+
 def lumped_of(plant: Any) -> NDArray[np.float64]:
     """The lumped coefficients :data:`LUMPED` of a plant."""
     return np.array([float(getattr(plant, n)) for n in LUMPED])
@@ -410,8 +452,9 @@ def body_stage(logs: Sequence[Log], twin: Any, body: Any,
         ok[n] = bool(s_ > 0 and s_ <= RSE_MAX * abs(b) and not weak
                      and not (itv[n][0] <= 0.0 <= itv[n][1]))  # fmt: skip
         filed[n] = float(filec[i])
+    fields_ = physical(est, Vc, ok, tw, body)
     out = BodyResult(est, sed, itv, ok, filed, unident, cond, int(y.size // 2), G,
-                     float(np.sqrt(np.mean(res**2))), flags=flags)  # fmt: skip
+                     float(np.sqrt(np.mean(res**2))), flags=flags, fields=fields_)  # fmt: skip
     for n in LUMPED:
         if not ok[n]:
             out.flags.append(f"body: {n} is not identified by the balancing rows (estimate "

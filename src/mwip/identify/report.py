@@ -25,8 +25,10 @@ __all__ = ["fitted_robot", "robot_text", "fit_json", "Panel", "figure_panels", "
 
 
 def fitted_robot(result: FitResult, logs: Sequence[Log], base: Any = None) -> Any:
-    """The robot ``base`` (default: the default robot) with the fitted and fixed values, and
-    their provenance (module docstring)."""
+    """The robot ``base`` (default: the default robot) with the fitted and fixed values, the
+    body stage's fields precise enough to replace the file's (``body.l``, ``body.Iyy``:
+    :meth:`mwip.identify.body.BodyResult.written`), and their provenance (module
+    docstring)."""
     from mwip.robot import robot_or_default
 
     robot = robot_or_default(base)
@@ -49,6 +51,20 @@ def fitted_robot(result: FitResult, logs: Sequence[Log], base: Any = None) -> An
             f"fitted: `mwip twin fit`, torque-to-duty map d = a u of the logged torque and duty "
             f"(a = {tm['a']:.5g}, misfit {100 * tm['misfit']:.2g} %) with the fitted gear ratio"
             f" +- {tm['stderr']:.3g} (1 standard error) on the logs {sha}")  # fmt: skip
+    bres = result.body
+    written = bres.written() if bres is not None else {}
+    if written:  # the body stage's fields, the file's mass held (mwip.identify.body.physical)
+        from dataclasses import replace as _replace
+
+        phys = {"l": "l", "Iyy": "Iby"}
+        robot = _replace(robot, body=_replace(robot.body, **{phys[n]: v
+                                                             for n, v in written.items()}))
+        for n in written:
+            se = bres.fields[n][1] if bres is not None else float("nan")
+            how = "Gb = mb g l" if n == "l" else "m22 = mb l^2 + Iyy + the reflected rotor"
+            sources[f"body.{n}"] = (f"fitted: `mwip twin fit` body stage ({how}; mb from the "
+                                    f"robot file) +- {se:.3g} (1 standard error) on the logs "
+                                    f"{sha}")  # fmt: skip
     notes = ["Fitted by `mwip twin fit` (docs/twin_fit.md) from the logs (SHA-256):"]
     notes += [f"  {lg.sha256}  {os.path.basename(lg.path)}" for lg in logs]
     notes.append(f"free: {', '.join(result.free) or '(none)'}")
