@@ -200,7 +200,8 @@ def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: st
     if enc.get("rms") is not None:  # the units of the progress lines
         click.echo(f"encoder residual RMS {enc['rms']:.3g} rad (fit.json: residuals)")
     for flag in result.flags:
-        click.echo(f"note: {flag}")
+        if not flag.startswith("identifiability: "):  # (printed before the fit's progress)
+            click.echo(f"note: {flag}")
 
 
 #: options of each mode of ``twin fit``: refused in the other one
