@@ -43,6 +43,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -269,6 +270,29 @@ def _simulated(Ts: float, static: float, step: float, chirp: float,
     return out
 
 
+@lru_cache(maxsize=64)
+def _candidate(Ts: float, static: float, step: float, chirp: float,
+               pts: tuple[tuple[tuple[str, float], ...], ...], known: Known,
+               free: tuple[str, ...], segment: int) -> tuple[NDArray, NDArray] | None:  # fmt: skip
+    """A candidate schedule's information at the points ``pts``, for a noise of the fit's
+    residual unit (scale by ``(1e-3 / sigma)^2``), and which parameters it informs; it
+    depends on the robot (``known``), the points and the free set only, not on the logs, so
+    it is computed once per process (a campaign of fits of one robot reuses it)."""
+    from mwip.identify.fit import _RES, stand_segments
+
+    points = [dict(p) for p in pts]
+    sims = _simulated(Ts, static, step, chirp, points, known)
+    Fc, lc = [], np.zeros(len(free), dtype=bool)
+    for p, lg in zip(points, sims, strict=True):
+        cs = stand_segments([lg], segment)
+        if cs is None:
+            continue
+        F, norms = _info(_projected(cs, known, list(free), p), _RES)
+        Fc.append(F)
+        lc |= norms > ZERO * max(float(norms.max()), 1e-300)
+    return (np.mean(Fc, axis=0), lc) if Fc else None
+
+
 def _command(Ts: float, static: float, step: float, chirp: float) -> str:
     ts = "" if abs(Ts - 0.005) < 1e-12 else f" --ts {Ts:g}"
     return (f"mwip twin excite{ts} --static {static:g} --step {step:g} --chirp {chirp:g} "
@@ -349,18 +373,14 @@ def check(logs: Sequence[Log], free: Sequence[str], values: Mapping[str, float],
     inform: dict[str, tuple[str, str] | None] = {free[i]: None for i in need_any}
     if dirs or need_any:
         cand_F: list[tuple[str, str, NDArray, NDArray]] = []
+        from mwip.identify.fit import _RES
+
+        pkey = tuple(tuple(sorted(p.items())) for p in pts)
         for what, st, sp, ch in cands:
-            sims = _simulated(Ts, st, sp, ch, pts, known)
-            Fc, lc = [], np.zeros(g, dtype=bool)
-            for p, lg in zip(pts, sims, strict=True):
-                cs = stand_segments([lg], segment)
-                if cs is None:
-                    continue
-                F, norms = _info(_projected(cs, known, free, p), sigma)
-                Fc.append(F)
-                lc |= norms > ZERO * max(float(norms.max()), 1e-300)
-            if Fc:
-                cand_F.append((what, _command(Ts, st, sp, ch), np.mean(Fc, axis=0), lc))
+            got = _candidate(Ts, st, sp, ch, pkey, known, tuple(free), segment)
+            if got is not None:
+                F1, lc = got
+                cand_F.append((what, _command(Ts, st, sp, ch), F1 * (_RES / sigma) ** 2, lc))
         for i in need_any:
             for what, cmd, _, lc in cand_F:
                 if lc[i]:
