@@ -416,11 +416,19 @@ class _Problem:
         return out
 
 
+def _all_segments(idx: Any, S: int) -> bool:
+    """``idx`` selects every segment once, in order (``slice(None)`` or ``arange(S)``)."""
+    if isinstance(idx, slice):
+        return idx == slice(None)
+    a = np.asarray(idx)
+    return bool(a.ndim == 1 and a.size == S and np.array_equal(a, np.arange(S)))
+
+
 class _Progress:
     """Counts the model evaluations of a stage and says every 100 how far it has come: the
     lowest encoder residual RMS so far over all segments, in rad (the units of the final
-    ``residuals.enc.rms`` of fit.json; an evaluation of some segments only, or of a trial
-    step, is not comparable and is not shown)."""
+    ``residuals.enc.rms`` of fit.json; an evaluation of some segments only is not comparable
+    and is not shown; stage 2's evaluations name every segment by index)."""
 
     def __init__(self, stage: str, progress: Callable[[str], None] | None) -> None:
         self.stage, self.progress, self.n = stage, progress, 0
@@ -434,7 +442,7 @@ class _Progress:
         def fun(x: NDArray, z: NDArray, idx: Any = slice(None)) -> NDArray:
             r = prob.segment_residual(x, z, idx)
             self.n += 1
-            if isinstance(idx, slice) and idx == slice(None) and r.size:
+            if _all_segments(idx, prob.S) and r.size:
                 self.best = min(self.best, float(np.sqrt(np.mean(r**2))) * _RES)
             if self.n % 100 == 0 and self.progress is not None:
                 best = "-" if not math.isfinite(self.best) else f"{self.best:.3g} rad"
