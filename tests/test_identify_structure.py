@@ -38,7 +38,7 @@ NOMINAL = 0.9545
 
 
 @pytest.fixture(scope="module")
-def fits(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[dict, object]]:
+def fits(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[dict, object, object]]:
     robot = default_robot()
     consts = consts_of(robot)
     _, duty, mode = excite.schedule(robot.twin.Ts, 0.5, 0.1, 1.0)
@@ -48,16 +48,17 @@ def fits(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[dict, object]]:
         t = truth(seed)
         path = Path(tmp) / f"log{seed}.csv"
         path.write_text(synth.csv_text(simulate(t, duty, mode, consts, "off", seed)))
-        out.append((t, fit([read_log(str(path))], robot.twin, body=robot.body)))
+        lg = read_log(str(path))
+        out.append((t, fit([lg], robot.twin, body=robot.body), lg))
     return out
 
 
 @pytest.mark.slow
 def test_the_structure_test_rejects_another_structure(fits: list) -> None:
-    ratios = [res.structure.ratio for _, res in fits]
+    ratios = [res.structure.ratio for _, res, _ in fits]
     print("\nBirge ratios:", " ".join(f"{r:.3g}" for r in ratios))
-    assert sum(res.structure.rejected for _, res in fits) >= 19
-    for _, res in fits:
+    assert sum(res.structure.rejected for _, res, _ in fits) >= 19
+    for _, res, _ in fits:
         if res.structure.rejected:
             assert any(f.startswith("structure: rejected") for f in res.flags)
 
@@ -67,7 +68,7 @@ def test_the_reported_intervals_cover_the_truth(fits: list) -> None:
     hits = total = 0
     per: dict[str, list[int]] = {n: [] for n in DRIVE}
     primary = 0
-    for t, res in fits:
+    for t, res, _ in fits:
         sc = res.structure
         for n in DRIVE:
             se = res.stderr.get(n)
@@ -85,3 +86,17 @@ def test_the_reported_intervals_cover_the_truth(fits: list) -> None:
         print(f"  {n:28s} {sum(v)}/{len(v)}")
     assert total >= 20 * 6
     assert hits >= stats.binom.ppf(0.01, total, NOMINAL)
+
+
+@pytest.mark.slow
+def test_the_fitted_robot_file_carries_the_widened_errors(fits: list) -> None:
+    """The robot file a rejected fit writes (the one tune, bench and export then take) gives
+    each drive value's widened standard error and says why, not the primary one alone."""
+    from mwip.identify.report import fitted_robot
+
+    _, res, lg = next(f for f in fits if f[1].structure.rejected)
+    src = fitted_robot(res, [lg]).sources()
+    for n in DRIVE:
+        if res.status[n] == "fitted":
+            assert f"+- {res.structure.widened[n]:.3g} (1 standard error widened" in src[n]
+            assert "structure was rejected" in src[n]

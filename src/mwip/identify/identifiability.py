@@ -19,10 +19,14 @@ draw_truth` draws), and their mean is used (the prior-averaged information). The
 
 - a parameter is **not informed** when its projected Jacobian column is zero at every point
   (norm below :data:`ZERO` of the largest column's: the fit's own test at its optimum);
-- a direction ``v`` (unit vector, an eigenvector of the mean ``F`` of the informed parameters)
-  is **confounded** when its standard error ``1 / sqrt(lambda)``, in units of the prior span,
-  exceeds :data:`SE_MAX`; the parameters with weight ``|v_i| >=`` :data:`WEIGHT` make up the
-  combination, reported with their correlation (from ``F^-1``).
+- a direction ``v`` (unit vector) of the mean ``F`` of the informed parameters, normalised to
+  a unit diagonal, is a **confounded** combination when its eigenvalue is below
+  :data:`MU_MIN` (for a pair: a correlation above 0.9, the fit's own flag); the parameters
+  with weight ``|v_i| >=`` :data:`WEIGHT` make up the combination, reported with their
+  correlation (from ``F^-1``) and the direction's standard error ``1 / sqrt(lambda)`` in units
+  of the prior span. Where that error is at most :data:`SE_MAX` the parameters are
+  correlated but each still well within its range, and no experiment is advised; above it
+  (or for a single parameter: **weakly informed**) an experiment is sought, below.
 
 :data:`SE_MAX` = 0.05: the information matrix assumes white encoder noise, and the fit's
 cluster-robust errors, which allow for the residuals' correlation within a segment and some

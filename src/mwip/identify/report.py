@@ -43,6 +43,11 @@ def fitted_robot(result: FitResult, logs: Sequence[Log], base: Any = None) -> An
             sources[n] = "fixed by `mwip twin fit --fix`"
         else:
             err = f" +- {se:.3g} (1 standard error)" if se is not None and np.isfinite(se) else ""
+            sc = result.structure
+            if sc is not None and sc.rejected and n in sc.widened and se is not None:
+                err = (f" +- {sc.widened[n]:.3g} (1 standard error widened by the structure "
+                       f"test's ratio {sc.ratio:.3g}: the twin's structure was rejected on "
+                       f"these logs; primary {se:.3g})")  # fmt: skip
             sources[n] = f"{st}: `mwip twin fit`{err} on the logs {sha}"
     tm = result.torque_map
     if tm is not None:  # both pairs logged: the firmware's torque-to-duty map
