@@ -42,6 +42,12 @@ class HeldOutClaim:
     id: str
     text: str
     test: Callable[[Cols], NDArray[np.bool_]]
+    runs: tuple[str, ...] = ()  # the runs it compares (their study/run names)
+
+    @property
+    def needs(self) -> tuple[str, ...]:
+        """The calibration facts it rests on: each compared run stood (``up:<run>``)."""
+        return tuple(f"up:{r}" for r in self.runs)
 
     @property
     def key(self) -> str:
@@ -99,6 +105,10 @@ def _fuzzy(e: int) -> Callable[[Cols], NDArray[np.bool_]]:
     return test
 
 
+def _three(study: str, case: str) -> tuple[str, ...]:
+    return tuple(f"{study}/{k}.{case}" for k in ("smc", "do1smc", "do4smc"))
+
+
 def _claims() -> tuple[HeldOutClaim, ...]:
     from mwip.studies.exp_hodosmc import TRACK_TOL
     from mwip.studies.settings import defaults
@@ -111,26 +121,31 @@ def _claims() -> tuple[HeldOutClaim, ...]:
             for q in qs:
                 out.append(HeldOutClaim(study, f"order.{q}.case{c}",
                                         f"DO4SMC < DO1SMC < SMC in {q}, Case {c} ({table})",
-                                        _order3(study, f"case{c}", q)))  # fmt: skip
+                                        _order3(study, f"case{c}", q),
+                                        _three(study, f"case{c}")))  # fmt: skip
             if study == "exp-hodosmc-speed":
                 out.append(HeldOutClaim(study, f"track.case{c}",
                                         f"all three move at {speed:g} rad/s, Case {c}",
-                                        _track(study, f"case{c}", speed, TRACK_TOL)))  # fmt: skip
+                                        _track(study, f"case{c}", speed, TRACK_TOL),
+                                        _three(study, f"case{c}")))  # fmt: skip
     out.append(HeldOutClaim("exp-hodosmc-obstacle", "order.case3.settling_time",
                             "settling time DO4SMC < DO1SMC < SMC, Case 3 (Table 6.6)",
-                            _order3("exp-hodosmc-obstacle", "case3", "settling_time")))  # fmt: skip
+                            _order3("exp-hodosmc-obstacle", "case3", "settling_time"),
+                            _three("exp-hodosmc-obstacle", "case3")))  # fmt: skip
     out.append(HeldOutClaim("exp-hodosmc-obstacle", "settle.case3",
                             "all three cross the stick and settle in (-9, -5) rad/s, Case 3",
-                            _settle))  # fmt: skip
+                            _settle, _three("exp-hodosmc-obstacle", "case3")))  # fmt: skip
     for c in (1, 2):
         for q in ("rms_theta", "rms_s1"):
             out.append(HeldOutClaim("exp-asta", f"order.{q}.case{c}",
                                     f"ASTA < ASMC in {q}, Case {c} (Table 6.{6 + c})",
-                                    _asta(c, q)))  # fmt: skip
+                                    _asta(c, q),
+                                    (f"exp-asta/asta.case{c}", f"exp-asta/asmc.case{c}")))
     for e in (1, 2, 3):
         out.append(HeldOutClaim("exp-it2", f"exp{e}",
                                 f"Exp {e}: T1 oscillates persistently or keeps a steady-state "
-                                "error; IT2 stable and accurate (Figs. 6.17-6.19)", _fuzzy(e)))
+                                "error; IT2 stable and accurate (Figs. 6.17-6.19)", _fuzzy(e),
+                                (f"exp-it2/it2.exp{e}", f"exp-it2/t1.exp{e}")))
     return tuple(out)
 
 

@@ -130,11 +130,12 @@ def _init_worker(parent: int) -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
-def _evaluate_chunk(args: tuple[dict[str, NDArray[np.float64]], float | None]) -> dict[str, Any]:
+def _evaluate_chunk(args: tuple[dict[str, NDArray[np.float64]], float | None, Any]
+                    ) -> dict[str, Any]:  # fmt: skip
     from mwip.calibration.runs import run_batch
 
-    values, cap = args
-    return run_batch(values, duration=cap)
+    values, cap, twin = args
+    return run_batch(values, duration=cap, twin=twin)
 
 
 def evaluate(
@@ -144,16 +145,18 @@ def evaluate(
     block: int = 250,
     duration: float = 0.0,
     progress: Any = None,
+    twin: Any = None,
 ) -> dict[str, NDArray[np.float64]]:
     """Every Chapter 6 run on the batch of twins ``values`` (name -> (N,)), in chunks of at
     most ``block`` twins over ``jobs`` worker processes (each twin's runs are independent of
     its chunk, so the columns do not depend on ``jobs`` or ``block``); ``duration`` > 0 caps
-    every run (a smoke test)."""
+    every run (a smoke test); ``twin`` the twin the values vary (default the default twin;
+    a declared structure's, :mod:`mwip.calibration.structures`)."""
     n = len(next(iter(values.values())))
     cap = duration if duration > 0 else None
     parts = max(jobs, -(-n // block))
     edges = np.linspace(0, n, parts + 1).round().astype(int)
-    chunks = [({k: v[a:b] for k, v in values.items()}, cap)
+    chunks = [({k: v[a:b] for k, v in values.items()}, cap, twin)
               for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]  # fmt: skip
     if jobs <= 1 or len(chunks) == 1:
         results = []

@@ -65,8 +65,15 @@ class PackContext:
     extra: Mapping[str, Any] = field(default_factory=dict)
 
     def value(self, name: str) -> Any:
-        """The unknown ``name``: a float, or an (n,) array."""
-        v = self.values[name]
+        """The unknown ``name``: a float, or an (n,) array; a name the twin's prior leaves
+        out (a structure whose prior fixes it, e.g. the torque gain of the book calibration's
+        S0) is the twin's own value (its dotted path)."""
+        if name in self.values:
+            v = self.values[name]
+        else:
+            v = self.twin
+            for part in name.split("."):
+                v = getattr(v, part)
         return float(v) if np.ndim(v) == 0 else np.asarray(v, dtype=float)
 
     def on(self, switch: str) -> NDArray[np.float64]:

@@ -111,11 +111,15 @@ def _pack(ctx: PackContext) -> dict[str, Any]:
     Ts = fw.Ts
     tau: Any = ctx.value("firmware.fusion.tau")
     a = tau / (tau + Ts)  # the same NumPy expression per row
+
+    def tuning(name: str) -> Any:  # per row where the twin's prior has it (a structure's)
+        return ctx.value(f"firmware.fusion.{name}")
+
     return {
         "Ts": Ts, "kalman": float(spec.kind == "kalman"), "on": ctx.on("fusion"),
         "zeroing": float(fw.gyro_zeroing), "a": a, "one_minus_a": 1.0 - a,
-        "q_angle": spec.q_angle * Ts, "q_bias": spec.q_bias * Ts, "r_angle": spec.r_angle,
-        "p0_bias": P0_BIAS**2,
+        "q_angle": tuning("q_angle") * Ts, "q_bias": tuning("q_bias") * Ts,
+        "r_angle": tuning("r_angle"), "p0_bias": P0_BIAS**2,
     }  # fmt: skip
 
 

@@ -1,0 +1,328 @@
+"""The book calibration's revision 6: the declared structures sampled, and compared by their
+evidence (``mwip twin calibrate book``; ``book-structures.toml``).
+
+For each structure ``S`` (:mod:`mwip.calibration.structures`), in its prior's unit
+coordinates (where the prior is uniform, density 1):
+
+- **stage A**: ``prior_draws`` prior draws, draw ``s`` from the generator of ``(seed, s)``;
+- **stage B**: ``kernel_draws`` draws (indices from :data:`STAGE_B`) from the box-kernel
+  mixture (:class:`mwip.calibration.mixture.KernelMixture`, one family, half-widths
+  ``factor`` x the seeds' standard deviation) around the stage-A draws that meet ``S``'s
+  largest consistent subset of stage A; pooled with stage A by the balance heuristic
+  (:func:`mwip.calibration.mixture.balance_weights`, ``p = 1``): ``w = N / (n_A + n_B q(u))``.
+
+Every Chapter 6 run on every draw (:func:`mwip.calibration.runs.run_batch` on ``S``'s twin),
+in blocks stored as they finish (a rerun resumes; a draw depends on ``(seed, index)`` alone,
+so the columns do not depend on blocks or jobs). The per-draw table of every structure is
+written as one compact file (``draws.parquet``: the columns the facts and claims read), and
+every number of the result is computed from that file alone, so ``--replay FILE`` rebuilds
+it byte for byte.
+
+The comparison (:mod:`mwip.calibration.compare`): each structure's evidence ``Z`` with its
+interval, what it can meet, the facts that reject it, Bayes factors, posterior
+probabilities; per structure, on its draws meeting its largest consistent subset (weighted),
+each unknown's marginal (a warning where half its mass lies in the outer 5 % of its range at
+a wall), the pitch estimate's constant offset ``gyro offset x fusion tau`` where the structure
+has one (a complementary filter without zeroing: :mod:`mwip.hardware.fusion`), the share
+meeting each calibration fact (a posterior predictive check); every held-out claim's verdict
+per structure ("not judgeable on S" where it needs a fact that rejects ``S``) and averaged by
+the posterior probabilities.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["run_comparison", "analyse_table", "STAGE_B", "DRAWS_FILE", "RESULT_FILE"]
+
+#: Stage B's draw indices start here (stage A's at 0).
+STAGE_B = 1_000_000
+DRAWS_FILE = "draws.parquet"
+RESULT_FILE = "structures.json"
+#: A marginal is "on a prior wall" when more than half its posterior mass lies in the outer
+#: ``WALL`` of its range (unit coordinates) at one end.
+WALL = 0.05
+
+
+def _unit_draws(seed: int, idx: Any, d: int) -> NDArray[np.float64]:
+    from mwip.campaign.sampling import sample_rng
+
+    return np.array([sample_rng(seed, int(i)).random(d) for i in idx]).reshape(len(idx), d)
+
+
+def _needed(cols: dict[str, Any], ev: Any) -> list[str]:
+    """The columns the facts and claims read (the replay file keeps only these)."""
+    from mwip.calibration.claims import CLAIMS
+
+    runs = {r for c in CLAIMS for r in c.runs}
+    keep = {n.key for n in ev.numbers}
+    for k in cols:
+        run = k.rsplit(".", 1)[0]
+        if k.endswith(".stands") or run in runs:
+            keep.add(k)
+    return sorted(keep & set(cols))
+
+
+def _blocks(structure: Any, stage: str, u: NDArray[np.float64], idx: NDArray[np.int64],
+            store: Path, block: int, ev: Any, *, jobs: int, duration: float,
+            note: Callable[[str], None] | None) -> Any:  # fmt: skip
+    """Every run on the draws ``u`` (unit coordinates; indices ``idx``), block by block into
+    ``store`` (kept blocks are read back): a DataFrame of ``sample``, ``u.*``, the runs'
+    columns."""
+    import pandas as pd
+
+    from mwip.calibration.sample import evaluate
+    from mwip.io import write_parquet_atomic
+
+    store.mkdir(parents=True, exist_ok=True)
+    names = structure.prior.names
+    parts = []
+    nb = -(-len(idx) // block)
+    for b in range(nb):
+        path = store / f"{stage}-{b:04d}.parquet"
+        if path.exists():
+            parts.append(pd.read_parquet(path))
+            continue
+        sl = slice(b * block, min((b + 1) * block, len(idx)))
+        x = structure.from_unit(u[sl])
+        cols = evaluate(structure.values(x), jobs=jobs, block=block, duration=duration,
+                        twin=structure.twin)  # fmt: skip
+        data: dict[str, Any] = {"sample": idx[sl]}
+        data.update({f"u.{n}": u[sl, j] for j, n in enumerate(names)})
+        data.update({k: cols[k] for k in _needed(cols, ev)})
+        df = pd.DataFrame(data)
+        write_parquet_atomic(path, df)
+        parts.append(df)
+        if note is not None:
+            note(f"{structure.name} stage {stage}: block {b + 1}/{nb} "
+                 f"({sl.stop} of {len(idx)} twins)")  # fmt: skip
+    return pd.concat(parts, ignore_index=True)
+
+
+def _facts(df: Any, ev: Any) -> Any:
+    from mwip.calibration.posterior import facts
+    from mwip.calibration.runs import run_names
+
+    cols = {c: df[c].to_numpy(dtype=float) for c in df.columns
+            if c not in ("structure", "stage")}  # fmt: skip
+    return facts(cols, run_names(), ev)
+
+
+def sample_structure(structure: Any, plan: Any, store: Path, ev: Any, *, jobs: int = 1,
+                     duration: float = 0.0, prior_draws: int | None = None,
+                     kernel_draws: int | None = None,
+                     note: Callable[[str], None] | None = None) -> Any:  # fmt: skip
+    """Stages A and B of ``structure`` (module docstring) into ``store``: the pooled table
+    with ``stage`` and ``weight`` columns."""
+    import pandas as pd
+
+    from mwip.calibration.mixture import KernelMixture, balance_weights
+    from mwip.calibration.posterior import consistent_subset
+
+    d = len(structure.prior)
+    na = plan.prior_draws if prior_draws is None else int(prior_draws)
+    nb = plan.kernel_draws if kernel_draws is None else int(kernel_draws)
+    ia = np.arange(na, dtype=np.int64)
+    a = _blocks(structure, "A", _unit_draws(plan.seed, ia, d), ia, store, plan.block, ev,
+                jobs=jobs, duration=duration, note=note)  # fmt: skip
+    a["stage"] = "A"
+    ua = a[[f"u.{n}" for n in structure.prior.names]].to_numpy(dtype=float)
+    free = structure.prior.bounds[:, 1] > structure.prior.bounds[:, 0]
+    unit = np.column_stack([np.zeros(d), free.astype(float)])
+    if nb == 0:
+        a["weight"] = 1.0
+        return a
+    f = _facts(a, ev)
+    mask, _ = consistent_subset(f)
+    seeds = ua[np.all(f.S[:, mask], axis=1)]
+    mix = KernelMixture.fit(seeds, unit, [plan.factor])
+    ib = STAGE_B + np.arange(nb, dtype=np.int64)
+    ub = mix.draw(plan.seed, ib.tolist())
+    b = _blocks(structure, "B", ub, ib, store, plan.block, ev, jobs=jobs, duration=duration,
+                note=note)  # fmt: skip
+    b["stage"] = "B"
+    pool = pd.concat([a, b], ignore_index=True)
+    u = pool[[f"u.{n}" for n in structure.prior.names]].to_numpy(dtype=float)
+    pool["weight"] = balance_weights(np.ones(len(pool)), [na, nb],
+                                     [np.ones(len(pool)), mix.density(u)])  # fmt: skip
+    return pool
+
+
+def _marginals(structure: Any, df: Any, sel: NDArray[np.bool_],
+               w: NDArray[np.float64]) -> dict[str, Any]:  # fmt: skip
+    from mwip.calibration.posterior import weighted_quantile
+
+    out: dict[str, Any] = {}
+    if not sel.any():
+        return out
+    for unk in structure.prior.unknowns:
+        if unk.fixed:
+            continue
+        u = df[f"u.{unk.name}"].to_numpy(dtype=float)[sel]
+        ws = w[sel]
+        x = unk.from_unit(u)
+        q = weighted_quantile(x, ws, [0.05, 0.5, 0.95])
+        low = float(np.sum(ws[u <= WALL]) / ws.sum())
+        high = float(np.sum(ws[u >= 1 - WALL]) / ws.sum())
+        wall = "low" if low > 0.5 else "high" if high > 0.5 else None
+        out[unk.name] = {"q05": float(q[0]), "q50": float(q[1]), "q95": float(q[2]),
+                         "prior": [unk.low, unk.high], "scale": unk.scale,
+                         "mass_at_low_wall": low, "mass_at_high_wall": high,
+                         "wall": wall}  # fmt: skip
+    return out
+
+
+def _offset(structure: Any, df: Any, sel: NDArray[np.bool_],
+            w: NDArray[np.float64]) -> dict[str, Any] | None:  # fmt: skip
+    """The pitch estimate's constant offset ``gyro offset x tau`` (rad) of a complementary
+    filter without zeroing (:mod:`mwip.hardware.fusion`), its posterior quantiles; ``None``
+    where the structure has none (zeroing, or a bias-estimating filter)."""
+    from mwip.calibration.posterior import weighted_quantile
+
+    fw = structure.twin.firmware
+    if fw.gyro_zeroing or fw.fusion.kind != "complementary" or not sel.any():
+        return None
+    pr = structure.prior
+
+    def col(name: str) -> NDArray[np.float64]:
+        if name in pr.names:
+            return np.asarray(pr[name].from_unit(df[f"u.{name}"].to_numpy(dtype=float)[sel]))
+        v: Any = structure.twin
+        for part in name.split("."):
+            v = getattr(v, part)
+        return np.full(int(sel.sum()), float(v))
+
+    off = col("imu.gyro_bias") * col("firmware.fusion.tau")
+    q = weighted_quantile(np.abs(off), w[sel], [0.05, 0.5, 0.95])
+    return {"what": "|gyro offset x fusion tau| (rad): the board's constant pitch-estimate "
+                    "offset", "q05": float(q[0]), "q50": float(q[1]), "q95": float(q[2])}
+
+
+def analyse_table(table: Any, structures: dict[str, Any], ev: Any,
+                  record: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
+    """The comparison document from the pooled draws ``table`` of every structure (column
+    ``structure``): module docstring. ``record``: revisions 1-5's ``posterior.json`` (its
+    verdicts are shown beside)."""
+    from mwip.calibration.claims import CLAIMS, claim_rows
+    from mwip.calibration.compare import bayes_factor, claim_verdict, evidence_of, posterior_probs
+
+    names = [n for n in structures if (table["structure"] == n).any()]
+    evs, holds, per = [], {}, {}
+    for n in names:
+        df = table[table["structure"] == n].reset_index(drop=True)
+        f = _facts(df, ev)
+        w = df["weight"].to_numpy(dtype=float)
+        se = evidence_of(n, f, w)
+        evs.append(se)
+        cols = {c: df[c].to_numpy(dtype=float) for c in df.columns
+                if c not in ("structure", "stage")}  # fmt: skip
+        holds[n] = claim_rows(cols)
+        sel = se.conditioned
+        ws = w[sel]
+        ess = float(ws.sum() ** 2 / np.sum(ws * ws)) if ws.size else 0.0
+        stages = {s: int((df["stage"] == s).sum()) for s in ("A", "B")}
+        hits = {s: int(np.sum(se.accepted & (df["stage"] == s).to_numpy())) for s in ("A", "B")}
+        per[n] = {**se.to_json(), "title": structures[n].title, "stages": stages,
+                  "hits_by_stage": hits, "unknowns": list(structures[n].prior.names),
+                  "conditioned_draws": int(sel.sum()), "conditioned_effective": ess,
+                  "facts_met_share": {fn: float(np.sum(ws * f.S[sel, j]) / ws.sum())
+                                      if ws.size else None for j, fn in enumerate(f.names)},
+                  "marginals": _marginals(structures[n], df, sel, w),
+                  "offset": _offset(structures[n], df, sel, w)}  # fmt: skip
+    post = posterior_probs(evs)
+    bf = {}
+    for a in evs:
+        for b in evs:
+            if a.name < b.name:
+                B, lo, hi = bayes_factor(b, a)
+                bf[f"{b.name}/{a.name}"] = {"B": B, "lo": lo, "hi": hi}
+    claims = []
+    old = {}
+    if record is not None:
+        old = {f"{c['study']}/{c['id']}": c.get("verdict") for c in record.get("claims", [])
+               if isinstance(c, dict) and "study" in c}  # fmt: skip
+    for c in CLAIMS:
+        v = claim_verdict({n: holds[n][c.key] for n in names}, c.needs, evs, ev.decided)
+        claims.append({"claim": c.key, "text": c.text, "needs": list(c.needs),
+                       "per_structure": {k: {"verdict": vv, "share": sh}
+                                         for k, (vv, sh) in v.per_structure.items()},
+                       "verdict": v.overall, "p_holds": v.p_holds,
+                       "revisions_1_5": old.get(c.key)})  # fmt: skip
+    counts = {k: sum(c["verdict"] == k for c in claims)
+              for k in ("holds", "fails", "undecided", "not judgeable")}  # fmt: skip
+    return {"revision": 6, "structures": per, "posterior_probability": post,
+            "bayes_factors": bf, "claims": claims, "claim_counts": counts}
+
+
+def _record() -> dict[str, Any] | None:
+    import json
+
+    p = Path(__file__).resolve().parents[3] / "docs" / "book_calibration" / "posterior.json"
+    if not p.exists():
+        return None
+    doc: dict[str, Any] = json.loads(p.read_text())
+    return doc
+
+
+def write_result(out: Path, table: Any, structures: dict[str, Any], ev: Any) -> dict[str, Any]:
+    """``structures.json`` and ``structures.md`` in ``out`` from ``table`` (the replay file's
+    rows): every number of the result comes from here."""
+    from mwip.calibration.comparison_report import report_md
+    from mwip.io import json_text, write_text_atomic
+
+    doc = analyse_table(table, structures, ev, _record())
+    doc["declaration_sha256"] = _declaration_hash()
+    write_text_atomic(out / RESULT_FILE, json_text(doc))
+    write_text_atomic(out / "structures.md", report_md(doc))
+    return doc
+
+
+def _declaration_hash() -> str:
+    from mwip.calibration.structures import STRUCTURES_FILE
+
+    return hashlib.sha256(STRUCTURES_FILE.read_bytes()).hexdigest()
+
+
+def run_comparison(out: Path, *, evidence: Path | None = None,
+                   names: Sequence[str] | None = None, jobs: int = 1,
+                   duration: float = 0.0, prior_draws: int | None = None,
+                   kernel_draws: int | None = None, replay: Path | None = None,
+                   note: Callable[[str], None] | None = None) -> dict[str, Any]:  # fmt: skip
+    """Sample (or resume) every named structure into ``out`` and write the comparison; with
+    ``replay`` read the per-draw table from that file instead (no run)."""
+    import pandas as pd
+
+    from mwip.calibration.evidence import EVIDENCE_FILE, load_evidence
+    from mwip.calibration.structures import load_plan, load_structures
+    from mwip.io import write_parquet_atomic
+
+    ev = load_evidence(EVIDENCE_FILE if evidence is None else Path(evidence))
+    structures = load_structures()
+    pick = list(structures) if not names else list(names)
+    for n in pick:
+        if n not in structures:
+            raise ValueError(f"--structures: unknown structure {n!r}; allowed: "
+                             f"{', '.join(structures)}")  # fmt: skip
+    chosen = {n: structures[n] for n in pick}
+    if replay is not None:
+        table = pd.read_parquet(replay)
+        table = table[table["structure"].isin(pick)].reset_index(drop=True)
+    else:
+        plan = load_plan()
+        parts = []
+        for n, s in chosen.items():
+            df = sample_structure(s, plan, out / "draws" / n, ev, jobs=jobs, duration=duration,
+                                  prior_draws=prior_draws, kernel_draws=kernel_draws,
+                                  note=note)  # fmt: skip
+            df.insert(0, "structure", n)
+            parts.append(df)
+        table = pd.concat(parts, ignore_index=True)
+        write_parquet_atomic(out / DRAWS_FILE, table)
+        table = pd.read_parquet(out / DRAWS_FILE)
+    return write_result(out, table, chosen, ev)

@@ -1,0 +1,106 @@
+"""Revision 6's comparison in words (``structures.md``, from the document of
+:func:`mwip.calibration.comparison.analyse_table`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["report_md", "headline"]
+
+
+def _g(x: Any, fmt: str = ".3g") -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, float) and x != x:
+        return "-"
+    if x == float("inf"):
+        return "inf"
+    return format(x, fmt)
+
+
+def headline(doc: dict[str, Any]) -> str:
+    """One paragraph a reader takes without the docs."""
+    st = doc["structures"]
+    post = doc["posterior_probability"]
+    parts = []
+    for n, s in st.items():
+        if s["rejected"]:
+            parts.append(f"{n} met every calibration fact with none of its {s['draws']:,} "
+                         f"twins (the most facts one twin met together: "
+                         f"{s['most_facts_together']} of {len(s['facts_met_share'])})")
+        else:
+            parts.append(f"{n} met them with {s['hits']:,} of its {s['draws']:,} twins "
+                         f"(probability {post[n]:.3g} given the facts)")  # fmt: skip
+    c = doc["claim_counts"]
+    return ("; ".join(parts) + f". Held-out claims over the structures: {c['holds']} hold, "
+            f"{c['fails']} fail, {c['undecided']} undecided, {c['not judgeable']} not "
+            "judgeable (they need a run that no twin of a structure kept standing).")
+
+
+def report_md(doc: dict[str, Any]) -> str:
+    """The whole comparison as Markdown."""
+    st = doc["structures"]
+    out = ["# The book's robot: twin structures compared by their evidence (revision 6)", "",
+           "Declared in `src/mwip/calibration/book-structures.toml` before any draw "
+           f"(sha256 {doc.get('declaration_sha256', '?')[:12]}); the split, the tolerance and "
+           "the verdict rule are `book-evidence.toml`'s. Rebuilt from the per-twin file by "
+           "`mwip twin calibrate book --replay FILE --out DIR`.", "", headline(doc), "",
+           "## Evidence", "",
+           "| structure | twins (A + B) | meet every fact | Z = P(prior meets every fact) "
+           "[95 %] | p(S given the facts) | most facts together | rejected by |",
+           "|---|---|---|---|---|---|---|"]  # fmt: skip
+    post = doc["posterior_probability"]
+    for n, s in st.items():
+        lo, hi = s["evidence_95"]
+        rej = ", ".join(f"`{f}`" for f in s["rejected_by"]) or "-"
+        out.append(f"| {n}: {s['title']} | {s['stages']['A']:,} + {s['stages']['B']:,} | "
+                   f"{s['hits']:,} | {_g(s['evidence'])} [{_g(lo)}, {_g(hi)}] | "
+                   f"{_g(post[n])} | {s['most_facts_together']} of "
+                   f"{len(s['facts_met_share'])} | {rej} |")  # fmt: skip
+    out += ["", "A structure none of whose twins meets every calibration fact is rejected by "
+            "the facts outside its largest consistent subset: \"structure rejected by this "
+            "fact\", not a held-out failure. Z's upper bound then says how rare such twins "
+            "could still be under its prior.", "", "## Bayes factors", "",
+            "| B = Z_a / Z_b | B | 95 % |", "|---|---|---|"]  # fmt: skip
+    for k, b in doc["bayes_factors"].items():
+        out.append(f"| {k} | {_g(b['B'])} | [{_g(b['lo'])}, {_g(b['hi'])}] |")
+    for n, s in st.items():
+        out += ["", f"## {n}: the twins meeting its largest consistent subset", "",
+                f"{s['conditioned_draws']:,} twins (effective size "
+                f"{s['conditioned_effective']:.0f}).", ""]  # fmt: skip
+        if s.get("offset"):
+            o = s["offset"]
+            out += [f"Pitch-estimate offset {o['what']}: median {_g(o['q50'])} rad "
+                    f"(90 %: {_g(o['q05'])}-{_g(o['q95'])}).", ""]  # fmt: skip
+        out += ["| unknown | 5 % | median | 95 % | prior | wall |", "|---|---|---|---|---|---|"]
+        for u, m in s["marginals"].items():
+            wall = f"**{m['wall']}**" if m["wall"] else "-"
+            out.append(f"| {u} | {_g(m['q05'])} | {_g(m['q50'])} | {_g(m['q95'])} | "
+                       f"{_g(m['prior'][0])}-{_g(m['prior'][1])} | {wall} |")  # fmt: skip
+        walls = [u for u, m in s["marginals"].items() if m["wall"]]
+        if walls:
+            out += ["", "Warning: more than half the posterior mass of " + ", ".join(walls)
+                    + " lies at a wall of the prior (the outer 5 % of its range): a missing "
+                    "element or too narrow a prior may hold it there."]  # fmt: skip
+        miss = {f: v for f, v in s["facts_met_share"].items() if v is not None and v < 1}
+        if miss:
+            out += ["", "Posterior predictive check (share of these twins meeting each fact "
+                    "they are not conditioned on): " + ", ".join(
+                        f"`{f}` {v:.2f}" for f, v in miss.items())]  # fmt: skip
+    names = list(st)
+    out += ["", "## Held-out claims", "",
+            "| claim | " + " | ".join(names) + " | over structures | revisions 1-5 (S0) |",
+            "|---|" + "---|" * len(names) + "---|---|"]  # fmt: skip
+    for c in doc["claims"]:
+        cells = []
+        for n in names:
+            p = c["per_structure"][n]
+            cells.append(p["verdict"] + (f" ({p['share']:.2f})" if p["share"] is not None
+                                         else ""))  # fmt: skip
+        over = c["verdict"] + (f" ({c['p_holds']:.2f})" if c["p_holds"] is not None else "")
+        out.append(f"| {c['claim']}: {c['text']} | " + " | ".join(cells)
+                   + f" | {over} | {c['revisions_1_5'] or '-'} |")  # fmt: skip
+    out += ["", "A claim is \"not judgeable on S\" when it compares a run that a fact "
+            "rejecting S says must stand; the verdict over structures averages the others by "
+            "their probability given the facts (holds at >= 0.95, fails at <= 0.05)."]
+    return "\n".join(out) + "\n"
