@@ -1,5 +1,5 @@
 """The book calibration end to end, on a few short prior draws: deterministic, resumable, the
-studies' own runs, the CLI (`mwip twin fit --evidence book`)."""
+studies' own runs, the CLI (`mwip twin calibrate book --record`)."""
 
 from __future__ import annotations
 
@@ -125,15 +125,19 @@ def test_cli_evidence_book(tmp_path: Path):
     from mwip.cli import cli
 
     out = tmp_path / "cal"
-    r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out", str(out),
+    r = CliRunner().invoke(cli, ["twin", "calibrate", "book", "--record", "--out", str(out),
                                  "--samples", "2", "--duration", "0.4", "--stage2-draws", "1",
                                  "--chain-steps", "0", "--mixture-draws", "2",
                                  "--envelope-draws", "1"])
     assert r.exit_code == 0, r.output
     assert "twins evaluated 6 " in r.output and (out / "posterior.json").is_file()
     assert "stage 4: 2 mixture draws" in r.output and "stage 5: 1 envelope draws" in r.output
-    r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out",
-                                 str(tmp_path / "x"), "somelog.csv"])
+    r = CliRunner().invoke(cli, ["twin", "calibrate", "book", "--record", "--out",
+                                 str(tmp_path / "x"), "--structures", "S0"])
     assert r.exit_code == 2 and not (tmp_path / "x").exists()
+    r = CliRunner().invoke(cli, ["twin", "fit", "--evidence", "book", "--out",
+                                 str(tmp_path / "z")])  # gone: one line naming its successor
+    assert r.exit_code == 2 and "mwip twin calibrate book --record" in r.output
+    assert not (tmp_path / "z").exists()
     r = CliRunner().invoke(cli, ["twin", "fit", "--out", str(tmp_path / "y")])
     assert r.exit_code == 2 and not (tmp_path / "y").exists()

@@ -95,7 +95,7 @@ def test_a_file_in_an_mwip_folder_is_mwips(tmp_path):
 @pytest.mark.parametrize("args", [
     ["bench", "--out", "b"], ["bench", "--out", "b", "--jobs", "1"],
     ["campaign", "run", "robustness", "--out", "r"], ["campaign", "report", "r"],
-    ["twin", "fit", "--evidence", "book", "--out", "c"],
+    ["twin", "calibrate", "book", "--record", "--out", "c"],
 ])  # fmt: skip
 def test_a_missing_extra_is_one_line_naming_it(args, monkeypatch, tmp_path, capsys):
     monkeypatch.chdir(tmp_path)

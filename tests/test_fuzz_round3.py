@@ -130,11 +130,10 @@ GOOD_LOG = ("t,theta,theta_rate,enc_r,enc_l,duty_r,duty_l\n"
                       f"{0.0005 * i},{0.0005 * i},{0.2 * math.sin(0.045 * i)},"
                       f"{0.2 * math.cos(0.045 * i)}\n" for i in range(60))).encode()  # fmt: skip
 
-LOG_ONLY = {"--free": st.just("firmware.delay"), "--fix": st.just("firmware.delay=0.5"),
-            "--validate": st.just("log.csv"), "--segment": st.integers(5, 400).map(str),
-            "--max-rows": st.integers(3, 10**6).map(str), "--robot": st.just("t.toml")}
-BOOK_ONLY = {"--samples": st.integers(1, 100).map(str), "--seed": st.integers(0, 9).map(str),
-             "--jobs": st.integers(1, 4).map(str), "--duration": st.floats(0, 15).map(repr),
+COMPARE_ONLY = {"--structures": st.sampled_from(["S0", "S0,S1"]),
+                "--draws": st.integers(1, 9).map(str),
+                "--kernel-draws": st.integers(0, 9).map(str), "--replay": st.just("log.csv")}
+RECORD_ONLY = {"--samples": st.integers(1, 100).map(str), "--seed": st.integers(0, 9).map(str),
              "--stage2-draws": st.integers(0, 9).map(str),
              "--chain-steps": st.integers(0, 9).map(str),
              "--mixture-draws": st.integers(0, 9).map(str),
@@ -143,14 +142,14 @@ BOOK_ONLY = {"--samples": st.integers(1, 100).map(str), "--seed": st.integers(0,
 
 @FUZZ
 @given(book=st.booleans(), data=st.data())
-def test_twin_fit_options_of_the_other_mode(book, data):
-    table = LOG_ONLY if book else BOOK_ONLY
+def test_twin_calibrate_options_of_the_other_mode(book, data):
+    table = COMPARE_ONLY if book else RECORD_ONLY
     opts = data.draw(st.lists(st.sampled_from(sorted(table)), min_size=1, max_size=3,
                               unique=True))  # fmt: skip
     extra = [x for o in opts for x in (o, data.draw(table[o]))]
-    head = ["--evidence", "book"] if book else ["log.csv"]
-    _run("fit-mode", lambda root: ["twin", "fit", *head, "--out", "fit", *extra],
-         {"log.csv": GOOD_LOG})  # fmt: skip
+    head = ["--record"] if book else []
+    _run("calibrate-mode", lambda root: ["twin", "calibrate", "book", *head, "--out", "cal",
+                                         *extra], {"log.csv": GOOD_LOG})  # fmt: skip
 
 
 @FUZZ

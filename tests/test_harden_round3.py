@@ -34,29 +34,26 @@ def _refused(capsys, argv: list[str], needle: str, code: int = 2) -> str:
 # ---- 4. no option silently ignored ---------------------------------------------------------------
 @pytest.mark.parametrize(
     "extra",
-    [["--free", "firmware.delay"], ["--fix", "firmware.delay=0.5"], ["--validate", "x.csv"],
-     ["--segment", "20"],
-     ["--robot", "missing.toml"], ["--max-rows", "10"]],  # --robot FILE replaces --twin FILE
+    [["--structures", "S0"], ["--draws", "3"], ["--kernel-draws", "0"]],
 )  # fmt: skip
-def test_evidence_book_refuses_the_log_options(tmp_path, capsys, extra):
-    """The audit: --evidence book dropped them silently and started hours of work."""
+def test_the_record_refuses_the_comparison_options(tmp_path, capsys, extra):
+    """The audit: the calibration of record (then --evidence book) dropped options silently
+    and started hours of work."""
     out = tmp_path / "cal"
-    _refused(capsys, ["twin", "fit", "--evidence", "book", "--out", str(out), *extra],
-             f"{extra[0]}: not used by --evidence book")  # fmt: skip
+    _refused(capsys, ["twin", "calibrate", "book", "--record", "--out", str(out), *extra],
+             f"{extra[0]}: not used by --record")  # fmt: skip
     assert not out.exists()
 
 
 @pytest.mark.parametrize(
     "extra",
-    [["--samples", "3"], ["--seed", "1"], ["--jobs", "2"], ["--duration", "1"],
-     ["--stage2-draws", "0"], ["--chain-steps", "0"], ["--mixture-draws", "0"],
-     ["--envelope-draws", "0"]],
+    [["--samples", "3"], ["--seed", "1"], ["--stage2-draws", "0"], ["--chain-steps", "0"],
+     ["--mixture-draws", "0"], ["--envelope-draws", "0"]],
 )  # fmt: skip
-def test_log_fits_refuse_the_evidence_options(tmp_path, capsys, extra):
-    log = tmp_path / "log.csv"
-    log.write_text("t\n0\n")
-    _refused(capsys, ["twin", "fit", str(log), "--out", str(tmp_path / "o"), *extra],
-             f"{extra[0]}: only used with --evidence book")  # fmt: skip
+def test_the_comparison_refuses_the_record_options(tmp_path, capsys, extra):
+    _refused(capsys, ["twin", "calibrate", "book", "--out", str(tmp_path / "o"), *extra],
+             f"{extra[0]}: only used with --record")  # fmt: skip
+    assert not (tmp_path / "o").exists()
 
 
 def _single_valued_options() -> list[tuple[list[str], str, str]]:

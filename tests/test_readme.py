@@ -43,9 +43,11 @@ SMALL: dict[str, list[str]] = {
     "mwip campaign run mine.toml --out runs/mine --jobs 1": ["--samples", "20"],
     "mwip tune ": ["--trials", "1"],
     "mwip bench": ["--quick", "--jobs", "1"],
-    "mwip twin fit --evidence book": ["--samples", "4", "--stage2-draws", "0",
-                                      "--chain-steps", "0", "--mixture-draws", "0",
-                                      "--duration", "1"],  # fmt: skip
+    "mwip twin calibrate book --out": ["--draws", "4", "--kernel-draws", "2", "--duration", "1",
+                                       "--structures", "S0,S1"],  # fmt: skip
+    "mwip twin calibrate book --record": ["--samples", "4", "--stage2-draws", "0",
+                                          "--chain-steps", "0", "--mixture-draws", "0",
+                                          "--duration", "1"],  # fmt: skip
     "mwip export c": ["--duration", "1"],
     "mwip animate": ["--fps", "2"],
 }

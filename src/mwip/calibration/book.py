@@ -1,4 +1,4 @@
-"""``mwip twin fit --evidence book``: the book's robot conditioned on the book's evidence.
+"""``mwip twin calibrate book --record``: the book's robot conditioned on the book's evidence.
 
 1. Draw the twin's prior (:mod:`mwip.hardware.prior`; ``samples`` draws, ``seed``) and run
    every Chapter 6 run on every draw: a campaign of ``kind = "calibration"`` (Dask, chunked,

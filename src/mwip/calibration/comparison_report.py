@@ -32,9 +32,15 @@ def headline(doc: dict[str, Any]) -> str:
             parts.append(f"{n} met them with {s['hits']:,} of its {s['draws']:,} twins "
                          f"(probability {post[n]:.3g} given the facts)")  # fmt: skip
     c = doc["claim_counts"]
+    if not any(v > 0 for v in post.values()):
+        why = ("no structure met every calibration fact with any of its twins, so none has a "
+               "probability given the facts; each structure's own verdicts, on its twins "
+               "meeting its largest consistent subset, are in the claims table")  # fmt: skip
+    else:
+        why = "a claim not judgeable compares a run that no twin of a likely structure kept up"
     return ("; ".join(parts) + f". Held-out claims over the structures: {c['holds']} hold, "
             f"{c['fails']} fail, {c['undecided']} undecided, {c['not judgeable']} not "
-            "judgeable (they need a run that no twin of a structure kept standing).")
+            f"judgeable ({why}).")
 
 
 def report_md(doc: dict[str, Any]) -> str:

@@ -80,55 +80,18 @@ def twin_sensitivity(robot_file: Path | None, as_json: bool) -> None:
 @click.option("--max-rows", "max_rows", type=click.IntRange(3, 10**9), default=None,
               help="Rows of the logs together, at most (default 500000, 42 min at 5 ms: a "
               "fit of some 1.5 GB and 6 minutes; the fit takes ~3 kB and ~0.7 ms per row).")
-@click.option("--evidence", type=click.Choice(["book"]), default=None,
-              help="Instead of logs: condition the book's robot on the book's Chapter 6 "
-              "evidence (prior draws on Dask, resumable; docs/twin_fit.md).")
-@click.option("--samples", type=click.IntRange(1, 100_000), default=None,
-              help="--evidence: prior draws (default: the declaration's, 2000).")
-@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=None,
-              help="--evidence: seed of the prior draws (default: the declaration's).")
-@click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
-              help="--evidence: worker processes (Dask when > 1).")
-@click.option("--duration", type=click.FloatRange(0.0, 15.0), default=0.0,
-              help="--evidence: cap every run at this many seconds (a smoke test; 0: the "
-              "studies' own durations).")
-@click.option("--stage2-draws", "stage2", type=click.IntRange(0, 100_000), default=None,
-              help="--evidence: twins of stage 2, the declared box proposal (default: the "
-              "declaration's, 1000; 0: none).")
-@click.option("--chain-steps", "chain_steps", type=click.IntRange(0, 100_000), default=None,
-              help="--evidence: generations of stage 3's Markov chains, burn-in scaled alike "
-              "(default: the declaration's, 500; 0: no chains).")
-@click.option("--mixture-draws", "mixture_draws", type=click.IntRange(0, 1_000_000),
-              default=None, help="--evidence: twins of stage 4's mixture draws (default: the "
-              "declaration's, 6000; 0: no stages 4-5).")
-@click.option("--envelope-draws", "envelope_draws", type=click.IntRange(0, 1_000_000),
-              default=None, help="--evidence: twins of stage 5's envelope draws, without "
-              "revision 5's extension (default: the declaration's 20000, extended until the "
-              "effective size is 100; 0: no stage 5).")
+@gone_option("--evidence", hint="the book's robot from the book's evidence is `mwip twin "
+             "calibrate book --record` (twin fit takes only logs)")
 def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: str | None,
              fix: tuple[str, ...], validate: str | None, segment: int,
-             force: bool, max_rows: int | None, evidence: str | None, samples: int | None,
-             seed: int | None,
-             jobs: int, duration: float, stage2: int | None,
-             chain_steps: int | None, mixture_draws: int | None,
-             envelope_draws: int | None) -> None:  # fmt: skip
-    """Identify the twin from robot logs (docs/twin_fit.md), or with --evidence book the
-    book's robot from the book's evidence."""
+             force: bool, max_rows: int | None) -> None:  # fmt: skip
+    """Identify the twin from robot logs (docs/twin_fit.md); the book's robot, which left
+    no logs, is `mwip twin calibrate book`."""
     from mwip import outdir
 
-    _one_mode(click.get_current_context(), evidence is not None)
-    if evidence is not None:
-        if logs:
-            raise click.UsageError("give LOG files or --evidence book, not both")
-        from mwip.cli._common import need_extra
-
-        need_extra("campaign", "mwip twin fit --evidence book",  # (a campaign's engine)
-                   None if jobs > 1 else ("pyarrow", "pandas"))  # fmt: skip
-        _fit_book(out, force, samples, seed, jobs, duration, stage2, chain_steps,
-                  mixture_draws, envelope_draws)
-        return
     if not logs:
-        raise click.UsageError("missing LOG files (or --evidence book)")
+        raise click.UsageError("missing LOG files (the book's robot from the book's evidence: "
+                               "mwip twin calibrate book)")
     from mwip.identify.bounds import NAMES, centre
     from mwip.identify.fit import fit, predict
     from mwip.identify.logs import read_log
@@ -202,79 +165,6 @@ def twin_fit(logs: tuple[str, ...], out: Path, robot_file: Path | None, free: st
     for flag in result.flags:
         if not flag.startswith("identifiability: "):  # (printed before the fit's progress)
             click.echo(f"note: {flag}")
-
-
-#: options of each mode of ``twin fit``: refused in the other one
-_LOG_ONLY = ("robot_file", "free", "fix", "validate", "segment", "max_rows")
-_BOOK_ONLY = ("samples", "seed", "jobs", "duration", "stage2", "chain_steps", "mixture_draws",
-              "envelope_draws")  # fmt: skip
-
-
-def _one_mode(ctx: click.Context, book: bool) -> None:
-    """Refuse an option given on the command line that the mode does not use (one line)."""
-    from click.core import ParameterSource
-
-    given = [p for p in ctx.command.params
-             if p.name in (_LOG_ONLY if book else _BOOK_ONLY)
-             and ctx.get_parameter_source(p.name) in (ParameterSource.COMMANDLINE,
-                                                      ParameterSource.ENVIRONMENT)]  # fmt: skip
-    if given:
-        names = ", ".join(max(p.opts, key=len) for p in given if isinstance(p, click.Option))
-        if book:
-            raise click.UsageError(f"{names}: not used by --evidence book (it conditions the "
-                                   "book's robot on the book's evidence; no logs, no base "
-                                   "twin); leave them out")  # fmt: skip
-        raise click.UsageError(f"{names}: only used with --evidence book; leave them out when "
-                               "fitting LOG files")  # fmt: skip
-
-
-def _fit_book(out: Path, force: bool, samples: int | None, seed: int | None, jobs: int,
-              duration: float, stage2: int | None = None,
-              chain_steps: int | None = None,
-              mixture_draws: int | None = None,
-              envelope_draws: int | None = None) -> None:  # fmt: skip
-    """``twin fit --evidence book``: :func:`mwip.calibration.book.calibrate_book` into ``out``
-    (a folder of mwip's own: a rerun resumes the prior draws)."""
-    from mwip import outdir
-    from mwip.calibration.book import calibrate_book
-
-    target = outdir.check(out, force, command="twin fit")
-    if (samples, stage2, chain_steps, mixture_draws, envelope_draws) == (None,) * 5:
-        slower = "" if jobs >= 2 else f"; slower with --jobs {jobs}"
-        click.echo("mwip: --evidence book at the declared sizes evaluates about 100,000 twins "
-                   "in five stages: about 2 hours with --jobs 2 on a 2-core machine "
-                   f"(BENCHMARKS.md){slower}", err=True)  # fmt: skip
-        click.echo("mwip: it is resumable (Ctrl-C, then the same command continues); a first "
-                   "look: --samples 20 --stage2-draws 0 --chain-steps 0 --mixture-draws 0",
-                   err=True)  # fmt: skip
-    outdir.claim(target, "twin fit")
-    res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration,
-                         proposal_draws=stage2, chains=None if chain_steps == 0 else True,
-                         chain_steps=chain_steps or None,
-                         mixture=None if mixture_draws == 0 else True,
-                         mixture_draws=mixture_draws or None,
-                         envelope=None if envelope_draws == 0 else True,
-                         envelope_draws=envelope_draws or None,
-                         note=lambda line: click.echo(line, err=True))
-    # fmt: skip
-    p, c = res.doc["posterior"], res.doc["claim_counts"]
-    smp = p.get("sampler") or {}
-    s3 = p.get("stage3") or (smp if smp and smp.get("kind") != "mixture" else None)
-    chains = (f"; stage 3: {s3['chains']} chains x {s3['kept']} kept generations, "
-              f"{s3['evaluations']} twins evaluated" if s3 else "")
-    if smp.get("kind") == "mixture":
-        chains += (f"; stage 4: {smp['draws']} mixture draws, {smp['hits']['mixture']} "
-                   "consistent")
-        if smp.get("envelope"):
-            chains += (f"; stage 5: {smp['envelope']['draws']} envelope draws, "
-                       f"{smp['hits']['envelope']} consistent")
-    click.echo(f"twins evaluated {res.doc['evaluated']} (prior draws and stage 2{chains}), "
-               f"posterior {p['size']} (effective {p['effective_size']:.0f})"
-               + (f" (conditioned on {len(p['used'])} facts; dropped: {len(p['dropped'])})"
-                  if p["dropped"] else ""))  # fmt: skip
-    click.echo(f"held-out claims: {c['holds']} hold, {c['fails']} fail, {c['undecided']} "
-               "undecided")  # fmt: skip
-    click.echo(f"wrote {target / 'posterior.md'}, posterior.json, robot.toml, marginals.png")
 
 
 @twin.command("excite")

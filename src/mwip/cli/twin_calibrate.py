@@ -43,13 +43,49 @@ def _structures(text: str | None) -> list[str] | None:
                                  "the shipped one: docs/book_calibration/structures.parquet) "
                                  "without running a twin.")
 @click.option("--force", is_flag=True, help="Write into a non-empty folder that is not mwip's.")
+@click.option("--record", is_flag=True,
+              help="Instead: the five-stage calibration of structure S0 of record "
+                   "(book-evidence.toml's revisions 1-5: the default robot's; about 2 hours).")
+@click.option("--samples", type=click.IntRange(1, 100_000), default=None,
+              help="--record: prior draws (default: the declaration's, 2000).")
+@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=None,
+              help="--record: seed of the prior draws (default: the declaration's).")
+@click.option("--stage2-draws", "stage2", type=click.IntRange(0, 100_000), default=None,
+              help="--record: twins of stage 2, the declared box proposal (default: the "
+              "declaration's, 1000; 0: none).")
+@click.option("--chain-steps", "chain_steps", type=click.IntRange(0, 100_000), default=None,
+              help="--record: generations of stage 3's Markov chains, burn-in scaled alike "
+              "(default: the declaration's, 500; 0: no chains).")
+@click.option("--mixture-draws", "mixture_draws", type=click.IntRange(0, 1_000_000),
+              default=None, help="--record: twins of stage 4's mixture draws (default: the "
+              "declaration's, 6000; 0: no stages 4-5).")
+@click.option("--envelope-draws", "envelope_draws", type=click.IntRange(0, 1_000_000),
+              default=None, help="--record: twins of stage 5's envelope draws, without "
+              "revision 5's extension (default: the declaration's 20000, extended until the "
+              "effective size is 100; 0: no stage 5).")
 def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
                    draws: int | None, kernel_draws: int | None, duration: float,
-                   replay: Path | None, force: bool) -> None:  # fmt: skip
-    """Compare the declared twin structures of the book's robot by their evidence: EVIDENCE is
-    `book` (the book's Chapter 6 evidence, book-evidence.toml) or an evidence file of the same
-    form."""
+                   replay: Path | None, force: bool, record: bool, samples: int | None,
+                   seed: int | None, stage2: int | None, chain_steps: int | None,
+                   mixture_draws: int | None, envelope_draws: int | None) -> None:  # fmt: skip
+    """The book's robot from the book's evidence: compare the declared twin structures by
+    their evidence (book-structures.toml), or with --record run the calibration of record.
+    EVIDENCE is `book` (the book's Chapter 6 evidence, book-evidence.toml) or an evidence
+    file of the same form."""
     from mwip import outdir
+
+    _one_mode(click.get_current_context(), record)
+    if record:
+        if evidence != "book":
+            raise click.UsageError("--record: the calibration of record is the book's "
+                                   "(EVIDENCE 'book')")  # fmt: skip
+        from mwip.cli._common import need_extra
+
+        need_extra("campaign", "mwip twin calibrate book --record",  # (a campaign's engine)
+                   None if jobs > 1 else ("pyarrow", "pandas"))  # fmt: skip
+        _record(out, force, samples, seed, jobs, duration, stage2, chain_steps, mixture_draws,
+                envelope_draws)
+        return
     from mwip.calibration.comparison import DRAWS_FILE, RESULT_FILE, run_comparison
     from mwip.calibration.comparison_report import headline
 
@@ -84,3 +120,74 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
     click.echo(headline(doc))
     wrote = [RESULT_FILE, "structures.md"] + ([] if replay is not None else [DRAWS_FILE])
     click.echo(f"wrote {target / wrote[0]}, " + ", ".join(wrote[1:]))
+
+
+#: options of each mode: refused in the other one
+_COMPARE_ONLY = ("structures", "draws", "kernel_draws", "replay")
+_RECORD_ONLY = ("samples", "seed", "stage2", "chain_steps", "mixture_draws", "envelope_draws")
+
+
+def _one_mode(ctx: click.Context, record: bool) -> None:
+    """Refuse an option given on the command line that the mode does not use (one line)."""
+    from click.core import ParameterSource
+
+    given = [p for p in ctx.command.params
+             if p.name in (_COMPARE_ONLY if record else _RECORD_ONLY)
+             and ctx.get_parameter_source(p.name) in (ParameterSource.COMMANDLINE,
+                                                      ParameterSource.ENVIRONMENT)]  # fmt: skip
+    if given:
+        names = ", ".join(max(p.opts, key=len) for p in given if isinstance(p, click.Option))
+        if record:
+            raise click.UsageError(f"{names}: not used by --record (the five-stage calibration "
+                                   "of structure S0); leave them out")  # fmt: skip
+        raise click.UsageError(f"{names}: only used with --record; leave them out when "
+                               "comparing structures")  # fmt: skip
+
+
+def _record(out: Path, force: bool, samples: int | None, seed: int | None, jobs: int,
+              duration: float, stage2: int | None = None,
+              chain_steps: int | None = None,
+              mixture_draws: int | None = None,
+              envelope_draws: int | None = None) -> None:  # fmt: skip
+    """``twin calibrate book --record``: :func:`mwip.calibration.book.calibrate_book` into ``out``
+    (a folder of mwip's own: a rerun resumes the prior draws)."""
+    from mwip import outdir
+    from mwip.calibration.book import calibrate_book
+
+    target = outdir.check(out, force, command="twin calibrate")
+    if (samples, stage2, chain_steps, mixture_draws, envelope_draws) == (None,) * 5:
+        slower = "" if jobs >= 2 else f"; slower with --jobs {jobs}"
+        click.echo("mwip: --record at the declared sizes evaluates about 100,000 twins "
+                   "in five stages: about 2 hours with --jobs 2 on a 2-core machine "
+                   f"(BENCHMARKS.md){slower}", err=True)  # fmt: skip
+        click.echo("mwip: it is resumable (Ctrl-C, then the same command continues); a first "
+                   "look: --samples 20 --stage2-draws 0 --chain-steps 0 --mixture-draws 0",
+                   err=True)  # fmt: skip
+    outdir.claim(target, "twin calibrate")
+    res = calibrate_book(target, samples=samples, seed=seed, jobs=jobs, duration=duration,
+                         proposal_draws=stage2, chains=None if chain_steps == 0 else True,
+                         chain_steps=chain_steps or None,
+                         mixture=None if mixture_draws == 0 else True,
+                         mixture_draws=mixture_draws or None,
+                         envelope=None if envelope_draws == 0 else True,
+                         envelope_draws=envelope_draws or None,
+                         note=lambda line: click.echo(line, err=True))
+    # fmt: skip
+    p, c = res.doc["posterior"], res.doc["claim_counts"]
+    smp = p.get("sampler") or {}
+    s3 = p.get("stage3") or (smp if smp and smp.get("kind") != "mixture" else None)
+    chains = (f"; stage 3: {s3['chains']} chains x {s3['kept']} kept generations, "
+              f"{s3['evaluations']} twins evaluated" if s3 else "")
+    if smp.get("kind") == "mixture":
+        chains += (f"; stage 4: {smp['draws']} mixture draws, {smp['hits']['mixture']} "
+                   "consistent")
+        if smp.get("envelope"):
+            chains += (f"; stage 5: {smp['envelope']['draws']} envelope draws, "
+                       f"{smp['hits']['envelope']} consistent")
+    click.echo(f"twins evaluated {res.doc['evaluated']} (prior draws and stage 2{chains}), "
+               f"posterior {p['size']} (effective {p['effective_size']:.0f})"
+               + (f" (conditioned on {len(p['used'])} facts; dropped: {len(p['dropped'])})"
+                  if p["dropped"] else ""))  # fmt: skip
+    click.echo(f"held-out claims: {c['holds']} hold, {c['fails']} fail, {c['undecided']} "
+               "undecided")  # fmt: skip
+    click.echo(f"wrote {target / 'posterior.md'}, posterior.json, robot.toml, marginals.png")

@@ -17,7 +17,10 @@ Kalman filter (``kind = "kalman"``, Sec. 2.5.1)
     State ``[theta, b]``, the gyro as input, the accelerometer tilt as measurement:
     ``theta^- = theta + (omega* - b) Ts``, ``P^- = A P A^T + Q`` with ``A = [[1, -Ts], [0,
     1]]``, ``Q = diag(q_angle, q_bias) Ts``; gain ``K = P^-[:, 0] / (P^-_00 + r_angle)``;
-    ``theta' = omega* - b``. It estimates and removes the gyro's offset.
+    ``theta' = omega* - b``. It estimates and removes the gyro's offset. Its tuning is the
+    :class:`FusionSpec`'s, or per robot where the twin's prior has ``firmware.fusion.q_angle``
+    / ``q_bias`` / ``r_angle`` as unknowns (structure S3 of the book calibration,
+    :mod:`mwip.calibration.structures`).
 
 Both start from the accelerometer tilt at power-on (the robot at rest); the Kalman
 covariance from ``diag(r_angle, 0.02^2)``. The element (:data:`ELEMENT`, kernel

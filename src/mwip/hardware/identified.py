@@ -1,14 +1,14 @@
 """The default twin: the book's robot identified from the book's evidence (issue 23).
 
 The default robot's twin (``mwip/robot/book.toml``, :func:`mwip.robot.default_robot`) is the
-most probable member of the posterior of ``mwip twin fit --evidence book``
+most probable member of the posterior of ``mwip twin calibrate book --record``
 (:mod:`mwip.calibration.book`; the declaration ``mwip/calibration/book-evidence.toml``), with
 its provenance in the robot's notes. :func:`default_twin` is the twin of every command and
 study not given ``--robot FILE`` (``mwip robot show`` prints it). The data-sheet twin the
 prior is centred on, ``Twin()`` (``mwip robot show --datasheet``), stays what the elements'
 defaults say.
 
-To refresh it after a new calibration: ``mwip twin fit --evidence book --out cal`` and copy
+To refresh it after a new calibration: ``mwip twin calibrate book --record --out cal`` and copy
 ``cal/robot.toml`` to ``mwip/robot/book.toml`` (a test checks that the file is the
 calibration's MAP member as recorded in ``docs/book_calibration/posterior.json``).
 """

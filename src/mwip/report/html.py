@@ -364,7 +364,7 @@ def _twin_headline_html(record: dict[str, Any]) -> str:
 
 def _identified_section(record: dict[str, Any]) -> str:
     """The identified twin: where it comes from and the held-out Chapter 6 claims across the
-    posterior (``mwip twin fit --evidence book``, docs/book_calibration)."""
+    posterior (``mwip twin calibrate book --record``, docs/book_calibration)."""
     st = record.get("twin_status")
     if not isinstance(st, dict) or not st.get("identified"):
         return ""
