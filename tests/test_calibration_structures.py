@@ -119,7 +119,7 @@ def test_calibrate_is_deterministic_resumable_and_replays_byte_for_byte(tmp_path
     for f in ("structures.json", "structures.md"):
         assert (tmp_path / "c" / f).read_bytes() == (a / f).read_bytes()
     md = (a / "structures.md").read_text()
-    assert "| claim | S0 | S1 |" in md and "revisions 1-5" in md
+    assert "| claim | S0 (" in md and "| S1 (" in md and "revisions 1-5" in md
 
 
 @pytest.mark.parametrize("args, field", [
@@ -159,3 +159,44 @@ def test_the_shipped_comparison_replays_byte_for_byte(tmp_path: Path) -> None:
         for name, v in c["per_structure"].items():
             if set(c["needs"]) & set(doc["structures"][name]["rejected_by"]):
                 assert v["verdict"] == "not judgeable"
+
+
+def test_the_evidence_estimates_a_known_probability(tmp_path: Path, monkeypatch) -> None:
+    """Synthetic truth for stages A-B (revision 7): with a fake twin that meets every fact
+    exactly when the torque gain is in [1.5, 3] (log-uniform on [0.25, 4]: probability
+    ln 2 / ln 16 = 1/4) and the gear ratio below 10 (uniform on [3.7, 51]: 6.3 / 47.3), ``Z``
+    with its interval covers the truth, and stage B's search lands in the set more often than
+    the prior draws (the point of it). Revision 6's pooling of B with A by the balance
+    heuristic failed this (``Z`` near 1e-6 against 0.033): the boxes are centred on the draws
+    they would reweight."""
+    from dataclasses import replace
+
+    import mwip.calibration.sample as sample
+    from mwip.calibration.comparison import sample_structure, structure_evidence
+    from mwip.calibration.evidence import load_evidence
+    from mwip.calibration.runs import run_names
+
+    ev = load_evidence()
+
+    def fake(values: dict, **kw: object) -> dict:
+        ok = ((values["firmware.torque_gain"] >= 1.5) & (values["firmware.torque_gain"] <= 3)
+              & (values["drive.gear_ratio"] < 10.0))  # fmt: skip
+        cols = {f"{r}.stands": ok.astype(float) for r in run_names()}
+        for n in ev.numbers:
+            cols[n.key] = np.where(ok, n.book, 10 * n.book)
+        return cols
+
+    monkeypatch.setattr(sample, "evaluate", fake)
+    truth = 0.25 * (10.0 - 3.7) / (51.0 - 3.7)
+    s1 = load_structures()["S1"]
+    covered = 0
+    for seed in range(10):
+        plan = replace(load_plan(), prior_draws=400, kernel_draws=200, seed=seed, block=200)
+        pool = sample_structure(s1, plan, tmp_path / f"s{seed}", ev)
+        se = structure_evidence("S1", pool, ev)
+        e = se.evidence
+        assert e.n == 400 and not se.rejected
+        covered += e.lo <= truth <= e.hi
+        a = pool["stage"].to_numpy() == "A"
+        assert se.accepted[~a].mean() > 2 * se.accepted[a].mean()
+    assert covered >= 8  # a 95 % interval: 9.5 of 10 expected (P(covered < 8) < 0.02)

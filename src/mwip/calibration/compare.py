@@ -74,12 +74,14 @@ class StructureEvidence:
 
     @property
     def rejected(self) -> bool:
-        return self.evidence.hits == 0
+        """No draw meets every fact (existence: whatever estimates ``Z``)."""
+        return not bool(self.accepted.any())
 
     def to_json(self) -> dict[str, Any]:
         e = self.evidence
         return {"name": self.name, "evidence": e.z, "evidence_95": [e.lo, e.hi],
-                "hits": e.hits, "draws": e.n, "rejected": self.rejected,
+                "hits": e.hits, "draws": e.n, "found": int(self.accepted.sum()),
+                "searched": int(self.accepted.size), "rejected": self.rejected,
                 "rejected_by": list(self.rejected_by), "unmet": list(self.unmet),
                 "most_facts_together": self.most_together,
                 "conflicts": [list(c) for c in self.conflicts]}  # fmt: skip

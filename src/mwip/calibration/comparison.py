@@ -1,5 +1,5 @@
-"""The book calibration's revision 6: the declared structures sampled, and compared by their
-evidence (``mwip twin calibrate book``; ``book-structures.toml``).
+"""The book calibration's revisions 6-7: the declared structures sampled, and compared by
+their evidence (``mwip twin calibrate book``; ``book-structures.toml``).
 
 For each structure ``S`` (:mod:`mwip.calibration.structures`), in its prior's unit
 coordinates (where the prior is uniform, density 1):
@@ -8,8 +8,23 @@ coordinates (where the prior is uniform, density 1):
 - **stage B**: ``kernel_draws`` draws (indices from :data:`STAGE_B`) from the box-kernel
   mixture (:class:`mwip.calibration.mixture.KernelMixture`, one family, half-widths
   ``factor`` x the seeds' standard deviation) around the stage-A draws that meet ``S``'s
-  largest consistent subset of stage A; pooled with stage A by the balance heuristic
-  (:func:`mwip.calibration.mixture.balance_weights`, ``p = 1``): ``w = N / (n_A + n_B q(u))``.
+  largest consistent subset of stage A: a **search** for twins that meet more facts.
+
+Revision 7 (``book-structures.toml``): stage B is not pooled with stage A by importance
+weights, as revision 6 declared. Its boxes are centred on the very stage-A draws they would
+reweight, so the balance-heuristic weights of those draws collapse and the pool
+underestimates ``Z`` by orders of magnitude (``tests/test_calibration_structures.py``:
+synthetic truth ``Z = 0.033`` came out near ``1e-6``). So:
+
+- ``Z = P(prior meets every fact)`` is estimated on stage A alone (prior draws: the share
+  meeting them, Clopper-Pearson's 95 % interval; no draw: its upper bound);
+- what a structure can meet (the facts one twin meets together, the largest consistent
+  subset, the facts that reject it, whether any twin meets them all) is read on every twin
+  stages A and B evaluated (existence needs no weights);
+- the marginals, the pitch estimate's offset, the facts' shares and each held-out claim's
+  share are read on the twins found meeting the largest consistent subset, A and B alike,
+  **unweighted**: a description of the twins found, not a posterior (stage B's draws are not
+  drawn from one).
 
 Every Chapter 6 run on every draw (:func:`mwip.calibration.runs.run_batch` on ``S``'s twin),
 in blocks stored as they finish (a rerun resumes; a draw depends on ``(seed, index)`` alone,
@@ -18,21 +33,20 @@ written as one compact file (``draws.parquet``: the columns the facts and claims
 every number of the result is computed from that file alone, so ``--replay FILE`` rebuilds
 it byte for byte.
 
-The comparison (:mod:`mwip.calibration.compare`): each structure's evidence ``Z`` with its
-interval, what it can meet, the facts that reject it, Bayes factors, posterior
-probabilities; per structure, on its draws meeting its largest consistent subset (weighted),
-each unknown's marginal (a warning where half its mass lies in the outer 5 % of its range at
-a wall), the pitch estimate's constant offset ``gyro offset x fusion tau`` where the structure
-has one (a complementary filter without zeroing: :mod:`mwip.hardware.fusion`), the share
-meeting each calibration fact (a posterior predictive check); every held-out claim's verdict
-per structure ("not judgeable on S" where it needs a fact that rejects ``S``) and averaged by
-the posterior probabilities.
+The comparison (:mod:`mwip.calibration.compare`): each structure's evidence with its
+interval, Bayes factors, posterior probabilities, and per structure each unknown's spread
+(a warning where more than half of it lies in the outer 5 % of its range at a wall), the
+pitch estimate's constant offset ``gyro offset x fusion tau`` where the structure has one (a
+complementary filter without zeroing: :mod:`mwip.hardware.fusion`), each held-out claim's
+verdict per structure ("not judgeable on S" where it needs a fact that rejects ``S``) and
+averaged by the posterior probabilities.
 """
 
 from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -110,7 +124,7 @@ def _facts(df: Any, ev: Any) -> Any:
     from mwip.calibration.runs import run_names
 
     cols = {c: df[c].to_numpy(dtype=float) for c in df.columns
-            if c not in ("structure", "stage")}  # fmt: skip
+                if c not in ("structure", "stage", "weight")}  # fmt: skip
     return facts(cols, run_names(), ev)
 
 
@@ -118,11 +132,11 @@ def sample_structure(structure: Any, plan: Any, store: Path, ev: Any, *, jobs: i
                      duration: float = 0.0, prior_draws: int | None = None,
                      kernel_draws: int | None = None,
                      note: Callable[[str], None] | None = None) -> Any:  # fmt: skip
-    """Stages A and B of ``structure`` (module docstring) into ``store``: the pooled table
-    with ``stage`` and ``weight`` columns."""
+    """Stages A and B of ``structure`` (module docstring) into ``store``: both stages' rows
+    with a ``stage`` column."""
     import pandas as pd
 
-    from mwip.calibration.mixture import KernelMixture, balance_weights
+    from mwip.calibration.mixture import KernelMixture
     from mwip.calibration.posterior import consistent_subset
 
     d = len(structure.prior)
@@ -136,7 +150,6 @@ def sample_structure(structure: Any, plan: Any, store: Path, ev: Any, *, jobs: i
     free = structure.prior.bounds[:, 1] > structure.prior.bounds[:, 0]
     unit = np.column_stack([np.zeros(d), free.astype(float)])
     if nb == 0:
-        a["weight"] = 1.0
         return a
     f = _facts(a, ev)
     mask, _ = consistent_subset(f)
@@ -147,11 +160,7 @@ def sample_structure(structure: Any, plan: Any, store: Path, ev: Any, *, jobs: i
     b = _blocks(structure, "B", ub, ib, store, plan.block, ev, jobs=jobs, duration=duration,
                 note=note)  # fmt: skip
     b["stage"] = "B"
-    pool = pd.concat([a, b], ignore_index=True)
-    u = pool[[f"u.{n}" for n in structure.prior.names]].to_numpy(dtype=float)
-    pool["weight"] = balance_weights(np.ones(len(pool)), [na, nb],
-                                     [np.ones(len(pool)), mix.density(u)])  # fmt: skip
-    return pool
+    return pd.concat([a, b], ignore_index=True)
 
 
 def _marginals(structure: Any, df: Any, sel: NDArray[np.bool_],
@@ -204,24 +213,38 @@ def _offset(structure: Any, df: Any, sel: NDArray[np.bool_],
                     "offset", "q05": float(q[0]), "q50": float(q[1]), "q95": float(q[2])}
 
 
+def structure_evidence(name: str, df: Any, ev: Any) -> Any:
+    """Revision 7's :class:`~mwip.calibration.compare.StructureEvidence` of one structure's
+    rows ``df`` (stages A and B): ``Z`` on stage A alone, what it can meet on every twin
+    (module docstring)."""
+    from mwip.calibration.compare import evidence_of
+    from mwip.calibration.posterior import Facts
+
+    f = _facts(df, ev)
+    in_a = (df["stage"] == "A").to_numpy()
+    se = evidence_of(name, f)
+    za = evidence_of(name, Facts(f.names, f.S[in_a], f.log_err[in_a])).evidence
+    return replace(se, evidence=za)
+
+
 def analyse_table(table: Any, structures: dict[str, Any], ev: Any,
                   record: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
     """The comparison document from the pooled draws ``table`` of every structure (column
     ``structure``): module docstring. ``record``: revisions 1-5's ``posterior.json`` (its
     verdicts are shown beside)."""
     from mwip.calibration.claims import CLAIMS, claim_rows
-    from mwip.calibration.compare import bayes_factor, claim_verdict, evidence_of, posterior_probs
+    from mwip.calibration.compare import bayes_factor, claim_verdict, posterior_probs
 
     names = [n for n in structures if (table["structure"] == n).any()]
     evs, holds, per = [], {}, {}
     for n in names:
         df = table[table["structure"] == n].reset_index(drop=True)
         f = _facts(df, ev)
-        w = df["weight"].to_numpy(dtype=float)
-        se = evidence_of(n, f, w)
+        w = np.ones(len(df))  # the twins found: unweighted (module docstring, revision 7)
+        se = structure_evidence(n, df, ev)
         evs.append(se)
         cols = {c: df[c].to_numpy(dtype=float) for c in df.columns
-                if c not in ("structure", "stage")}  # fmt: skip
+                if c not in ("structure", "stage", "weight")}  # fmt: skip
         holds[n] = claim_rows(cols)
         sel = se.conditioned
         ws = w[sel]
@@ -256,7 +279,7 @@ def analyse_table(table: Any, structures: dict[str, Any], ev: Any,
                        "revisions_1_5": old.get(c.key)})  # fmt: skip
     counts = {k: sum(c["verdict"] == k for c in claims)
               for k in ("holds", "fails", "undecided", "not judgeable")}  # fmt: skip
-    return {"revision": 6, "structures": per, "posterior_probability": post,
+    return {"revision": 7, "structures": per, "posterior_probability": post,
             "bayes_factors": bf, "claims": claims, "claim_counts": counts}
 
 

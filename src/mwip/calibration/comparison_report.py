@@ -1,4 +1,4 @@
-"""Revision 6's comparison in words (``structures.md``, from the document of
+"""Revisions 6-7's comparison in words (``structures.md``, from the document of
 :func:`mwip.calibration.comparison.analyse_table`)."""
 
 from __future__ import annotations
@@ -25,11 +25,11 @@ def headline(doc: dict[str, Any]) -> str:
     parts = []
     for n, s in st.items():
         if s["rejected"]:
-            parts.append(f"{n} met every calibration fact with none of its {s['draws']:,} "
+            parts.append(f"{n} met every calibration fact with none of its {s['searched']:,} "
                          f"twins (the most facts one twin met together: "
                          f"{s['most_facts_together']} of {len(s['facts_met_share'])})")
         else:
-            parts.append(f"{n} met them with {s['hits']:,} of its {s['draws']:,} twins "
+            parts.append(f"{n} met them with {s['found']:,} of its {s['searched']:,} twins "
                          f"(probability {post[n]:.3g} given the facts)")  # fmt: skip
     c = doc["claim_counts"]
     if not any(v > 0 for v in post.values()):
@@ -46,21 +46,21 @@ def headline(doc: dict[str, Any]) -> str:
 def report_md(doc: dict[str, Any]) -> str:
     """The whole comparison as Markdown."""
     st = doc["structures"]
-    out = ["# The book's robot: twin structures compared by their evidence (revision 6)", "",
-           "Declared in `src/mwip/calibration/book-structures.toml` before any draw "
+    out = ["# The book's robot: twin structures compared by their evidence (revisions 6-7)",
+           "", "Declared in `src/mwip/calibration/book-structures.toml` before any draw "
            f"(sha256 {doc.get('declaration_sha256', '?')[:12]}); the split, the tolerance and "
            "the verdict rule are `book-evidence.toml`'s. Rebuilt from the per-twin file by "
            "`mwip twin calibrate book --replay FILE --out DIR`.", "", headline(doc), "",
            "## Evidence", "",
-           "| structure | twins (A + B) | meet every fact | Z = P(prior meets every fact) "
-           "[95 %] | p(S given the facts) | most facts together | rejected by |",
+           "| structure | twins (A + B) | found meeting every fact | Z = P(prior meets every "
+           "fact), stage A [95 %] | p(S given the facts) | most facts together | rejected by |",
            "|---|---|---|---|---|---|---|"]  # fmt: skip
     post = doc["posterior_probability"]
     for n, s in st.items():
         lo, hi = s["evidence_95"]
         rej = ", ".join(f"`{f}`" for f in s["rejected_by"]) or "-"
         out.append(f"| {n}: {s['title']} | {s['stages']['A']:,} + {s['stages']['B']:,} | "
-                   f"{s['hits']:,} | {_g(s['evidence'])} [{_g(lo)}, {_g(hi)}] | "
+                   f"{s['found']:,} | {_g(s['evidence'])} [{_g(lo)}, {_g(hi)}] | "
                    f"{_g(post[n])} | {s['most_facts_together']} of "
                    f"{len(s['facts_met_share'])} | {rej} |")  # fmt: skip
     out += ["", "A structure none of whose twins meets every calibration fact is rejected by "
@@ -71,31 +71,35 @@ def report_md(doc: dict[str, Any]) -> str:
     for k, b in doc["bayes_factors"].items():
         out.append(f"| {k} | {_g(b['B'])} | [{_g(b['lo'])}, {_g(b['hi'])}] |")
     for n, s in st.items():
-        out += ["", f"## {n}: the twins meeting its largest consistent subset", "",
-                f"{s['conditioned_draws']:,} twins (effective size "
-                f"{s['conditioned_effective']:.0f}).", ""]  # fmt: skip
+        out += ["", f"## {n}: the twins found meeting its largest consistent subset", "",
+                f"{s['conditioned_draws']:,} twins of stages A and B, unweighted: a "
+                "description of the twins found, not a posterior (revision 7).",
+                ""]  # fmt: skip
         if s.get("offset"):
             o = s["offset"]
             out += [f"Pitch-estimate offset {o['what']}: median {_g(o['q50'])} rad "
                     f"(90 %: {_g(o['q05'])}-{_g(o['q95'])}).", ""]  # fmt: skip
-        out += ["| unknown | 5 % | median | 95 % | prior | wall |", "|---|---|---|---|---|---|"]
+        out += ["| unknown | 5 % | median | 95 % | range | at a wall |",
+                "|---|---|---|---|---|---|"]  # fmt: skip
         for u, m in s["marginals"].items():
             wall = f"**{m['wall']}**" if m["wall"] else "-"
             out.append(f"| {u} | {_g(m['q05'])} | {_g(m['q50'])} | {_g(m['q95'])} | "
                        f"{_g(m['prior'][0])}-{_g(m['prior'][1])} | {wall} |")  # fmt: skip
         walls = [u for u, m in s["marginals"].items() if m["wall"]]
         if walls:
-            out += ["", "Warning: more than half the posterior mass of " + ", ".join(walls)
-                    + " lies at a wall of the prior (the outer 5 % of its range): a missing "
-                    "element or too narrow a prior may hold it there."]  # fmt: skip
+            out += ["", "Warning: more than half of these twins have " + ", ".join(walls)
+                    + " at a wall of the prior (the outer 5 % of its range): a missing "
+                    "element or too narrow a prior may hold them there."]  # fmt: skip
         miss = {f: v for f, v in s["facts_met_share"].items() if v is not None and v < 1}
         if miss:
-            out += ["", "Posterior predictive check (share of these twins meeting each fact "
-                    "they are not conditioned on): " + ", ".join(
+            out += ["", "The share of these twins meeting each fact outside the subset: "
+                    + ", ".join(
                         f"`{f}` {v:.2f}" for f, v in miss.items())]  # fmt: skip
     names = list(st)
     out += ["", "## Held-out claims", "",
-            "| claim | " + " | ".join(names) + " | over structures | revisions 1-5 (S0) |",
+            "| claim | " + " | ".join(f"{n} ({st[n]['conditioned_draws']:,} twins)"
+                                     for n in names)
+            + " | over structures | revisions 1-5 (S0) |",
             "|---|" + "---|" * len(names) + "---|---|"]  # fmt: skip
     for c in doc["claims"]:
         cells = []
