@@ -273,7 +273,9 @@ def _book_claims_section(
         '<section id="book-claims"><h2>The book\'s claims</h2>'
         f'<p class="muted">{len(claims)} claims the book makes, judged by its own words. '
         "A claim that does not reproduce is grouped by its cause; the evidence gives our "
-        "numbers."
+        "numbers. A Chapter 6 claim that the calibration judges across the posterior's twins "
+        "has that one verdict (holds, fails, undecided); this run's result on the default twin "
+        "is the value beside it (the identified twin section)."
         + (
             f" The column <em>{_e(compare.label)}</em> is the verdict of the same claim in "
             f"<code>{_e(compare.folder.name)}/</code>, the run under the other reading of the "
@@ -417,7 +419,7 @@ def _identified_section(record: dict[str, Any], results: Sequence[StudyResult] =
            else "")
         + "</p>"
         '<div class="scroll"><table><tr><th>study</th><th>claim</th><th>holds in (95 % CI)</th>'
-        "<th>verdict</th><th>default twin's result (a value)</th><th>decided by</th></tr>"
+        "<th>verdict</th><th>this run on the default twin (a value)</th><th>decided by</th></tr>"
         + "".join(rows) + "</table></div></section>"
     )  # fmt: skip
 

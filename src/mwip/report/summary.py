@@ -84,14 +84,17 @@ def across_count(n: dict[str, int]) -> str:
 
 
 def _mark(v: Verdict) -> str:
-    return "[ok]" if v.held else ("[no]" if v.label in ("fails", "does not hold") else "[??]")
+    """``[ok]`` for a claim counted as reproducing, ``[no]`` otherwise (undecided too)."""
+    return "[ok]" if v.held else "[no]"
 
 
-def _run_value(v: Verdict) -> str:
-    """The run's own result beside an across-twins verdict: a value, not a second verdict."""
+def _run_value(v: Verdict, label: bool = True) -> str:
+    """The run's own result beside an across-twins verdict: a value, not a second verdict
+    (``label``: the verdict's words first)."""
     if not v.across:
         return ""
-    return f" (across twins: {v.label}; this run's twin: {str(v.this_run).lower()})"
+    head = f"across twins: {v.label}; " if label else ""
+    return f" ({head}this run's twin: {str(v.this_run).lower()})"
 
 
 def _claim_line(c: dict[str, Any], width: int, indent: str,
@@ -147,7 +150,8 @@ def summary_lines(
     then the first failing book claim with its cause and evidence. ``verbose``: every claim.
     ``damping`` names this run's reading; ``compare`` adds the verdicts of the other one.
     """
-    lines = [_clip(headline(results, damping, compare), width), _clip(MARKS, width)]
+    # the headline is never cut (the terminal wraps it): its counts are the run's verdicts
+    lines = [headline(results, damping, compare), _clip(MARKS, width)]
     for res in results:
         src = res.doc.get("source", "") if res.doc else res.info.get("source", "")
         if res.doc is None:
@@ -177,7 +181,7 @@ def summary_lines(
             first = failing[0]
             v = res.verdict(first)
             how = f"{v.label} across twins" if v.across else "fails"
-            text = f"     {how}: {first.get('text', '')}{_run_value(v)}"
+            text = f"     {how}: {first.get('text', '')}{_run_value(v, label=False)}"
             lines.append(_clip(text, width - len(more)) + more)
             lines.extend(_why(first, width, "            "))
     n = counts(results)
