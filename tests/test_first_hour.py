@@ -154,16 +154,16 @@ def test_one_study_is_one_study_and_no_chapter6_verdicts_across_twins(tmp_path, 
 
 
 def test_report_verbose_shows_every_claim_whole_wrapped_to_the_terminal(capsys):
+    from mwip.report.results import StudyResult
     from mwip.report.summary import summary_lines
 
-    class Res:
-        name, robot, error, info = "s", None, None, {}
-        text = "a claim " * 30 + "END"
-        claims = [{"id": "x", "text": text, "holds": False, "book": True, "cause": "implementation",
-                   "evidence": "because " * 30 + "EVIDENCE", "values": {"a.b": 1.0}}]  # fmt: skip
-        doc = {"source": "src", "runs": {"a": {"status": "ok"}}, "claims": claims}
+    text = "a claim " * 30 + "END"
+    claims = [{"id": "x", "text": text, "holds": False, "book": True, "cause": "implementation",
+               "evidence": "because " * 30 + "EVIDENCE", "values": {"a.b": 1.0}}]  # fmt: skip
+    doc = {"source": "src", "runs": {"a": {"status": "ok"}}, "claims": claims}
+    res = StudyResult("s", Path("."), doc)
 
-    lines = summary_lines([Res()], width=60, verbose=True)  # type: ignore[list-item]
+    lines = summary_lines([res], width=60, verbose=True)
     body = lines[3:-1]
     assert all(len(line) <= 60 for line in body) and len(body) > 4
     joined = " ".join(" ".join(body).split())

@@ -71,12 +71,12 @@ def test_status_says_which_twin_ran() -> None:
     size = DOC["posterior"]["size"]
     kind = (DOC["posterior"].get("sampler") or {}).get("kind")
     if kind == "mixture":  # stages 4-5: a weighted pool with a most probable member
-        which = f"the most probable of {size} weighted twins consistent"
+        which = f"the most probable of the {size:,} twins consistent"
     elif "sampler" in DOC["posterior"]:  # stage 3's chains: every state ties for most probable
-        which = ("the first twin found consistent with the book's calibration evidence, of a "
-                 f"posterior of {size} Markov chain states")
+        which = ("the first twin found consistent with the book's calibration facts, of "
+                 f"{size:,} twins from Markov chains")
     else:
-        which = ("the only twin found" if size == 1 else f"the most probable of {size} twins")
+        which = ("the only twin found" if size == 1 else f"the most probable of {size:,} twins")
         which += " consistent"
     assert st["identified"] and st["text"].startswith(f"the default twin is {which}")
     assert st["claim_counts"] == DOC["claim_counts"]

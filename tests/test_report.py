@@ -50,10 +50,15 @@ def test_reproduce_writes_every_study_the_record_and_the_report(quick_reproducti
     docs = [json.loads((out / n / "metrics.json").read_text()) for n in STUDIES]
     for name in STUDIES:
         assert f"] {name} (" in stdout
-    book = [c for d in docs for c in d["claims"] if c["book"]]
-    held = sum(c["holds"] for c in book)
+    # a Chapter 6 claim judged across the calibration's twins counts by that one verdict
+    across = {(c["study"], c["id"]): c["verdict"] for c in record["twin_status"]["claims"]}
+    book = [(n, c) for n, d in zip(STUDIES, docs, strict=True) for c in d["claims"] if c["book"]]
+    held = sum(across[(n, c["id"])] == "holds" if (n, c["id"]) in across else c["holds"]
+               for n, c in book)  # fmt: skip
     lines = stdout.splitlines()
-    assert lines[0] == f"Book claims: {held} of {len(book)} reproduce (damping reading units)"
+    assert lines[0].startswith(f"Book claims: {held} of {len(book)} reproduce ({len(across)} "
+                               "Chapter 6 claims judged across the calibration's twins: ")
+    assert lines[0].endswith("; damping reading units)")
     extras = [c for d in docs for c in d["claims"] if not c["book"]]
     assert f"extras of ours (not the book's claims): {sum(c['holds'] for c in extras)} of " \
         f"{len(extras)} hold; {len(STUDIES)} studies" in stdout  # fmt: skip
@@ -136,7 +141,8 @@ def test_claims_lacking_the_book_field_count_with_the_extras(synthetic):
     from mwip.report.claims import counts
 
     n = counts(load_results(synthetic))
-    assert n == {"book_held": 1, "book": 4, "extra_held": 2, "extra": 2, "unlabelled": 1}
+    assert n == {"book_held": 1, "book": 4, "extra_held": 2, "extra": 2, "unlabelled": 1,
+                 "across": 0}  # no run.json twin_status: no claim judged across twins
 
 
 def test_summary_leads_with_the_book_claims_and_shows_cause_and_evidence(synthetic):
@@ -457,16 +463,15 @@ def test_study_figures_are_drawn_for_the_width_the_report_shows(tmp_path):
 def test_an_evidence_text_is_shown_once_per_study() -> None:
     """Issue 25: the same evidence paragraph repeated six times per study; now once, and the
     later claims refer to it."""
-    from types import SimpleNamespace
-
     from mwip.report.html import _claims_table
+    from mwip.report.results import StudyResult
 
     text = "Every run fell within 0.4 s on the twin: no number to compare."
     claims = [{"id": f"c{i}", "text": f"claim {i}", "book": True, "holds": False,
                "cause": "twin", "evidence": text} for i in range(3)]  # fmt: skip
     claims.append({"id": "c3", "text": "claim 3", "book": True, "holds": False,
                    "cause": "twin", "evidence": "another text"})  # fmt: skip
-    html_ = _claims_table(SimpleNamespace(name="exp-x", claims=claims), None)
+    html_ = _claims_table(StudyResult("exp-x", Path("."), {"claims": claims}), None)
     assert html_.count(text) == 1 and html_.count("(the same evidence as above)") == 2
     assert "another text" in html_
 

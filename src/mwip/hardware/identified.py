@@ -92,25 +92,25 @@ def status(twin: Any = None) -> dict[str, Any]:
               for c in doc.get("claims", [])]  # fmt: skip
     n_up, n_runs = sum(bool(v) for v in stand.values()), len(stand)
     size = int(p.get("size", 0) or 0)
+    drawn = int(p.get("n_prior", 0) or 0)
     s3 = p.get("sampler")
-    if s3 and s3.get("kind") == "mixture":  # stage 4: a weighted pool, the most probable
-        which = (f"the most probable of {size} weighted twins consistent with the book's "
-                 f"calibration evidence (stages 4-5's draws pooled with stages 1-2, "
-                 f"effective {p.get('effective_size', 0):.0f}, "
-                 + ("precise" if s3.get("precise") else "not precise") + ";")
+    # in plain words (issue 38 item 5): how many twins were drawn, how many are consistent
+    pool = (f"{drawn:,} twins drawn, {size:,} consistent with the calibration facts; "
+            if drawn else "")
+    if s3 and s3.get("kind") == "mixture":  # stages 4-5: a weighted pool, the most probable
+        which = (f"the most probable of the {size:,} twins consistent with the book's "
+                 f"calibration facts ({pool}")
         s3 = None
     elif s3:  # stage 3: every chain state ties with the default twin for most probable
-        which = (f"the first twin found consistent with the book's calibration evidence, of a "
-                 f"posterior of {size} Markov chain states (effective "
-                 f"{p.get('effective_size', 0):.0f}, "
-                 + ("converged" if s3.get("converged") else "not converged") + ";")
+        which = (f"the first twin found consistent with the book's calibration facts, of "
+                 f"{size:,} twins from Markov chains that "
+                 + ("converged" if s3.get("converged") else "did not converge") + f" ({pool}")
     else:
-        which = ("the only twin found" if size == 1 else f"the most probable of {size} twins")
-        which += (f" consistent with the book's calibration evidence (effective "
-                  f"{p.get('effective_size', 0):.0f};")  # fmt: skip
-    text = (f"the default twin is {which} "
+        which = ("the only twin found" if size == 1 else f"the most probable of {size:,} twins")
+        which += f" consistent with the book's calibration facts ({pool}"
+    text = (f"the default twin is {which}"
             f"{len(p.get('used', []))} facts conditioned on, {len(p.get('dropped', []))} met "
-            f"with them by no twin {'of stages 1-2' if s3 else 'evaluated'}); {n_up} of {n_runs} "
+            f"with them by no twin drawn); {n_up} of {n_runs} "
             "Chapter 6 runs stand on it")  # fmt: skip
     return {"identified": True, "text": text, "provenance": provenance(),
             "size": p.get("size"), "effective_size": p.get("effective_size"),

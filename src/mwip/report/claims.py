@@ -60,14 +60,20 @@ def book_claims(results: list[StudyResult]) -> list[tuple[StudyResult, dict[str,
 
 def counts(results: list[StudyResult]) -> dict[str, int]:
     """``book_held``, ``book``, ``extra_held``, ``extra`` and ``unlabelled`` (claims with no
-    ``book`` field, counted among the extras)."""
-    out = dict.fromkeys(("book_held", "book", "extra_held", "extra", "unlabelled"), 0)
+    ``book`` field, counted among the extras), each claim by its one verdict
+    (:meth:`StudyResult.verdict`); ``across`` the claims judged across the twins and
+    ``across:<verdict>`` how many have each across-twins verdict."""
+    out = dict.fromkeys(("book_held", "book", "extra_held", "extra", "unlabelled", "across"), 0)
     for r in results:
         for c in r.claims:
+            v = r.verdict(c)
             kind = "book" if is_book(c) else "extra"
             out[kind] += 1
-            out[f"{kind}_held"] += bool(c.get("holds"))
+            out[f"{kind}_held"] += v.held
             out["unlabelled"] += "book" not in c
+            if v.across:
+                out["across"] += 1
+                out[f"across:{v.label}"] = out.get(f"across:{v.label}", 0) + 1
     return out
 
 
@@ -79,7 +85,7 @@ class Comparison:
 
     folder: Path
     damping: str | None
-    verdicts: dict[tuple[str, str], bool]
+    verdicts: dict[tuple[str, str], bool]  # each claim's one verdict there: held or not
     results: tuple[StudyResult, ...] = ()
     #: why a study there was left out (its metrics.json unreadable): said, never dropped silently
     unreadable: tuple[str, ...] = ()
@@ -100,7 +106,7 @@ def load_comparison(folder: Path) -> Comparison:
     results = [r for r in loaded if r.doc is not None]
     unreadable = tuple(str(r.error) for r in loaded
                        if r.doc is None and r.error and "unreadable" in r.error)  # fmt: skip
-    verdicts = {claim_key(r.name, c): bool(c.get("holds")) for r in results for c in r.claims}
+    verdicts = {claim_key(r.name, c): r.verdict(c).held for r in results for c in r.claims}
     damping = load_run_record(folder).get("damping")
     return Comparison(folder=folder, damping=damping, verdicts=verdicts, results=tuple(results),
                       unreadable=unreadable)  # fmt: skip

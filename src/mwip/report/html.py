@@ -18,7 +18,7 @@ opens the full-size file.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +36,7 @@ from mwip.report.claims import (
 from mwip.report.posters import POSTER_DIR, ensure_posters
 from mwip.report.results import StudyResult, load_results, load_run_record
 from mwip.report.summary import format_number, headline
+from mwip.report.verdict import ACROSS, Verdict
 
 __all__ = ["render_html", "write_report", "runs_outcome", "twin_headline"]
 
@@ -115,6 +116,16 @@ def _verdict(holds: Any) -> str:
     return '<span class="ok">holds</span>' if holds else '<span class="no">does not hold</span>'
 
 
+def _one_verdict(v: Verdict) -> str:
+    """A claim's one verdict (:func:`mwip.report.verdict.claim_verdict`): across the twins
+    for a Chapter 6 claim judged there, with this run's result beside it as a value."""
+    if not v.across:
+        return _verdict(v.held)
+    cls = "ok" if v.held else ("no" if v.label == "fails" else "na")
+    beside = f"across twins; this run's twin: {str(v.this_run).lower()}"
+    return f'<span class="{cls}">{_e(v.label)}</span> <span class="muted">{_e(beside)}</span>'
+
+
 def _comparison_table(res: StudyResult) -> str:
     rows = res.comparison()
     if not rows:
@@ -186,9 +197,10 @@ def _claims_table(res: StudyResult, compare: Comparison | None, note: Note = _no
     seen: set[str] = set()
     for c in res.claims:
         kind = "book" if is_book(c) else "ours"
-        cause = _e(c.get("cause", "")) if is_book(c) and not c.get("holds") else ""
+        v = res.verdict(c)
+        cause = _e(c.get("cause", "")) if is_book(c) and not v.held else ""
         body += f"<tr><td data-label='by'>{kind}</td><td>{_e(c.get('text', ''))}</td>"
-        body += (f"<td data-label='verdict'>{_verdict(bool(c.get('holds')))}"
+        body += (f"<td data-label='verdict'>{_one_verdict(v)}"
                  f"{_robust(note, res.name, c)}</td>")  # fmt: skip
         body += f"<td data-label='cause'>{cause or '-'}</td>"
         if compare:
@@ -223,7 +235,7 @@ def _book_claims_section(
     def row(r: StudyResult, c: dict[str, Any]) -> str:
         cells = (
             f"<tr><td><a href='#{_e(r.name)}'>{_e(r.name)}</a></td><td>{_e(c.get('text', ''))}"
-            f"</td><td data-label='{here}'>{_verdict(bool(c.get('holds')))}"
+            f"</td><td data-label='{here}'>{_one_verdict(r.verdict(c))}"
             f"{_robust(note, r.name, c)}</td>"
         )
         if compare:
@@ -232,20 +244,24 @@ def _book_claims_section(
         why = _why(c, seen.setdefault(r.name, set()))
         return cells + f"<td data-label='evidence'>{why}</td></tr>"
 
-    held = [(r, c) for r, c in claims if c.get("holds")]
+    held = [(r, c) for r, c in claims if r.verdict(c).held]
     body = (
         f"<tbody class='holds'><tr class='group holds'><th colspan='{ncol}'>Reproduces: "
         f"{len(held)}</th></tr>" + "".join(row(r, c) for r, c in held) + "</tbody>"
     )
-    failing = [(r, c) for r, c in claims if not c.get("holds")]
+    failing = [(r, c) for r, c in claims if not r.verdict(c).held]
     groups: dict[str, list[tuple[StudyResult, dict[str, Any]]]] = {}
     for r, c in failing:
-        cause = c.get("cause") if c.get("cause") in CAUSES else (c.get("cause") or NO_CAUSE)
+        v = r.verdict(c)
+        cause = c.get("cause") if c.get("cause") in CAUSES else (
+            c.get("cause") or (f"{v.label} across twins" if v.across else NO_CAUSE))
         groups.setdefault(str(cause), []).append((r, c))
     order = [k for k in CAUSES if k in groups] + [k for k in groups if k not in CAUSES]
     for cause in order:
         rows = groups[cause]
-        what = CAUSES.get(cause, "the study records no cause" if cause == NO_CAUSE else "")
+        what = CAUSES.get(cause, "the study records no cause" if cause == NO_CAUSE else
+                          "the verdict across the calibration's twins (the identified twin "
+                          "section)" if cause.endswith("across twins") else "")
         body += (
             f"<tbody class='cause' data-cause='{_e(cause)}'><tr class='group'><th "
             f"colspan='{ncol}'>Does not reproduce: {_e(cause)} ({len(rows)})"
@@ -257,7 +273,9 @@ def _book_claims_section(
         '<section id="book-claims"><h2>The book\'s claims</h2>'
         f'<p class="muted">{len(claims)} claims the book makes, judged by its own words. '
         "A claim that does not reproduce is grouped by its cause; the evidence gives our "
-        "numbers."
+        "numbers. A Chapter 6 claim that the calibration judges across the posterior's twins "
+        "has that one verdict (holds, fails, undecided); this run's result on the default twin "
+        "is the value beside it (the identified twin section)."
         + (
             f" The column <em>{_e(compare.label)}</em> is the verdict of the same claim in "
             f"<code>{_e(compare.folder.name)}/</code>, the run under the other reading of the "
@@ -362,21 +380,26 @@ def _twin_headline_html(record: dict[str, Any]) -> str:
     return f'<p class="subhead" id="twin-headline">{_e(text)}</p>' if text else ""
 
 
-def _identified_section(record: dict[str, Any]) -> str:
+def _identified_section(record: dict[str, Any], results: Sequence[StudyResult] = ()) -> str:
     """The identified twin: where it comes from and the held-out Chapter 6 claims across the
-    posterior (``mwip twin calibrate book --record``, docs/book_calibration)."""
+    posterior (``mwip twin calibrate book --record``, docs/book_calibration). The verdict
+    column is each claim's one verdict; the default twin's column is a value: this run's
+    result where the study ran (``true``/``false``), else the calibration's."""
     st = record.get("twin_status")
     if not isinstance(st, dict) or not st.get("identified"):
         return ""
+    ran = {(r.name, str(c.get("id"))): r.verdict(c).this_run for r in results
+           for c in r.claims if c.get("id")}  # fmt: skip
     rows = []
     for cl in st.get("claims") or []:
         iv = cl.get("interval") or [None, None]
         by = cl.get("decided_by") or {}
-        dflt = {True: "holds", False: "fails"}.get(cl.get("default_twin"), "n/a")
+        val = ran.get((str(cl.get("study")), str(cl.get("id"))), cl.get("default_twin"))
+        dflt = "n/a" if val is None else str(bool(val)).lower()
         rows.append(
             f"<tr><td>{_e(cl.get('study'))}</td><td>{_e(cl.get('text'))}</td>"
             f"<td class='num'>{_pct(cl.get('fraction'))} ({_pct(iv[0])}-{_pct(iv[1])})</td>"
-            f"<td>{_e(cl.get('verdict'))}</td><td>{dflt}</td>"
+            f"<td>{_e(ACROSS.get(str(cl.get('verdict')), cl.get('verdict')))}</td><td>{dflt}</td>"
             f"<td>{_e(by.get('parameter', ''))}</td></tr>"
         )  # fmt: skip
     dropped = st.get("dropped") or []
@@ -396,7 +419,7 @@ def _identified_section(record: dict[str, Any]) -> str:
            else "")
         + "</p>"
         '<div class="scroll"><table><tr><th>study</th><th>claim</th><th>holds in (95 % CI)</th>'
-        "<th>verdict</th><th>default twin</th><th>decided by</th></tr>"
+        "<th>verdict</th><th>this run on the default twin (a value)</th><th>decided by</th></tr>"
         + "".join(rows) + "</table></div></section>"
     )  # fmt: skip
 
@@ -450,15 +473,22 @@ def _twin_section(results: list[StudyResult], record: dict[str, Any]) -> str:
     )
 
 
+def _twin_in_use(res: StudyResult) -> str:
+    """The twin this run used, generated from its recorded settings (``settings.twin``,
+    :func:`mwip.studies.twin_settings.twin_doc`): the set-up describes the robot in use."""
+    tw = (res.doc or {}).get("settings", {}).get("twin")
+    return f"<p><b>The twin of this run:</b> {_e(tw)}</p>" if isinstance(tw, str) and tw else ""
+
+
 def _study_section(res: StudyResult, compare: Comparison | None, note: Note = _no_note) -> str:
     info = res.info
     title = info.get("title", res.name)
     src = res.doc.get("source", "") if res.doc else ""
     parts = [f'<section class="study" id="{_e(res.name)}">']
     book = [c for c in res.claims if is_book(c)]
-    hb = sum(bool(c.get("holds")) for c in book)
+    hb = sum(res.verdict(c).held for c in book)
     extra = [c for c in res.claims if not is_book(c)]
-    he = sum(bool(c.get("holds")) for c in extra)
+    he = sum(res.verdict(c).held for c in extra)
     on = f" (on {res.robot})" if res.robot else ""  # not the book's robot (run.json)
     parts.append(f"<h2>{_e(res.name)}: {_e(title)}{_e(on)}</h2>")
     parts.append(
@@ -471,7 +501,7 @@ def _study_section(res: StudyResult, compare: Comparison | None, note: Note = _n
         extra_note = " Results below are from an earlier run." if res.doc else ""
         parts.append(f'<p class="fail">This study failed: {_e(res.error)}.{extra_note}</p>')
     if info.get("setup"):
-        parts.append(f"<h3>Set-up</h3><p>{_e(info['setup'])}</p>")
+        parts.append(f"<h3>Set-up</h3><p>{_e(info['setup'])}</p>" + _twin_in_use(res))
     if res.settings:
         rows = "".join(
             f"<tr><td>{_e(k)}</td><td>{_e(_setting(v))}</td></tr>" for k, v in res.settings.items()
@@ -548,9 +578,9 @@ def _overview(results: list[StudyResult]) -> str:
     body = ""
     for r in results:
         book = [c for c in r.claims if is_book(c)]
-        hb = sum(bool(c.get("holds")) for c in book)
+        hb = sum(r.verdict(c).held for c in book)
         extra = [c for c in r.claims if not is_book(c)]
-        he = sum(bool(c.get("holds")) for c in extra)
+        he = sum(r.verdict(c).held for c in extra)
         statuses = sorted({str(v.get("status")) for v in (r.doc or {}).get("runs", {}).values()})
         state = "failed" if r.error else ", ".join(statuses) or "-"
         steps = ""
@@ -618,7 +648,7 @@ gives our numbers. Every verdict and number is read from the studies' metrics.js
 {_book_claims_section(results, damping, cmp, note)}
 <h2>Overview</h2>{_overview(results)}
 <h2>Run</h2>{_metadata(record, cmp)}
-{_identified_section(record)}
+{_identified_section(record, results)}
 {_twin_section(results, record)}
 {sections}
 </main></body></html>

@@ -2,7 +2,9 @@
 and the run record ``run.json`` written by ``mwip reproduce``.
 
 Everything the summary and the report say comes from these files, never from the text of a
-study's module: a verdict is the ``holds`` of a claim in ``metrics.json``.
+study's module: a verdict is the ``holds`` of a claim in ``metrics.json``, or for a Chapter 6
+claim judged across the posterior's twins its across-twins verdict from ``run.json``
+(:func:`mwip.report.verdict.claim_verdict`, the one source of a claim's verdict).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mwip.report.verdict import Verdict, across_twins, claim_verdict
 from mwip.schema.texts import study_texts
 
 __all__ = [
@@ -44,16 +47,23 @@ class StudyResult:
     #: what the study ran on besides the book's robot (run.json ``robot``), e.g.
     #: ``"robot examples/my_robot.toml"``; ``None``: the book's robot and the default twin
     robot: str | None = None
+    #: claim id -> its across-twins verdict (:func:`mwip.report.verdict.across_twins`); empty
+    #: where the study is not judged across the identified twins
+    across: dict[str, str] = field(default_factory=dict)
 
     @property
     def claims(self) -> list[dict[str, Any]]:
         return list(self.doc.get("claims", [])) if self.doc else []
 
+    def verdict(self, claim: dict[str, Any]) -> Verdict:
+        """The claim's one verdict (:func:`mwip.report.verdict.claim_verdict`)."""
+        return claim_verdict(claim, self.across)
+
     @property
     def held(self) -> tuple[int, int]:
         """(claims that hold, claims)."""
         c = self.claims
-        return sum(bool(x.get("holds")) for x in c), len(c)
+        return sum(self.verdict(x).held for x in c), len(c)
 
     def comparison(self) -> list[tuple[str, float | None, float, float | None]]:
         """``(key, ours, published, relative difference)`` for every published number."""
@@ -118,6 +128,7 @@ def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]
     out = Path(out)
     record = load_run_record(out)
     per_study = record.get("studies", {})
+    across = across_twins(record)
     if names is None:
         found = sorted(p.parent.name for p in out.glob("*/metrics.json"))
         names = [*per_study, *(n for n in found if n not in per_study)]
@@ -148,6 +159,8 @@ def load_results(out: Path, names: list[str] | None = None) -> list[StudyResult]
                         wall_s=rec.get("wall_s"), info=study_texts(name),
                         settings=dict(rec.get("settings") or {}) if isinstance(
                             rec.get("settings"), dict) else {},
-                        robot=str(rec["robot"]) if rec.get("robot") else None)
+                        robot=str(rec["robot"]) if rec.get("robot") else None,
+                        across={} if rec.get("robot") else
+                        {cid: v for (s, cid), v in across.items() if s == name})
         )  # fmt: skip
     return results
