@@ -17,15 +17,17 @@ def provenance(doc: dict[str, Any]) -> str:
     p = doc["posterior"]
     lines = [
         "# The book's robot: the most probable twin of the posterior conditioned on the book's",
-        "# evidence (`mwip twin fit --evidence book`; mwip/calibration/book-evidence.toml,",
+        "# evidence (`mwip twin calibrate book --record`; mwip/calibration/book-evidence.toml,",
         f"# sha256 {doc['evidence_sha256'][:16]}).",
-        f"# Prior draws {doc.get('samples', p['n_prior'])} (seed {doc.get('seed')}), twins "
-        + ("pooled (stages 1, 2, 4, 5)" if (p.get("sampler") or {}).get("kind") == "mixture"
-           else "evaluated with stage 2")
-        + f" {p['n_prior']}, consistent {p['size']} "
-        f"(effective {p.get('effective_size', p['size']):.0f}); "
+        f"# {p['n_prior']:,} twins drawn ({doc.get('samples', p['n_prior'])} from the prior, "
+        f"seed {doc.get('seed')}"
+        + (", then the later searches" if p["n_prior"] != doc.get("samples", p["n_prior"])
+           else "")
+        + f"), {p['size']:,} consistent with the calibration facts, whose weights count as "
+        f"about {p.get('effective_size', p['size']):.0f} equally weighted twins; "
         f"conditioned on {len(p['used'])} facts"
-        + (f", dropped {len(p['dropped'])}: {', '.join(p['dropped'])}" if p["dropped"] else "")
+        + (f"; {len(p['dropped'])} that no twin met together with them were dropped: "
+           f"{', '.join(p['dropped'])}" if p["dropped"] else "")
         + ".",
     ]
     smp = p.get("sampler") or {}
