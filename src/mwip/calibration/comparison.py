@@ -124,7 +124,7 @@ def _facts(df: Any, ev: Any) -> Any:
     from mwip.calibration.runs import run_names
 
     cols = {c: df[c].to_numpy(dtype=float) for c in df.columns
-                if c not in ("structure", "stage", "weight")}  # fmt: skip
+                if c not in ("structure", "stage")}  # fmt: skip
     return facts(cols, run_names(), ev)
 
 
@@ -244,7 +244,7 @@ def analyse_table(table: Any, structures: dict[str, Any], ev: Any,
         se = structure_evidence(n, df, ev)
         evs.append(se)
         cols = {c: df[c].to_numpy(dtype=float) for c in df.columns
-                if c not in ("structure", "stage", "weight")}  # fmt: skip
+                if c not in ("structure", "stage")}  # fmt: skip
         holds[n] = claim_rows(cols)
         sel = se.conditioned
         ws = w[sel]

@@ -11,8 +11,8 @@ committed before any draw of its structures.
 
 Draws are made in the prior's *unit coordinates* ``u`` in ``[0, 1]^D``, where every prior
 (uniform or log-uniform per unknown) is uniform with density 1: ``x_j = F_j^-1(u_j)``
-(:meth:`mwip.hardware.unknown.Unknown.from_unit`), so that importance weights need no
-Jacobian.
+(:meth:`mwip.hardware.unknown.Unknown.from_unit`), so that a box drawn in them (stage B's,
+:mod:`mwip.calibration.comparison`) treats every unknown alike.
 """
 
 from __future__ import annotations
@@ -51,16 +51,8 @@ class Structure:
     def to_unit(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Values (N, D) to unit coordinates (the inverse of :meth:`from_unit`)."""
         x = np.atleast_2d(np.asarray(x, dtype=float))
-        u = np.empty_like(x)
-        for j, unk in enumerate(self.prior.unknowns):
-            lo, hi = unk.low, unk.high
-            if hi == lo:
-                u[:, j] = 0.0
-            elif unk.scale == "log":
-                u[:, j] = (np.log(x[:, j]) - np.log(lo)) / (np.log(hi) - np.log(lo))
-            else:
-                u[:, j] = (x[:, j] - lo) / (hi - lo)
-        return u
+        return np.column_stack([unk.to_unit(x[:, j])
+                                for j, unk in enumerate(self.prior.unknowns)])  # fmt: skip
 
     def from_unit(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         """Unit coordinates (N, D) to values (each unknown's ``from_unit``)."""

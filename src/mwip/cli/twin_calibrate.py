@@ -101,8 +101,7 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
         if bad:
             raise click.UsageError(f"--structures: unknown structure {bad[0]!r}; allowed: "
                                    f"{', '.join(known)}")  # fmt: skip
-    if replay is not None and (draws, kernel_draws) != (None, None) or (
-            replay is not None and duration):
+    if replay is not None and ((draws, kernel_draws) != (None, None) or duration):
         raise click.UsageError("--replay rebuilds a stored result: leave out --draws, "
                                "--kernel-draws and --duration")  # fmt: skip
     target = outdir.check(out, force, command="twin calibrate")

@@ -83,6 +83,17 @@ class Unknown:
                 f"[{self.low:g}, {self.high:g}]"
             )
 
+    def to_unit(self, x: np.ndarray) -> np.ndarray:
+        """The quantiles in [0, 1] of the values ``x`` (the inverse of :meth:`from_unit`; a
+        fixed unknown: 0)."""
+        x = np.asarray(x, dtype=float)
+        if self.fixed:
+            return np.zeros_like(x)
+        if self.scale == "log":
+            lo, hi = np.log(self.low), np.log(self.high)
+            return (np.log(x) - lo) / (hi - lo)
+        return (x - self.low) / (self.high - self.low)
+
     def from_unit(self, u: np.ndarray) -> np.ndarray:
         """Values at the quantiles ``u`` in [0, 1] of the range (uniform or log-uniform)."""
         if self.scale == "log":
