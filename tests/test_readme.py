@@ -48,6 +48,8 @@ SMALL: dict[str, list[str]] = {
     "mwip twin calibrate book --record": ["--samples", "4", "--stage2-draws", "0",
                                           "--chain-steps", "0", "--mixture-draws", "0",
                                           "--duration", "1"],  # fmt: skip
+    "mwip twin calibrate examples/my_robot_facts.toml": ["--draws", "12", "--kernel-draws", "6",
+                                                         "--duration", "2"],  # fmt: skip
     "mwip export c": ["--duration", "1"],
     "mwip animate": ["--fps", "2"],
 }

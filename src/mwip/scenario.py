@@ -213,7 +213,7 @@ class Scenario:
         (plain runs) or :func:`mwip.hardware.twin.run_on_twin` (``twin``)."""
         init = self.initial_state()
         if self.twin:
-            from mwip.hardware.twin import case_plant, run_on_twin
+            from mwip.hardware.twin import run_on_twin
             from mwip.robot import robot_or_default
 
             base = robot_or_default(self.robot).twin
@@ -222,7 +222,7 @@ class Scenario:
             kwargs.pop("budget", None)  # the twin's fixed Ts, dt: the default budget applies
             return run_on_twin(
                 self.build_controller(), self.case, twin=tw,
-                plant=case_plant(self.case, base=self.plant), q0=init["q0"],
+                base=self.plant, q0=init["q0"],
                 qdot0=init["qdot0"], duration=self.duration, record_every=1, seed=self.seed,
                 disturbance=self.disturbance, **kwargs,
             )  # fmt: skip

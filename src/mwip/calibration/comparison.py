@@ -83,19 +83,18 @@ def _needed(cols: dict[str, Any], ev: Any) -> list[str]:
     return sorted(keep & set(cols))
 
 
-def _blocks(structure: Any, stage: str, u: NDArray[np.float64], idx: NDArray[np.int64],
-            store: Path, block: int, ev: Any, *, jobs: int, duration: float,
+def _blocks(names: Sequence[str], label: str, stage: str, u: NDArray[np.float64],
+            idx: NDArray[np.int64], store: Path, block: int,
+            run: Callable[[NDArray[np.float64]], dict[str, Any]],
             note: Callable[[str], None] | None) -> Any:  # fmt: skip
-    """Every run on the draws ``u`` (unit coordinates; indices ``idx``), block by block into
-    ``store`` (kept blocks are read back): a DataFrame of ``sample``, ``u.*``, the runs'
-    columns."""
+    """``run`` (unit coordinates (n, D) -> the columns to keep) on the draws ``u`` (indices
+    ``idx``), block by block into ``store`` (kept blocks are read back): a DataFrame of
+    ``sample``, ``u.<name>`` per unknown of ``names``, the columns."""
     import pandas as pd
 
-    from mwip.calibration.sample import evaluate
     from mwip.io import write_parquet_atomic
 
     store.mkdir(parents=True, exist_ok=True)
-    names = structure.prior.names
     parts = []
     nb = -(-len(idx) // block)
     for b in range(nb):
@@ -104,18 +103,14 @@ def _blocks(structure: Any, stage: str, u: NDArray[np.float64], idx: NDArray[np.
             parts.append(pd.read_parquet(path))
             continue
         sl = slice(b * block, min((b + 1) * block, len(idx)))
-        x = structure.from_unit(u[sl])
-        cols = evaluate(structure.values(x), jobs=jobs, block=block, duration=duration,
-                        twin=structure.twin)  # fmt: skip
         data: dict[str, Any] = {"sample": idx[sl]}
         data.update({f"u.{n}": u[sl, j] for j, n in enumerate(names)})
-        data.update({k: cols[k] for k in _needed(cols, ev)})
+        data.update(run(u[sl]))
         df = pd.DataFrame(data)
         write_parquet_atomic(path, df)
         parts.append(df)
         if note is not None:
-            note(f"{structure.name} stage {stage}: block {b + 1}/{nb} "
-                 f"({sl.stop} of {len(idx)} twins)")  # fmt: skip
+            note(f"{label} stage {stage}: block {b + 1}/{nb} ({sl.stop} of {len(idx)} twins)")
     return pd.concat(parts, ignore_index=True)
 
 
@@ -128,39 +123,62 @@ def _facts(df: Any, ev: Any) -> Any:
     return facts(cols, run_names(), ev)
 
 
-def sample_structure(structure: Any, plan: Any, store: Path, ev: Any, *, jobs: int = 1,
-                     duration: float = 0.0, prior_draws: int | None = None,
-                     kernel_draws: int | None = None,
-                     note: Callable[[str], None] | None = None) -> Any:  # fmt: skip
-    """Stages A and B of ``structure`` (module docstring) into ``store``: both stages' rows
+def search(structure: Any, plan: Any, store: Path,
+           run: Callable[[NDArray[np.float64]], dict[str, Any]],
+           facts_of: Callable[[Any], Any], *, prior_draws: int | None = None,
+           kernel_draws: int | None = None, label: str | None = None,
+           note: Callable[[str], None] | None = None) -> Any:  # fmt: skip
+    """Stages A and B (module docstring) of ``structure`` (its ``prior``, ``from_unit``) into
+    ``store``: ``run`` maps unit coordinates (n, D) to the columns to keep, ``facts_of`` a
+    stage's rows to their :class:`~mwip.calibration.posterior.Facts`. Both stages' rows
     with a ``stage`` column."""
     import pandas as pd
 
     from mwip.calibration.mixture import KernelMixture
     from mwip.calibration.posterior import consistent_subset
 
+    names = structure.prior.names
+    label = structure.name if label is None else label
     d = len(structure.prior)
     na = plan.prior_draws if prior_draws is None else int(prior_draws)
     nb = plan.kernel_draws if kernel_draws is None else int(kernel_draws)
     ia = np.arange(na, dtype=np.int64)
-    a = _blocks(structure, "A", _unit_draws(plan.seed, ia, d), ia, store, plan.block, ev,
-                jobs=jobs, duration=duration, note=note)  # fmt: skip
-    a["stage"] = "A"
-    ua = a[[f"u.{n}" for n in structure.prior.names]].to_numpy(dtype=float)
     free = structure.prior.bounds[:, 1] > structure.prior.bounds[:, 0]
+    u0 = _unit_draws(plan.seed, ia, d) * free  # a fixed unknown's coordinate is 0
+    a = _blocks(names, label, "A", u0, ia, store, plan.block, run, note)
+    a["stage"] = "A"
+    ua = a[[f"u.{n}" for n in names]].to_numpy(dtype=float)
     unit = np.column_stack([np.zeros(d), free.astype(float)])
     if nb == 0:
         return a
-    f = _facts(a, ev)
+    f = facts_of(a)
     mask, _ = consistent_subset(f)
     seeds = ua[np.all(f.S[:, mask], axis=1)]
     mix = KernelMixture.fit(seeds, unit, [plan.factor])
     ib = STAGE_B + np.arange(nb, dtype=np.int64)
     ub = mix.draw(plan.seed, ib.tolist())
-    b = _blocks(structure, "B", ub, ib, store, plan.block, ev, jobs=jobs, duration=duration,
-                note=note)  # fmt: skip
+    b = _blocks(names, label, "B", ub, ib, store, plan.block, run, note)
     b["stage"] = "B"
     return pd.concat([a, b], ignore_index=True)
+
+
+def sample_structure(structure: Any, plan: Any, store: Path, ev: Any, *, jobs: int = 1,
+                     duration: float = 0.0, prior_draws: int | None = None,
+                     kernel_draws: int | None = None,
+                     note: Callable[[str], None] | None = None) -> Any:  # fmt: skip
+    """Stages A and B of ``structure`` (module docstring) into ``store``: every Chapter 6
+    run on each draw (:func:`mwip.calibration.sample.evaluate`); both stages' rows with a
+    ``stage`` column."""
+    from mwip.calibration.sample import evaluate
+
+    def run(u: NDArray[np.float64]) -> dict[str, Any]:
+        x = structure.from_unit(u)
+        cols = evaluate(structure.values(x), jobs=jobs, block=plan.block, duration=duration,
+                        twin=structure.twin)  # fmt: skip
+        return {k: cols[k] for k in _needed(cols, ev)}
+
+    return search(structure, plan, store, run, lambda df: _facts(df, ev),
+                  prior_draws=prior_draws, kernel_draws=kernel_draws, note=note)  # fmt: skip
 
 
 def _marginals(structure: Any, df: Any, sel: NDArray[np.bool_],
@@ -217,10 +235,15 @@ def structure_evidence(name: str, df: Any, ev: Any) -> Any:
     """Revision 7's :class:`~mwip.calibration.compare.StructureEvidence` of one structure's
     rows ``df`` (stages A and B): ``Z`` on stage A alone, what it can meet on every twin
     (module docstring)."""
+    return structure_evidence_of(name, df, _facts(df, ev))
+
+
+def structure_evidence_of(name: str, df: Any, f: Any) -> Any:
+    """:func:`structure_evidence` from the rows' fact table ``f`` (any facts: the book's, or
+    a robot's own, :mod:`mwip.calibration.robot_evidence`)."""
     from mwip.calibration.compare import evidence_of
     from mwip.calibration.posterior import Facts
 
-    f = _facts(df, ev)
     in_a = (df["stage"] == "A").to_numpy()
     se = evidence_of(name, f)
     za = evidence_of(name, Facts(f.names, f.S[in_a], f.log_err[in_a])).evidence

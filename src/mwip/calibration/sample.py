@@ -10,6 +10,7 @@ studies' noise seed for every row: each row sees the noise of the study's single
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,7 +19,7 @@ from numpy.typing import NDArray
 
 from mwip.campaign.sampling import sample_rng
 
-__all__ = ["draw", "run_block", "calibration_campaign", "evaluate"]
+__all__ = ["draw", "run_block", "calibration_campaign", "evaluate", "map_chunks"]
 
 
 def draw(
@@ -158,30 +159,38 @@ def evaluate(
     edges = np.linspace(0, n, parts + 1).round().astype(int)
     chunks = [({k: v[a:b] for k, v in values.items()}, cap, twin)
               for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]  # fmt: skip
-    if jobs <= 1 or len(chunks) == 1:
-        results = []
+    results = map_chunks(_evaluate_chunk, chunks, jobs, progress)
+    return {k: np.concatenate([r[k] for r in results]) for k in results[0]}
+
+
+def map_chunks(fn: Callable[[Any], Any], chunks: Sequence[Any], jobs: int,
+               progress: Any = None) -> list[Any]:  # fmt: skip
+    """``[fn(c) for c in chunks]``, over ``jobs`` spawned worker processes when ``jobs > 1``
+    (``fn`` a module-level function): the workers never see the terminal's Ctrl-C and die with
+    this process; a Ctrl-C here kills them at once. ``progress(done, total)`` after each."""
+    results: list[Any] = []
+    if jobs <= 1 or len(chunks) <= 1:
         for c in chunks:
-            results.append(_evaluate_chunk(c))
+            results.append(fn(c))
             if progress is not None:
                 progress(len(results), len(chunks))
-    else:
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
+        return results
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
 
-        from mwip.campaign.execute import deaf_spawns, kill_children
+    from mwip.campaign.execute import deaf_spawns, kill_children
 
-        results = []
-        with deaf_spawns():  # the workers never see the terminal's Ctrl-C; this process does
-            ex = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
-                                     initializer=_init_worker, initargs=(os.getpid(),))
-            try:
-                for r in ex.map(_evaluate_chunk, chunks):
-                    results.append(r)
-                    if progress is not None:
-                        progress(len(results), len(chunks))
-            except KeyboardInterrupt:  # stop now: kill the workers, do not wait for them
-                kill_children()
-                ex.shutdown(wait=False, cancel_futures=True)
-                raise
-            ex.shutdown(wait=True)
-    return {k: np.concatenate([r[k] for r in results]) for k in results[0]}
+    with deaf_spawns():  # the workers never see the terminal's Ctrl-C; this process does
+        ex = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"),
+                                 initializer=_init_worker, initargs=(os.getpid(),))
+        try:
+            for r in ex.map(fn, chunks):
+                results.append(r)
+                if progress is not None:
+                    progress(len(results), len(chunks))
+        except KeyboardInterrupt:  # stop now: kill the workers, do not wait for them
+            kill_children()
+            ex.shutdown(wait=False, cancel_futures=True)
+            raise
+        ex.shutdown(wait=True)
+    return results

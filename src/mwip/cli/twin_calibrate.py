@@ -31,11 +31,12 @@ def _structures(text: str | None) -> list[str] | None:
 @click.option("--jobs", type=click.IntRange(1, 64), default=1, show_default=True,
               help="Worker processes per block of twins.")
 @click.option("--draws", type=click.IntRange(1, 1_000_000), default=None,
-              help="Stage A's prior draws per structure (default: the declaration's; fewer: "
-                   "a smoke test, not the declared result).")
+              help="Stage A's prior draws per structure (default: the declaration's, or the "
+                   "facts file's [sample]; fewer: a smoke test, not the declared result).")
 @click.option("--kernel-draws", "kernel_draws", type=click.IntRange(0, 1_000_000),
-              default=None, help="Stage B's kernel draws per structure (default: the "
-                                 "declaration's).")
+              default=None, help="Stage B's kernel draws per structure, a search around "
+                                 "the twins meeting the most facts (default: the declaration's, "
+                                 "or the facts file's [sample] search_draws).")
 @click.option("--duration", type=click.FloatRange(0.0, 15.0), default=0.0,
               help="Cap every run at this many seconds (a smoke test; 0: the studies' own).")
 @click.option("--replay", type=click.Path(exists=True, dir_okay=False, path_type=Path),
@@ -43,6 +44,9 @@ def _structures(text: str | None) -> list[str] | None:
                                  "the shipped one: docs/book_calibration/structures.parquet) "
                                  "without running a twin.")
 @click.option("--force", is_flag=True, help="Write into a non-empty folder that is not mwip's.")
+@click.option("--robot", "robot_file", type=click.Path(path_type=Path), default=None,
+              help="With a facts file as EVIDENCE: the robot file to calibrate (its [prior] "
+                   "declares the unknowns; default: the default robot).")
 @click.option("--record", is_flag=True,
               help="Instead: the five-stage calibration of structure S0 of record "
                    "(book-evidence.toml's revisions 1-5: the default robot's; about 2 hours).")
@@ -67,13 +71,25 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
                    draws: int | None, kernel_draws: int | None, duration: float,
                    replay: Path | None, force: bool, record: bool, samples: int | None,
                    seed: int | None, stage2: int | None, chain_steps: int | None,
-                   mixture_draws: int | None, envelope_draws: int | None) -> None:  # fmt: skip
-    """The book's robot from the book's evidence: compare the declared twin structures by
-    their evidence (book-structures.toml), or with --record run the calibration of record.
-    EVIDENCE is `book` (the book's Chapter 6 evidence, book-evidence.toml) or an evidence
-    file of the same form."""
+                   mixture_draws: int | None, envelope_draws: int | None,
+                   robot_file: Path | None) -> None:  # fmt: skip
+    """A robot from evidence of what it did. EVIDENCE `book`: the book's robot from the book's
+    Chapter 6 evidence (book-evidence.toml), comparing the declared twin structures
+    (book-structures.toml), or with --record the calibration of record. EVIDENCE a facts file
+    ([[fact]] entries: "it stood with these gains", "this metric was this value" on your
+    scenarios): the robot of --robot calibrated on them, its [prior] the unknowns; writes
+    calibration.md, calibration.json and the calibrated robot.toml (docs/twin_fit.md)."""
     from mwip import outdir
 
+    facts = _facts_path(evidence)
+    if facts is not None:
+        _robot_mode(click.get_current_context(), facts, robot_file, out, force, jobs, draws,
+                    kernel_draws, duration)  # fmt: skip
+        return
+    if robot_file is not None:
+        raise click.UsageError("--robot: only with a facts file as EVIDENCE ([[fact]] entries "
+                               "on your scenarios); the book's evidence calibrates the book's "
+                               "robot")  # fmt: skip
     _one_mode(click.get_current_context(), record)
     if record:
         if evidence != "book":
@@ -90,8 +106,6 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
     from mwip.calibration.comparison_report import headline
 
     path = None if evidence == "book" else Path(evidence)
-    if path is not None and not path.is_file():
-        raise click.UsageError(f"EVIDENCE: {evidence!r} is neither 'book' nor a file")
     names = _structures(structures)
     if names is not None:
         from mwip.calibration.structures import load_structures
@@ -119,6 +133,66 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
         raise click.UsageError(str(exc).splitlines()[0]) from None
     click.echo(headline(doc))
     wrote = [RESULT_FILE, "structures.md"] + ([] if replay is not None else [DRAWS_FILE])
+    click.echo(f"wrote {target / wrote[0]}, " + ", ".join(wrote[1:]))
+
+
+def _facts_path(evidence: str) -> Path | None:
+    """``evidence`` as a facts file (``[[fact]]`` entries), else ``None`` (the book's form)."""
+    if evidence == "book":
+        return None
+    from mwip.calibration.facts_file import is_facts_file
+
+    path = Path(evidence)
+    if not path.is_file():
+        raise click.UsageError(f"EVIDENCE: {evidence!r} is neither 'book' nor a file")
+    try:
+        return path if is_facts_file(path) else None
+    except ValueError as exc:
+        raise click.UsageError(f"EVIDENCE: {str(exc).splitlines()[0]}") from None
+
+
+def _robot_mode(ctx: click.Context, facts: Path, robot_file: Path | None, out: Path,
+                force: bool, jobs: int, draws: int | None, kernel_draws: int | None,
+                duration: float) -> None:  # fmt: skip
+    """``twin calibrate FACTS [--robot FILE]``: :func:`mwip.calibration.robot_evidence.
+    calibrate_robot` into ``out`` (a rerun resumes its draws)."""
+    from click.core import ParameterSource
+
+    from mwip import outdir
+    from mwip.calibration.robot_evidence import (
+        DRAWS_FILE,
+        RESULT_FILE,
+        calibrate_robot,
+        prepare,
+    )
+    from mwip.calibration.robot_evidence_report import headline
+    from mwip.cli._common import need_extra, robot_option
+
+    book_only = [p for p in ctx.command.params
+                 if p.name in ("structures", "replay", "record") + _RECORD_ONLY
+                 and ctx.get_parameter_source(p.name) == ParameterSource.COMMANDLINE]
+    if book_only:
+        names = ", ".join(max(p.opts, key=len) for p in book_only if isinstance(p, click.Option))
+        raise click.UsageError(f"{names}: only for the book's evidence (EVIDENCE 'book'); a "
+                               "facts file calibrates the --robot file's own prior")  # fmt: skip
+    robot = robot_option(robot_file)
+    label = "the default robot" if robot_file is None else str(robot_file)
+    need_extra("campaign", "mwip twin calibrate FACTS", ("pyarrow", "pandas"))
+    try:
+        prepare(facts, robot, label, duration)  # bad input: one line, nothing written
+    except ValueError as exc:
+        raise click.UsageError(str(exc).splitlines()[0]) from None
+    target = outdir.check(out, force, command="twin calibrate")
+    outdir.claim(target, "twin calibrate")
+    try:
+        doc = calibrate_robot(target, facts, robot, robot_label=label, jobs=jobs, draws=draws,
+                              search_draws=kernel_draws, duration=duration,
+                              note=lambda line: click.echo(line, err=True))  # fmt: skip
+    except ValueError as exc:
+        raise click.UsageError(str(exc).splitlines()[0]) from None
+    click.echo(headline(doc))
+    wrote = [RESULT_FILE, "calibration.md", DRAWS_FILE] + (["robot.toml"] if "member" in doc
+                                                           else [])  # fmt: skip
     click.echo(f"wrote {target / wrote[0]}, " + ", ".join(wrote[1:]))
 
 

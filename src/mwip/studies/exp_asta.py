@@ -87,9 +87,9 @@ def run_one(
     robot ``plant`` with designs on ``nominal`` (default: the book's), with the settings
     ``cfg`` (``Ts`` the twin's; ``duration`` default: ``cfg["duration"]``)."""
     base, nominal = book_robot(plant, nominal)
-    plant = case_plant(case, base=base)
     if twin is None:
         twin = default_twin()
+    plant = case_plant(case, base=base, twin=twin)  # the twin's payload
     return run_on_twin(
         make_controller(kind, cfg, nominal), case, twin=twin,
         plant=plant, q0=(0.0, cfg["theta0"], 0.0),
@@ -122,7 +122,7 @@ def _ablation(cfg: Mapping[str, Any], tw: Twin, duration: float,
 
     return run_ablation(
         [(k, partial(make_controller, k, cfg, nominal)) for k in KINDS], tw, cases=(1, 2),
-        metrics=fn, plant=lambda case: case_plant(case, base=plant),
+        metrics=fn, plant=lambda case: case_plant(case, base=plant, twin=tw),
         run_kwargs={"q0": (0.0, cfg["theta0"], 0.0), "duration": duration,
                     "record_every": cfg["record_every"], "seed": cfg["seed"]},
         claims=[order(c, q) for c in (1, 2) for q in ("rms_theta", "rms_s1")]
@@ -197,7 +197,7 @@ def run(ctx: StudyContext) -> dict[str, Any]:
          "lambda": list(cfg["lambdas"]), "K": list(cfg["K"]), "rate": list(cfg["Gamma_rate"]),
          "Gamma0": list(cfg["Gamma0"]), "eps": cfg["eps"], "theta0": cfg["theta0"],
          "twin": twin_doc(tw), "plant": robot_label(ctx.plant),
-         "input_gain_ratio": {f"case{c}": input_gain_ratio(case_plant(c, base=ctx.plant),
+         "input_gain_ratio": {f"case{c}": input_gain_ratio(case_plant(c, base=ctx.plant, twin=tw),
                                                            ctx.nominal, cfg["lambdas"][1])
                               for c in (1, 2)},
          "ablation": "the ideal robot, then the twin's elements added in turn (keys "
@@ -243,7 +243,7 @@ def _why(
             if case == 2:
                 lam = cfg["lambdas"][1]
                 why = payload_evidence(lam, "g2 + lambda_2 g1", plant=ctx.plant,
-                                       nominal=ctx.nominal)  # fmt: skip
+                                       nominal=ctx.nominal, twin=ctx.twin)  # fmt: skip
                 return "book-inconsistency", f"{why}; {text}"
             return "implementation", text + " (not explained)"
         return "twin-model", text

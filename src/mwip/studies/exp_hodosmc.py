@@ -162,7 +162,8 @@ def run_one(
     base, nominal = book_robot(plant, nominal)
     ctrl = make_controller(kind, cfg, q1d_dot, nominal)
     payload = case in (2, 3)
-    plant = case_plant(2 if payload else 1, base=base)
+    twin = default_twin() if twin is None else twin
+    plant = case_plant(2 if payload else 1, base=base, twin=twin)  # the twin's payload
     dist = None
     if case in (3, -1):
         dist = StickObstacle(height=cfg.get("stick_height", 0.01),
@@ -170,7 +171,7 @@ def run_one(
                              speed=cfg.get("stick_speed", -7.0),
                              mass=float(plant.mb + 2.0 * plant.mw), r=float(plant.r))  # fmt: skip
     return run_on_twin(
-        ctrl, 2 if payload else 1, twin=default_twin() if twin is None else twin, plant=plant,
+        ctrl, 2 if payload else 1, twin=twin, plant=plant,
         q0=(0.0, cfg["theta0"], 0.0), record_every=cfg["record_every"], seed=cfg["seed"],
         duration=cfg["duration"] if duration is None else duration, disturbance=dist,
     )  # fmt: skip
@@ -281,7 +282,7 @@ def _run_ablation(
     return run_ablation(
         [(k, partial(make_controller, k, cfg, q1d_dot, nominal)) for k in KINDS], tw,
         cases=cases, metrics=_ablation_metrics(window, q1d_dot, stick), run_kwargs=kw,
-        plant=lambda case: case_plant(2 if case in (2, 3) else 1, base=base),
+        plant=lambda case: case_plant(2 if case in (2, 3) else 1, base=base, twin=tw),
         claims=claims,
     )  # fmt: skip
 
@@ -307,9 +308,10 @@ class _Evidence:
 
     def __init__(self, study: str, cfg: Mapping[str, Any], runs: Mapping[str, SimResult],
                  metrics: Mapping[str, float], ab: Ablation, plant: Params | None = None,
-                 nominal: Params | None = None) -> None:  # fmt: skip
+                 nominal: Params | None = None, twin: Twin | None = None) -> None:  # fmt: skip
         self.study, self.cfg, self.runs, self.m, self.ab = study, cfg, runs, metrics, ab
         self.plant, self.nominal = book_robot(plant, nominal)
+        self.twin = twin  # its payload: Cases 2 and 3
 
     def fallen(self) -> list[str]:
         return [k for k in KINDS if k in self.runs and self.runs[k].status[0] != "ok"]
@@ -326,7 +328,7 @@ class _Evidence:
         if any(first_fall(self.ab, k, case) == "ideal" for k in kinds):
             if case in (2, 3):
                 why = payload_evidence(self.cfg["lambdas"][2], plant=self.plant,
-                                       nominal=self.nominal)  # fmt: skip
+                                       nominal=self.nominal, twin=self.twin)  # fmt: skip
                 return "book-inconsistency", f"{why}; {text}"
             return "implementation", text + " (not explained)"
         return "twin-model", text
@@ -336,7 +338,7 @@ class _Evidence:
         rolling needs ``Gb sin(theta) = 2 Dw psi'``, :func:`mwip.params.steady_speed_cap`),
         no controller can reach it: the damping decides (``None`` when it is reachable)."""
         target = float(self.cfg["speed"])
-        plant = case_plant(2 if case in (2, 3) else 1, base=self.plant)
+        plant = case_plant(2 if case in (2, 3) else 1, base=self.plant, twin=self.twin)
         cap = float(steady_speed_cap(plant))
         if target == 0.0 or abs(target) <= cap:
             return None
@@ -431,7 +433,8 @@ def _rms_experiment(
     claims = []
     for case in (1, 2):
         ck = f"case{case}"
-        ev = _Evidence(study, cfg, {k: runs[f"{k}.{ck}"] for k in KINDS}, metrics, ab, *robot)
+        ev = _Evidence(study, cfg, {k: runs[f"{k}.{ck}"] for k in KINDS}, metrics, ab, *robot,
+                       twin=tw)
         for q in keys:
             fmt = "{k}." + f"{ck}.{q}"
             holds = _ordered(_order_values(metrics, fmt))
@@ -543,7 +546,8 @@ def run_obstacle(ctx: StudyContext) -> dict[str, Any]:
         what = "Case 3" if case == 3 else "stick without payload (extra)"
         fmt = tag + "{k}.settling_time"
         holds = _ordered(_order_values(metrics, fmt))
-        ev = _Evidence(study, cfg, {k: runs[f"{tag}{k}"] for k in KINDS}, metrics, ab, *robot)
+        ev = _Evidence(study, cfg, {k: runs[f"{tag}{k}"] for k in KINDS}, metrics, ab, *robot,
+                       twin=tw)
         why = None
         if book and not holds:
             why = ev.speed_cap(3) or (ev.fall(3) if ev.fallen() else (

@@ -86,13 +86,14 @@ def input_gain_ratio(plant: Params, nominal: Params, lam: float) -> float:
 
 def payload_evidence(
     lam: float, which: str = "g2 + l3 g1", *, plant: Params | None = None,
-    nominal: Params | None = None,
+    nominal: Params | None = None, twin: Twin | None = None,
 ) -> str:  # fmt: skip
     """Why Case 2/3 is hard, from the robot in use (``plant``, designs on ``nominal``;
-    default: the book's): the payload (absent from the design model) multiplies the pitch
-    inertia and cuts the input gain the controllers assume."""
+    default: the book's; the payload of ``twin``, default the data-sheet's): the payload
+    (absent from the design model) multiplies the pitch inertia and cuts the input gain the
+    controllers assume."""
     p1, nominal = book_robot(plant, nominal)
-    p2 = case_plant(2, base=p1)
+    p2 = case_plant(2, base=p1, twin=twin)
     low = p1.with_payload(body_height=float(p1.l))
     return (
         f"the 0.5 kg pan (not in the design model) raises the pitch inertia Iby from "
