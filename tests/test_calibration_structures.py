@@ -200,3 +200,55 @@ def test_the_evidence_estimates_a_known_probability(tmp_path: Path, monkeypatch)
         a = pool["stage"].to_numpy() == "A"
         assert se.accepted[~a].mean() > 2 * se.accepted[a].mean()
     assert covered >= 8  # a 95 % interval: 9.5 of 10 expected (P(covered < 8) < 0.02)
+
+
+def test_the_directed_search_finds_a_thin_set_the_prior_misses(tmp_path: Path,
+                                                                monkeypatch) -> None:  # fmt: skip
+    """Synthetic truth for revision 8's stage C: a fake twin stands where the torque gain is
+    in [1.5, 3] and the gear ratio below 10 (a thirtieth of the prior), and meets Table 6.4's
+    RMS pitch only where, besides, its gyro offset is within 2.6e-4 rad/s of 0.016 (1.3 % of
+    its range; the number's error grows smoothly away from it). Stages A and B (200 + 100
+    twins) find no twin meeting every fact; the directed search finds some, so the structure
+    is not rejected, Z stays stage A's (0), and a rerun reads the generations back. Where A or
+    B already met every fact, stage C adds nothing."""
+    from dataclasses import replace
+
+    import mwip.calibration.sample as sample
+    from mwip.calibration.comparison import (
+        directed_stage,
+        sample_structure,
+        structure_evidence,
+    )
+    from mwip.calibration.evidence import load_evidence
+    from mwip.calibration.runs import run_names
+    from mwip.calibration.structures import load_directed
+
+    ev = load_evidence()
+    key = "exp-hodosmc-balance/smc.case1.rms_theta"
+
+    def fake(values: dict, **kw: object) -> dict:
+        ok = ((values["firmware.torque_gain"] >= 1.5) & (values["firmware.torque_gain"] <= 3)
+              & (values["drive.gear_ratio"] < 10.0))  # fmt: skip
+        cols = {f"{r}.stands": ok.astype(float) for r in run_names()}
+        for n in ev.numbers:
+            cols[n.key] = np.where(ok, n.book, np.nan)
+        d = np.abs(values["imu.gyro_bias"] - 0.016)
+        cols[key] = np.where(ok, 0.0216 * np.exp(np.maximum(d - 2e-4, 0) * 5000), np.nan)
+        return cols
+
+    monkeypatch.setattr(sample, "evaluate", fake)
+    s1 = load_structures()["S1"]
+    plan = replace(load_plan(), prior_draws=200, kernel_draws=100, seed=7, block=100)
+    declared = load_directed()
+    assert declared is not None and declared.generations > 0
+    directed = replace(declared, generations=12, per_generation=60)
+    ab = sample_structure(s1, plan, tmp_path / "s", ev)
+    assert structure_evidence("S1", ab, ev).rejected
+    c = directed_stage(s1, ab, directed, tmp_path / "s", ev, block=plan.block)
+    assert len(c) == 12 * 60 and set(c["stage"]) == {"C"}
+    pool = __import__("pandas").concat([ab, c], ignore_index=True)
+    se = structure_evidence("S1", pool, ev)
+    assert not se.rejected and se.evidence.hits == 0 and se.evidence.n == 200
+    again = directed_stage(s1, ab, directed, tmp_path / "s", ev, block=plan.block)
+    assert again.equals(c)
+    assert len(directed_stage(s1, pool, directed, tmp_path / "t", ev, block=plan.block)) == 0

@@ -169,16 +169,40 @@ def sample_structure(structure: Any, plan: Any, store: Path, ev: Any, *, jobs: i
     """Stages A and B of ``structure`` (module docstring) into ``store``: every Chapter 6
     run on each draw (:func:`mwip.calibration.sample.evaluate`); both stages' rows with a
     ``stage`` column."""
+    run = _book_run(structure, ev, jobs, plan.block, duration)
+    return search(structure, plan, store, run, lambda df: _facts(df, ev),
+                  prior_draws=prior_draws, kernel_draws=kernel_draws, note=note)  # fmt: skip
+
+
+def _book_run(structure: Any, ev: Any, jobs: int, block: int,
+              duration: float) -> Callable[[NDArray[np.float64]], dict[str, Any]]:  # fmt: skip
+    """Unit coordinates -> every Chapter 6 run's kept columns on ``structure``'s twins."""
     from mwip.calibration.sample import evaluate
 
     def run(u: NDArray[np.float64]) -> dict[str, Any]:
         x = structure.from_unit(u)
-        cols = evaluate(structure.values(x), jobs=jobs, block=plan.block, duration=duration,
+        cols = evaluate(structure.values(x), jobs=jobs, block=block, duration=duration,
                         twin=structure.twin)  # fmt: skip
         return {k: cols[k] for k in _needed(cols, ev)}
 
-    return search(structure, plan, store, run, lambda df: _facts(df, ev),
-                  prior_draws=prior_draws, kernel_draws=kernel_draws, note=note)  # fmt: skip
+    return run
+
+
+def directed_stage(structure: Any, rows: Any, directed: Any, store: Path, ev: Any, *,
+                   block: int, jobs: int = 1, duration: float = 0.0,
+                   note: Callable[[str], None] | None = None) -> Any:  # fmt: skip
+    """Revision 8's stage C (:mod:`mwip.calibration.directed`) of ``structure`` after its
+    stage A and B ``rows``, where none of them meets every fact; else no row."""
+    from mwip.calibration.directed import directed_search, violation
+
+    def score(df: Any) -> NDArray[np.float64]:
+        return violation(_facts(df, ev), ev.log_tolerance)
+
+    if directed is None or directed.generations == 0 or np.any(score(rows) == 0.0):
+        return rows.iloc[:0]
+    run = _book_run(structure, ev, jobs, block, duration)
+    return directed_search(structure, directed, store, rows, run, score, block=block,
+                           note=note)  # fmt: skip
 
 
 def _marginals(structure: Any, df: Any, sel: NDArray[np.bool_],
@@ -272,8 +296,9 @@ def analyse_table(table: Any, structures: dict[str, Any], ev: Any,
         sel = se.conditioned
         ws = w[sel]
         ess = float(ws.sum() ** 2 / np.sum(ws * ws)) if ws.size else 0.0
-        stages = {s: int((df["stage"] == s).sum()) for s in ("A", "B")}
-        hits = {s: int(np.sum(se.accepted & (df["stage"] == s).to_numpy())) for s in ("A", "B")}
+        stages = {s: int((df["stage"] == s).sum()) for s in ("A", "B", "C")}
+        hits = {s: int(np.sum(se.accepted & (df["stage"] == s).to_numpy()))
+                for s in ("A", "B", "C")}  # fmt: skip
         per[n] = {**se.to_json(), "title": structures[n].title, "stages": stages,
                   "hits_by_stage": hits, "unknowns": list(structures[n].prior.names),
                   "conditioned_draws": int(sel.sum()), "conditioned_effective": ess,
@@ -302,7 +327,7 @@ def analyse_table(table: Any, structures: dict[str, Any], ev: Any,
                        "revisions_1_5": old.get(c.key)})  # fmt: skip
     counts = {k: sum(c["verdict"] == k for c in claims)
               for k in ("holds", "fails", "undecided", "not judgeable")}  # fmt: skip
-    return {"revision": 7, "structures": per, "posterior_probability": post,
+    return {"revision": 8, "structures": per, "posterior_probability": post,
             "bayes_factors": bf, "claims": claims, "claim_counts": counts}
 
 
@@ -339,13 +364,15 @@ def run_comparison(out: Path, *, evidence: Path | None = None,
                    names: Sequence[str] | None = None, jobs: int = 1,
                    duration: float = 0.0, prior_draws: int | None = None,
                    kernel_draws: int | None = None, replay: Path | None = None,
+                   directed_draws: int | None = None,
                    note: Callable[[str], None] | None = None) -> dict[str, Any]:  # fmt: skip
     """Sample (or resume) every named structure into ``out`` and write the comparison; with
-    ``replay`` read the per-draw table from that file instead (no run)."""
+    ``replay`` read the per-draw table from that file instead (no run). ``directed_draws``:
+    stage C's twins per generation (default the declaration's; 0: no stage C)."""
     import pandas as pd
 
     from mwip.calibration.evidence import EVIDENCE_FILE, load_evidence
-    from mwip.calibration.structures import load_plan, load_structures
+    from mwip.calibration.structures import load_directed, load_plan, load_structures
     from mwip.io import write_parquet_atomic
 
     ev = load_evidence(EVIDENCE_FILE if evidence is None else Path(evidence))
@@ -361,11 +388,18 @@ def run_comparison(out: Path, *, evidence: Path | None = None,
         table = table[table["structure"].isin(pick)].reset_index(drop=True)
     else:
         plan = load_plan()
+        directed = load_directed()
+        if directed is not None and directed_draws is not None:
+            directed = replace(directed, per_generation=int(directed_draws),
+                               generations=directed.generations if directed_draws else 0)
         parts = []
         for n, s in chosen.items():
             df = sample_structure(s, plan, out / "draws" / n, ev, jobs=jobs, duration=duration,
                                   prior_draws=prior_draws, kernel_draws=kernel_draws,
                                   note=note)  # fmt: skip
+            c = directed_stage(s, df, directed, out / "draws" / n, ev, block=plan.block,
+                               jobs=jobs, duration=duration, note=note)  # fmt: skip
+            df = pd.concat([df, c], ignore_index=True)
             df.insert(0, "structure", n)
             parts.append(df)
         table = pd.concat(parts, ignore_index=True)

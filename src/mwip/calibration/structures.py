@@ -27,7 +27,8 @@ from numpy.typing import NDArray
 
 from mwip.hardware.prior import PRIOR, Prior, Unknown
 
-__all__ = ["Structure", "SamplePlan", "STRUCTURES_FILE", "load_structures", "load_plan"]
+__all__ = ["Structure", "SamplePlan", "STRUCTURES_FILE", "load_structures", "load_plan",
+           "load_directed"]  # fmt: skip
 
 STRUCTURES_FILE = Path(__file__).with_name("book-structures.toml")
 
@@ -94,6 +95,25 @@ def load_plan(path: Path | None = None) -> SamplePlan:
         raise ValueError(f"sample.factor must be a number in (0, 10], got {f!r}")
     return SamplePlan(int(s["prior_draws"]), int(s["kernel_draws"]), float(f), int(s["seed"]),
                       int(s["block"]))  # fmt: skip
+
+
+def load_directed(path: Path | None = None) -> Any:
+    """Revision 8's declared stage C (:class:`mwip.calibration.directed.DirectedPlan`), or
+    ``None`` where the file declares none (a ``ValueError`` naming a bad field)."""
+    from mwip.calibration.directed import DirectedPlan
+
+    r = _read(path).get("revision_8")
+    if r is None:
+        return None
+    for key, lo in (("generations", 0), ("per_generation", 1), ("parents", 1), ("seed", 0)):
+        v = r.get(key)
+        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+            raise ValueError(f"revision_8.{key} must be an integer >= {lo}, got {v!r}")
+    m = r.get("min_step")
+    if isinstance(m, bool) or not isinstance(m, int | float) or not 0 < m <= 1:
+        raise ValueError(f"revision_8.min_step must be a number in (0, 1], got {m!r}")
+    return DirectedPlan(int(r["generations"]), int(r["per_generation"]), int(r["parents"]),
+                        float(m), int(r["seed"]))  # fmt: skip
 
 
 def _unknown(name: str, e: dict[str, Any]) -> Unknown:

@@ -37,6 +37,10 @@ def _structures(text: str | None) -> list[str] | None:
               default=None, help="Stage B's kernel draws per structure, a search around "
                                  "the twins meeting the most facts (default: the declaration's, "
                                  "or the facts file's [sample] search_draws).")
+@click.option("--directed-draws", "directed_draws", type=click.IntRange(0, 1_000_000),
+              default=None, help="Stage C's twins per generation, the directed search where "
+                                 "stages A and B found no twin meeting every fact (default: "
+                                 "the declaration's revision 8; 0: none).")
 @click.option("--duration", type=click.FloatRange(0.0, 15.0), default=0.0,
               help="Cap every run at this many seconds (a smoke test; 0: the studies' own).")
 @click.option("--replay", type=click.Path(exists=True, dir_okay=False, path_type=Path),
@@ -68,7 +72,8 @@ def _structures(text: str | None) -> list[str] | None:
               "revision 5's extension (default: the declaration's 20000, extended until the "
               "effective size is 100; 0: no stage 5).")
 def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
-                   draws: int | None, kernel_draws: int | None, duration: float,
+                   draws: int | None, kernel_draws: int | None, directed_draws: int | None,
+                   duration: float,
                    replay: Path | None, force: bool, record: bool, samples: int | None,
                    seed: int | None, stage2: int | None, chain_steps: int | None,
                    mixture_draws: int | None, envelope_draws: int | None,
@@ -115,9 +120,10 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
         if bad:
             raise click.UsageError(f"--structures: unknown structure {bad[0]!r}; allowed: "
                                    f"{', '.join(known)}")  # fmt: skip
-    if replay is not None and ((draws, kernel_draws) != (None, None) or duration):
+    if replay is not None and ((draws, kernel_draws, directed_draws) != (None,) * 3
+                               or duration):  # fmt: skip
         raise click.UsageError("--replay rebuilds a stored result: leave out --draws, "
-                               "--kernel-draws and --duration")  # fmt: skip
+                               "--kernel-draws, --directed-draws and --duration")  # fmt: skip
     target = outdir.check(out, force, command="twin calibrate")
     if replay is None and (draws, kernel_draws) == (None, None):
         click.echo("mwip: the declared sample evaluates 6,000 twins per structure on the 25 "
@@ -128,6 +134,7 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
     try:
         doc = run_comparison(target, evidence=path, names=names, jobs=jobs, duration=duration,
                              prior_draws=draws, kernel_draws=kernel_draws, replay=replay,
+                             directed_draws=directed_draws,
                              note=lambda line: click.echo(line, err=True))  # fmt: skip
     except ValueError as exc:
         raise click.UsageError(str(exc).splitlines()[0]) from None
@@ -169,7 +176,7 @@ def _robot_mode(ctx: click.Context, facts: Path, robot_file: Path | None, out: P
     from mwip.cli._common import need_extra, robot_option
 
     book_only = [p for p in ctx.command.params
-                 if p.name in ("structures", "replay", "record") + _RECORD_ONLY
+                 if p.name in ("structures", "replay", "record", "directed_draws") + _RECORD_ONLY
                  and ctx.get_parameter_source(p.name) == ParameterSource.COMMANDLINE]
     if book_only:
         names = ", ".join(max(p.opts, key=len) for p in book_only if isinstance(p, click.Option))
@@ -197,7 +204,7 @@ def _robot_mode(ctx: click.Context, facts: Path, robot_file: Path | None, out: P
 
 
 #: options of each mode: refused in the other one
-_COMPARE_ONLY = ("structures", "draws", "kernel_draws", "replay")
+_COMPARE_ONLY = ("structures", "draws", "kernel_draws", "directed_draws", "replay")
 _RECORD_ONLY = ("samples", "seed", "stage2", "chain_steps", "mixture_draws", "envelope_draws")
 
 
