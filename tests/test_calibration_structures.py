@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mwip.calibration.structure import BOOK_PRIOR
-from mwip.calibration.structures import load_plan, load_structures
+from mwip.calibration.structures import load_directed, load_plan, load_structures
 
 KALMAN = ("firmware.fusion.q_angle", "firmware.fusion.q_bias", "firmware.fusion.r_angle")
 
@@ -30,6 +30,7 @@ def test_the_declared_structures_are_what_spec_names() -> None:
     assert s3.twin.firmware.fusion.kind == "kalman"
     assert "firmware.fusion.tau" not in s3.prior.names
     assert all(s3.prior[n].scale == "log" for n in KALMAN)
+    assert all(s3.prior[n].element == "fusion" for n in KALMAN)  # the twin element they tune
     for s in ss.values():
         u = s.prior["payload.height"]
         assert (u.low, u.high) == (0.08, 0.10)
@@ -94,7 +95,8 @@ def _run(out: Path, *extra: str) -> tuple[int, str]:
     return r.exit_code, r.output
 
 
-SMOKE = ("--structures", "S0,S1", "--draws", "6", "--kernel-draws", "3", "--duration", "1.5")
+SMOKE = ("--structures", "S0,S1", "--draws", "6", "--kernel-draws", "3", "--directed-draws",
+         "2", "--duration", "1.5")
 
 
 def test_calibrate_is_deterministic_resumable_and_replays_byte_for_byte(tmp_path: Path) -> None:
@@ -151,8 +153,12 @@ def test_the_shipped_comparison_replays_byte_for_byte(tmp_path: Path) -> None:
         assert (tmp_path / "r" / f).read_bytes() == (docs / f).read_bytes(), f
     doc = json.loads((docs / "structures.json").read_text())
     plan = load_plan()
+    directed = load_directed()
     for s in doc["structures"].values():
-        assert s["stages"] == {"A": plan.prior_draws, "B": plan.kernel_draws}
+        c = directed.generations * directed.per_generation  # stage C where A, B met not all
+        assert s["stages"] == {"A": plan.prior_draws, "B": plan.kernel_draws,
+                               "C": c if s["hits_by_stage"]["A"] + s["hits_by_stage"]["B"] == 0
+                               else 0}  # fmt: skip
     # a structure rejected only by facts, never by a held-out claim: a claim that needs a
     # rejecting fact is "not judgeable" on that structure
     for c in doc["claims"]:

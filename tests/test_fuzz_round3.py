@@ -132,7 +132,8 @@ GOOD_LOG = ("t,theta,theta_rate,enc_r,enc_l,duty_r,duty_l\n"
 
 COMPARE_ONLY = {"--structures": st.sampled_from(["S0", "S0,S1"]),
                 "--draws": st.integers(1, 9).map(str),
-                "--kernel-draws": st.integers(0, 9).map(str), "--replay": st.just("log.csv")}
+                "--kernel-draws": st.integers(0, 9).map(str),
+                "--directed-draws": st.integers(0, 9).map(str), "--replay": st.just("log.csv")}
 RECORD_ONLY = {"--samples": st.integers(1, 100).map(str), "--seed": st.integers(0, 9).map(str),
              "--stage2-draws": st.integers(0, 9).map(str),
              "--chain-steps": st.integers(0, 9).map(str),

@@ -34,7 +34,8 @@ def _refused(capsys, argv: list[str], needle: str, code: int = 2) -> str:
 # ---- 4. no option silently ignored ---------------------------------------------------------------
 @pytest.mark.parametrize(
     "extra",
-    [["--structures", "S0"], ["--draws", "3"], ["--kernel-draws", "0"]],
+    [["--structures", "S0"], ["--draws", "3"], ["--kernel-draws", "0"],
+     ["--directed-draws", "0"]],
 )  # fmt: skip
 def test_the_record_refuses_the_comparison_options(tmp_path, capsys, extra):
     """The audit: the calibration of record (then --evidence book) dropped options silently

@@ -44,6 +44,7 @@ SMALL: dict[str, list[str]] = {
     "mwip tune ": ["--trials", "1"],
     "mwip bench": ["--quick", "--jobs", "1"],
     "mwip twin calibrate book --out": ["--draws", "4", "--kernel-draws", "2", "--duration", "1",
+                                       "--directed-draws", "2",
                                        "--structures", "S0,S1"],  # fmt: skip
     "mwip twin calibrate book --record": ["--samples", "4", "--stage2-draws", "0",
                                           "--chain-steps", "0", "--mixture-draws", "0",

@@ -1,4 +1,4 @@
-"""The book calibration's revisions 6-7: the declared structures sampled, and compared by
+"""The book calibration's revisions 6-8: the declared structures sampled, and compared by
 their evidence (``mwip twin calibrate book``; ``book-structures.toml``).
 
 For each structure ``S`` (:mod:`mwip.calibration.structures`), in its prior's unit
@@ -25,6 +25,12 @@ synthetic truth ``Z = 0.033`` came out near ``1e-6``). So:
   share are read on the twins found meeting the largest consistent subset, A and B alike,
   **unweighted**: a description of the twins found, not a posterior (stage B's draws are not
   drawn from one).
+
+Revision 8 (``book-structures.toml``, ``[revision_8]``): where stages A and B found no twin
+meeting every fact, **stage C**, a directed search (:mod:`mwip.calibration.directed`: an
+evolution strategy minimising the facts' violation), asks the existence question harder
+before a structure is called rejected. Its twins count for existence and are described with
+the others; ``Z`` stays stage A's.
 
 Every Chapter 6 run on every draw (:func:`mwip.calibration.runs.run_batch` on ``S``'s twin),
 in blocks stored as they finish (a rerun resumes; a draw depends on ``(seed, index)`` alone,

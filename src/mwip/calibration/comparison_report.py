@@ -28,13 +28,17 @@ def headline(doc: dict[str, Any]) -> str:
             parts.append(f"{n} met every calibration fact with none of its {s['searched']:,} "
                          f"twins (the most facts one twin met together: "
                          f"{s['most_facts_together']} of {len(s['facts_met_share'])})")
-        else:
+        elif post[n] > 0:
             parts.append(f"{n} met them with {s['found']:,} of its {s['searched']:,} twins "
                          f"(probability {post[n]:.3g} given the facts)")  # fmt: skip
+        else:
+            parts.append(f"{n} met them with {s['found']:,} of its {s['searched']:,} twins, "
+                         f"found by search (none of its {s['draws']:,} prior draws: Z below "
+                         f"{s['evidence_95'][1]:.2g}, so no probability given the facts)")
     c = doc["claim_counts"]
     if not any(v > 0 for v in post.values()):
-        why = ("no structure met every calibration fact with any of its twins, so none has a "
-               "probability given the facts; each structure's own verdicts, on its twins "
+        why = ("no structure met every calibration fact with any of its prior draws, so none "
+               "has a probability given the facts; each structure's own verdicts, on its twins "
                "meeting its largest consistent subset, are in the claims table")  # fmt: skip
     else:
         why = "a claim not judgeable compares a run that no twin of a likely structure kept up"
@@ -46,34 +50,39 @@ def headline(doc: dict[str, Any]) -> str:
 def report_md(doc: dict[str, Any]) -> str:
     """The whole comparison as Markdown."""
     st = doc["structures"]
-    out = ["# The book's robot: twin structures compared by their evidence (revisions 6-7)",
+    out = ["# The book's robot: twin structures compared by their evidence (revisions 6-8)",
            "", "Declared in `src/mwip/calibration/book-structures.toml` before any draw "
            f"(sha256 {doc.get('declaration_sha256', '?')[:12]}); the split, the tolerance and "
            "the verdict rule are `book-evidence.toml`'s. Rebuilt from the per-twin file by "
            "`mwip twin calibrate book --replay FILE --out DIR`.", "", headline(doc), "",
            "## Evidence", "",
-           "| structure | twins (A + B) | found meeting every fact | Z = P(prior meets every "
-           "fact), stage A [95 %] | p(S given the facts) | most facts together | rejected by |",
+           "| structure | twins (A + B + C) | found meeting every fact (C) | Z = P(prior meets "
+           "every fact), stage A [95 %] | p(S given the facts) | most facts together | "
+           "rejected by |",
            "|---|---|---|---|---|---|---|"]  # fmt: skip
     post = doc["posterior_probability"]
     for n, s in st.items():
         lo, hi = s["evidence_95"]
         rej = ", ".join(f"`{f}`" for f in s["rejected_by"]) or "-"
-        out.append(f"| {n}: {s['title']} | {s['stages']['A']:,} + {s['stages']['B']:,} | "
-                   f"{s['found']:,} | {_g(s['evidence'])} [{_g(lo)}, {_g(hi)}] | "
+        c = s["stages"].get("C", 0)
+        out.append(f"| {n}: {s['title']} | {s['stages']['A']:,} + {s['stages']['B']:,} + "
+                   f"{c:,} | {s['found']:,} ({s['hits_by_stage'].get('C', 0):,}) | "
+                   f"{_g(s['evidence'])} [{_g(lo)}, {_g(hi)}] | "
                    f"{_g(post[n])} | {s['most_facts_together']} of "
                    f"{len(s['facts_met_share'])} | {rej} |")  # fmt: skip
     out += ["", "A structure none of whose twins meets every calibration fact is rejected by "
             "the facts outside its largest consistent subset: \"structure rejected by this "
             "fact\", not a held-out failure. Z's upper bound then says how rare such twins "
-            "could still be under its prior.", "", "## Bayes factors", "",
+            "could still be under its prior. Stage C (revision 8) is a directed search run only "
+            "where stages A and B found no twin meeting every fact: it finds, it does not weigh, "
+            "so Z stays stage A's.", "", "## Bayes factors", "",
             "| B = Z_a / Z_b | B | 95 % |", "|---|---|---|"]  # fmt: skip
     for k, b in doc["bayes_factors"].items():
         out.append(f"| {k} | {_g(b['B'])} | [{_g(b['lo'])}, {_g(b['hi'])}] |")
     for n, s in st.items():
         out += ["", f"## {n}: the twins found meeting its largest consistent subset", "",
-                f"{s['conditioned_draws']:,} twins of stages A and B, unweighted: a "
-                "description of the twins found, not a posterior (revision 7).",
+                f"{s['conditioned_draws']:,} twins of stages A, B and C, unweighted: a "
+                "description of the twins found, not a posterior (revisions 7-8).",
                 ""]  # fmt: skip
         if s.get("offset"):
             o = s["offset"]

@@ -121,7 +121,9 @@ def _unknown(name: str, e: dict[str, Any]) -> Unknown:
     if bad:
         raise ValueError(f"structures: {name}: unknown key {bad[0]!r}; allowed: "
                          f"{', '.join(_ENTRY)}")  # fmt: skip
-    element = name.split(".")[0]
+    prefix = name.rsplit(".", 1)[0]  # the element of the twin's unknowns of the same table
+    element = next((u.element for u in PRIOR.unknowns if u.name.rsplit(".", 1)[0] == prefix),
+                   name.split(".")[0])  # fmt: skip
     mid = float(np.sqrt(e["low"] * e["high"])) if e.get("scale") == "log" else (
         0.5 * (e["low"] + e["high"]))
     return Unknown(name, e["low"], e["high"], e.get("unit", ""), e.get("source", ""), element,
