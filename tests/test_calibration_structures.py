@@ -118,7 +118,7 @@ def test_calibrate_is_deterministic_resumable_and_replays_byte_for_byte(tmp_path
     code, text = _run(tmp_path / "c", "--structures", "S0,S1", "--replay",
                       str(a / "draws.parquet"))  # fmt: skip
     assert code == 0, text
-    for f in ("structures.json", "structures.md"):
+    for f in ("structures.json", "structures.md", "structures.png"):
         assert (tmp_path / "c" / f).read_bytes() == (a / f).read_bytes()
     md = (a / "structures.md").read_text()
     assert "| claim | S0 (" in md and "| S1 (" in md and "revisions 1-5" in md
@@ -149,7 +149,7 @@ def test_the_shipped_comparison_replays_byte_for_byte(tmp_path: Path) -> None:
     assert draws.stat().st_size <= 20 * 2**20
     code, text = _run(tmp_path / "r", "--replay", str(draws))
     assert code == 0, text
-    for f in ("structures.json", "structures.md"):
+    for f in ("structures.json", "structures.md", "structures.png"):
         assert (tmp_path / "r" / f).read_bytes() == (docs / f).read_bytes(), f
     doc = json.loads((docs / "structures.json").read_text())
     plan = load_plan()

@@ -348,8 +348,9 @@ def _record() -> dict[str, Any] | None:
 
 
 def write_result(out: Path, table: Any, structures: dict[str, Any], ev: Any) -> dict[str, Any]:
-    """``structures.json`` and ``structures.md`` in ``out`` from ``table`` (the replay file's
-    rows): every number of the result comes from here."""
+    """``structures.json``, ``structures.md`` and ``structures.png`` in ``out`` from ``table``
+    (the replay file's rows): every number and the figure of the result come from here."""
+    from mwip.calibration.comparison_figure import figure
     from mwip.calibration.comparison_report import report_md
     from mwip.io import json_text, write_text_atomic
 
@@ -357,6 +358,7 @@ def write_result(out: Path, table: Any, structures: dict[str, Any], ev: Any) -> 
     doc["declaration_sha256"] = _declaration_hash()
     write_text_atomic(out / RESULT_FILE, json_text(doc))
     write_text_atomic(out / "structures.md", report_md(doc))
+    figure(doc, out / "structures.png")
     return doc
 
 

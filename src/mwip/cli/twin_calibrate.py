@@ -140,7 +140,8 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
     except ValueError as exc:
         raise click.UsageError(str(exc).splitlines()[0]) from None
     click.echo(headline(doc))
-    wrote = [RESULT_FILE, "structures.md"] + ([] if replay is not None else [DRAWS_FILE])
+    wrote = [RESULT_FILE, "structures.md", "structures.png"] + ([] if replay is not None
+                                                                else [DRAWS_FILE])  # fmt: skip
     click.echo(f"wrote {target / wrote[0]}, " + ", ".join(wrote[1:]))
 
 
