@@ -75,7 +75,8 @@ class Fact:
     @property
     def name(self) -> str:
         """A short name: ``up:<scenario>``, ``down:<scenario>`` or
-        ``num:<scenario>.<metric>``, with the fact's number where two would share it."""
+        ``num:<scenario>.<metric>`` (two facts sharing one are numbered ``#1``, ``#2`` in the
+        calibration's fact table, :func:`mwip.calibration.robot_evidence.fact_table`)."""
         run = self.scenario.stem
         if self.metric is None:
             return f"{'up' if self.stands else 'down'}:{run}"

@@ -194,7 +194,7 @@ def analyse(table: Any, structure: Any, facts: Any) -> dict[str, Any]:
     return doc
 
 
-def _evaluate(structure: Any, scenarios: list[Any], facts: Any, jobs: int, block: int,
+def _evaluate(structure: Any, scenarios: list[Any], facts: Any, jobs: int,
               capped: bool) -> Callable[[F64], dict[str, F64]]:  # fmt: skip
     from mwip.calibration.sample import map_chunks
 
@@ -250,7 +250,7 @@ def calibrate_robot(out: Path, facts_path: Path, robot: Any, *, robot_label: str
         raise ValueError(f"--out: {str(out)!r} holds another calibration's draws (another robot, "
                          "facts file or --duration): give a new folder")  # fmt: skip
     write_text_atomic(old, stamp)
-    run = _evaluate(structure, scenarios, facts, jobs, plan.block, duration > 0)
+    run = _evaluate(structure, scenarios, facts, jobs, duration > 0)
     table = search(structure, plan, store, run, lambda df: fact_table(df, facts),
                    prior_draws=draws, kernel_draws=search_draws, label=robot.name,
                    note=note)  # fmt: skip
