@@ -157,9 +157,12 @@ def toml_comment(text: str) -> str:
     return "\n".join(lines)
 
 
-def write_parquet_atomic(path: str | os.PathLike[str], frame: Any) -> Path:
-    """Write the pandas DataFrame ``frame`` to ``path`` as Parquet (no index), atomically."""
-    return write_atomic(path, lambda fh: frame.to_parquet(fh, index=False))
+def write_parquet_atomic(path: str | os.PathLike[str], frame: Any,
+                         compression: str = "snappy") -> Path:  # fmt: skip
+    """Write the pandas DataFrame ``frame`` to ``path`` as Parquet (no index, ``compression``
+    pyarrow's codec), atomically."""
+    return write_atomic(path, lambda fh: frame.to_parquet(fh, index=False,
+                                                          compression=compression))
 
 
 def read_toml(path: str | os.PathLike[str], what: str) -> dict[str, Any]:

@@ -32,6 +32,14 @@ evolution strategy minimising the facts' violation), asks the existence question
 before a structure is called rejected. Its twins count for existence and are described with
 the others; ``Z`` stays stage A's.
 
+Revision 9 (``[revision_9]``): where stages A-C found a twin meeting every fact, **stage D**
+(:mod:`mwip.calibration.importance`) draws from a defensive box-kernel proposal around those
+twins, fixed before its draws, with exact importance weights ``w = 1 / q``: ``Z`` is then
+stage D's importance estimate, and the structure's posterior is stage D's twins meeting
+every fact weighted by ``w`` (the marginals, the offset, the facts' and held-out claims'
+shares read on it, weighted). The default robot is the most probable member of the most
+probable structure (:func:`member_robot_text`, ``robot.toml``).
+
 Every Chapter 6 run on every draw (:func:`mwip.calibration.runs.run_batch` on ``S``'s twin),
 in blocks stored as they finish (a rerun resumes; a draw depends on ``(seed, index)`` alone,
 so the columns do not depend on blocks or jobs). The per-draw table of every structure is
@@ -59,12 +67,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["run_comparison", "analyse_table", "STAGE_B", "DRAWS_FILE", "RESULT_FILE"]
+__all__ = ["run_comparison", "analyse_table", "member_robot_text", "STAGE_B", "DRAWS_FILE",
+           "RESULT_FILE", "ROBOT_FILE"]  # fmt: skip
 
 #: Stage B's draw indices start here (stage A's at 0).
 STAGE_B = 1_000_000
 DRAWS_FILE = "draws.parquet"
 RESULT_FILE = "structures.json"
+#: Revision 9's default robot (the most probable member of the most probable structure).
+ROBOT_FILE = "robot.toml"
 #: A marginal is "on a prior wall" when more than half its posterior mass lies in the outer
 #: ``WALL`` of its range (unit coordinates) at one end.
 WALL = 0.05
@@ -211,6 +222,21 @@ def directed_stage(structure: Any, rows: Any, directed: Any, store: Path, ev: An
                            note=note)  # fmt: skip
 
 
+def importance_stage(structure: Any, rows: Any, plan: Any, store: Path, ev: Any, *,
+                     block: int, jobs: int = 1, duration: float = 0.0,
+                     note: Callable[[str], None] | None = None) -> Any:  # fmt: skip
+    """Revision 9's stage D (:mod:`mwip.calibration.importance`) of ``structure`` after its
+    stage A-C ``rows``, where one of them meets every fact; else no row."""
+    from mwip.calibration.importance import importance_search
+
+    if plan is None:
+        return rows.iloc[:0]
+    run = _book_run(structure, ev, jobs, block, duration)
+    return importance_search(structure, plan, store, rows, run,
+                             lambda df: np.all(_facts(df, ev).S, axis=1), block=block,
+                             note=note)  # fmt: skip
+
+
 def _marginals(structure: Any, df: Any, sel: NDArray[np.bool_],
                w: NDArray[np.float64]) -> dict[str, Any]:  # fmt: skip
     from mwip.calibration.posterior import weighted_quantile
@@ -289,24 +315,26 @@ def analyse_table(table: Any, structures: dict[str, Any], ev: Any,
     from mwip.calibration.compare import bayes_factor, claim_verdict, posterior_probs
 
     names = [n for n in structures if (table["structure"] == n).any()]
-    evs, holds, per = [], {}, {}
+    evs, holds, per, facts_of = [], {}, {}, {}
     for n in names:
         df = table[table["structure"] == n].reset_index(drop=True)
         f = _facts(df, ev)
-        w = np.ones(len(df))  # the twins found: unweighted (module docstring, revision 7)
-        se = structure_evidence(n, df, ev)
+        facts_of[n] = (df, f)
+        se = _evidence_with_d(n, df, f)
+        w = se.weights  # stage D's posterior weights; else 1 (the twins found, revision 7)
         evs.append(se)
         cols = {c: df[c].to_numpy(dtype=float) for c in df.columns
-                if c not in ("structure", "stage")}  # fmt: skip
+                if c not in ("structure", "stage", "weight")}  # fmt: skip
         holds[n] = claim_rows(cols)
         sel = se.conditioned
         ws = w[sel]
         ess = float(ws.sum() ** 2 / np.sum(ws * ws)) if ws.size else 0.0
-        stages = {s: int((df["stage"] == s).sum()) for s in ("A", "B", "C")}
+        stages = {s: int((df["stage"] == s).sum()) for s in ("A", "B", "C", "D")}
         hits = {s: int(np.sum(se.accepted & (df["stage"] == s).to_numpy()))
-                for s in ("A", "B", "C")}  # fmt: skip
+                for s in ("A", "B", "C", "D")}  # fmt: skip
         per[n] = {**se.to_json(), "title": structures[n].title, "stages": stages,
                   "hits_by_stage": hits, "unknowns": list(structures[n].prior.names),
+                  "posterior": bool(stages["D"] and hits["D"]),
                   "conditioned_draws": int(sel.sum()), "conditioned_effective": ess,
                   "facts_met_share": {fn: float(np.sum(ws * f.S[sel, j]) / ws.sum())
                                       if ws.size else None for j, fn in enumerate(f.names)},
@@ -333,8 +361,97 @@ def analyse_table(table: Any, structures: dict[str, Any], ev: Any,
                        "revisions_1_5": old.get(c.key)})  # fmt: skip
     counts = {k: sum(c["verdict"] == k for c in claims)
               for k in ("holds", "fails", "undecided", "not judgeable")}  # fmt: skip
-    return {"revision": 8, "structures": per, "posterior_probability": post,
-            "bayes_factors": bf, "claims": claims, "claim_counts": counts}
+    return {"revision": 9, "structures": per, "posterior_probability": post,
+            "bayes_factors": bf, "claims": claims, "claim_counts": counts,
+            "member": _member(structures, facts_of, evs, post, ev)}
+
+
+def _evidence_with_d(name: str, df: Any, f: Any) -> Any:
+    """Revision 9's evidence of one structure: where stage D ran, ``Z`` is its importance
+    estimate (weights ``w`` of the rows' ``weight`` column) and, where stage D met every
+    fact, the posterior is its twins meeting every fact weighted by ``w``; else revision
+    7-8's (:func:`structure_evidence_of`). What the structure can meet is read on every
+    twin either way."""
+    from mwip.calibration.compare import evidence_of
+    from mwip.calibration.posterior import Facts
+
+    se = structure_evidence_of(name, df, f)
+    d = (df["stage"] == "D").to_numpy()
+    if not d.any():
+        return se
+    wd = df["weight"].to_numpy(dtype=float)[d]
+    z = evidence_of(name, Facts(f.names, f.S[d], f.log_err[d]), weights=wd).evidence
+    se = replace(se, evidence=z)
+    if not np.any(se.accepted & d):
+        return se
+    w = np.where(d, df["weight"].to_numpy(dtype=float), 0.0)
+    return replace(se, weights=w, conditioned=se.accepted & d)
+
+
+def _member(structures: dict[str, Any], facts_of: dict[str, Any], evs: Sequence[Any],
+            post: dict[str, float], ev: Any) -> dict[str, Any] | None:  # fmt: skip
+    """Revision 9's default robot: the most probable structure's (ties: the first declared)
+    stage-D twin meeting every fact with the largest ABC kernel ``exp(-1/2 sum_k (ln(x_k /
+    b_k) / s)^2)``, ``s = ln(tolerance) / 2``, of the calibration numbers (the record's rule,
+    :mod:`mwip.calibration.posterior`; ties: the smallest draw index). ``None`` where no
+    structure has a probability."""
+    if not post or max(post.values()) <= 0:
+        return None
+    best = max(post, key=lambda n: post[n])  # the first of equals: dict order is declared
+    se = next(e for e in evs if e.name == best)
+    df, f = facts_of[best]
+    sel = np.nonzero(se.conditioned)[0]
+    if sel.size == 0:
+        return None
+    s = ev.log_tolerance / 2.0
+    logk = -0.5 * np.sum((f.log_err[sel] / s) ** 2, axis=1)
+    order = np.lexsort((df["sample"].to_numpy()[sel], -logk))
+    i = int(sel[order[0]])
+    st = structures[best]
+    u = np.array([[float(df[f"u.{n}"].iloc[i]) for n in st.prior.names]])
+    x = st.from_unit(u)[0]
+    keys = [n.key for n in ev.numbers]
+    return {"structure": best, "stage": str(df["stage"].iloc[i]),
+            "sample": int(df["sample"].iloc[i]), "log_kernel": float(logk[order[0]]),
+            "values": {n: float(v) for n, v in zip(st.prior.names, x, strict=True)},
+            "numbers": {k: float(df[k].iloc[i]) for k in keys},
+            "book": {n.key: float(n.book) for n in ev.numbers},
+            "firmware": {"gyro_zeroing": bool(st.twin.firmware.gyro_zeroing),
+                         "fusion": str(st.twin.firmware.fusion.kind)}}  # fmt: skip
+
+
+def member_robot_text(doc: dict[str, Any], structures: dict[str, Any]) -> str:
+    """The robot file of revision 9's default robot (``doc["member"]``, :func:`_member`): the
+    book's body and design model, its structure's twin (firmware switches, prior) with the
+    member's values, the sources and the notes saying where it comes from."""
+    from mwip.robot import Robot, robot_to_toml
+
+    m = doc["member"]
+    n = m["structure"]
+    s = doc["structures"][n]
+    st = structures[n]
+    lo, hi = s["evidence_95"]
+    others = [f"{k} {v:.3g}" for k, v in doc["posterior_probability"].items() if k != n]
+    nums = "; ".join(f"{k} {m['numbers'][k]:.4g} (book {m['book'][k]:.4g})"
+                     for k in m["numbers"])  # fmt: skip
+    notes = (
+        "The book's robot: Tables 6.1 (body) and 6.2 (design model), their damping read as D "
+        "r^2 (SPEC.md section 2), and the most probable member of the most probable twin "
+        "structure of the book calibration, revision 9 (`mwip twin calibrate book`; "
+        "mwip/calibration/book-structures.toml, docs/book_calibration/structures.md).\n"
+        f"Structure {n}: {st.title}. Its probability given the 27 calibration facts: "
+        f"{doc['posterior_probability'][n]:.3g} (the others: {', '.join(others)}); Z = "
+        f"P(its prior meets every fact) = {s['evidence']:.3g} (95 %: {lo:.3g}-{hi:.3g}), by "
+        f"importance sampling (stage D: {s['stages']['D']:,} twins, {s['hits_by_stage']['D']:,} "
+        f"meeting every fact, Kish effective size {s['conditioned_effective']:.1f}).\n"
+        f"This member: stage {m['stage']} draw {m['sample']}, the largest ABC kernel of the "
+        f"calibration numbers among them (ln kernel {m['log_kernel']:.3g}): {nums}.")
+    src = (f"unknown (prior); identified: most probable member of structure {n}, the most "
+           "probable of the book calibration (revision 9; robot.notes)")
+    twin = st.twin.with_values(m["values"])
+    robot = Robot(twin=twin, name="book", notes=notes,
+                  provenance=tuple((k, src) for k in m["values"]))  # fmt: skip
+    return robot_to_toml(robot)
 
 
 def _record() -> dict[str, Any] | None:
@@ -359,6 +476,10 @@ def write_result(out: Path, table: Any, structures: dict[str, Any], ev: Any) -> 
     write_text_atomic(out / RESULT_FILE, json_text(doc))
     write_text_atomic(out / "structures.md", report_md(doc))
     figure(doc, out / "structures.png")
+    if doc["member"] is not None:
+        write_text_atomic(out / ROBOT_FILE, member_robot_text(doc, structures))
+    elif (out / ROBOT_FILE).exists():
+        (out / ROBOT_FILE).unlink()  # a stale default robot of an earlier result
     return doc
 
 
@@ -372,15 +493,21 @@ def run_comparison(out: Path, *, evidence: Path | None = None,
                    names: Sequence[str] | None = None, jobs: int = 1,
                    duration: float = 0.0, prior_draws: int | None = None,
                    kernel_draws: int | None = None, replay: Path | None = None,
-                   directed_draws: int | None = None,
+                   directed_draws: int | None = None, importance_draws: int | None = None,
                    note: Callable[[str], None] | None = None) -> dict[str, Any]:  # fmt: skip
     """Sample (or resume) every named structure into ``out`` and write the comparison; with
     ``replay`` read the per-draw table from that file instead (no run). ``directed_draws``:
-    stage C's twins per generation (default the declaration's; 0: no stage C)."""
+    stage C's twins per generation (default the declaration's; 0: no stage C);
+    ``importance_draws``: stage D's twins (default the declaration's; 0: no stage D)."""
     import pandas as pd
 
     from mwip.calibration.evidence import EVIDENCE_FILE, load_evidence
-    from mwip.calibration.structures import load_directed, load_plan, load_structures
+    from mwip.calibration.structures import (
+        load_directed,
+        load_importance,
+        load_plan,
+        load_structures,
+    )
     from mwip.io import write_parquet_atomic
 
     ev = load_evidence(EVIDENCE_FILE if evidence is None else Path(evidence))
@@ -400,6 +527,9 @@ def run_comparison(out: Path, *, evidence: Path | None = None,
         if directed is not None and directed_draws is not None:
             directed = replace(directed, per_generation=int(directed_draws),
                                generations=directed.generations if directed_draws else 0)
+        importance = load_importance()
+        if importance is not None and importance_draws is not None:
+            importance = replace(importance, draws=int(importance_draws))
         parts = []
         for n, s in chosen.items():
             df = sample_structure(s, plan, out / "draws" / n, ev, jobs=jobs, duration=duration,
@@ -408,9 +538,12 @@ def run_comparison(out: Path, *, evidence: Path | None = None,
             c = directed_stage(s, df, directed, out / "draws" / n, ev, block=plan.block,
                                jobs=jobs, duration=duration, note=note)  # fmt: skip
             df = pd.concat([df, c], ignore_index=True)
+            d = importance_stage(s, df, importance, out / "draws" / n, ev, block=plan.block,
+                                 jobs=jobs, duration=duration, note=note)  # fmt: skip
+            df = pd.concat([df, d], ignore_index=True)
             df.insert(0, "structure", n)
             parts.append(df)
         table = pd.concat(parts, ignore_index=True)
-        write_parquet_atomic(out / DRAWS_FILE, table)
+        write_parquet_atomic(out / DRAWS_FILE, table, compression="zstd")
         table = pd.read_parquet(out / DRAWS_FILE)
     return write_result(out, table, chosen, ev)

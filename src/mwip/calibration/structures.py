@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from mwip.hardware.prior import PRIOR, Prior, Unknown
 
 __all__ = ["Structure", "SamplePlan", "STRUCTURES_FILE", "load_structures", "load_plan",
-           "load_directed"]  # fmt: skip
+           "load_directed", "load_importance"]  # fmt: skip
 
 STRUCTURES_FILE = Path(__file__).with_name("book-structures.toml")
 
@@ -114,6 +114,24 @@ def load_directed(path: Path | None = None) -> Any:
         raise ValueError(f"revision_8.min_step must be a number in (0, 1], got {m!r}")
     return DirectedPlan(int(r["generations"]), int(r["per_generation"]), int(r["parents"]),
                         float(m), int(r["seed"]))  # fmt: skip
+
+
+def load_importance(path: Path | None = None) -> Any:
+    """Revision 9's declared stage D (:class:`mwip.calibration.importance.ImportancePlan`), or
+    ``None`` where the file declares none (a ``ValueError`` naming a bad field)."""
+    from mwip.calibration.importance import ImportancePlan
+
+    r = _read(path).get("revision_9")
+    if r is None:
+        return None
+    f = r.get("factors")
+    if not isinstance(f, list) or not all(isinstance(x, int | float) and not isinstance(x, bool)
+                                          for x in f):  # fmt: skip
+        raise ValueError(f"revision_9.factors must be a list of numbers, got {f!r}")
+    a = r.get("defensive")
+    if isinstance(a, bool) or not isinstance(a, int | float):
+        raise ValueError(f"revision_9.defensive must be a number in (0, 1), got {a!r}")
+    return ImportancePlan(r.get("draws"), float(a), tuple(float(x) for x in f), r.get("seed"))
 
 
 def _unknown(name: str, e: dict[str, Any]) -> Unknown:

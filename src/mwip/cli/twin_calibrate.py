@@ -41,6 +41,10 @@ def _structures(text: str | None) -> list[str] | None:
               default=None, help="Stage C's twins per generation, the directed search where "
                                  "stages A and B found no twin meeting every fact (default: "
                                  "the declaration's revision 8; 0: none).")
+@click.option("--importance-draws", "importance_draws", type=click.IntRange(0, 1_000_000),
+              default=None, help="Stage D's twins per structure, importance sampling of the "
+                                 "evidence around the twins meeting every fact (default: the "
+                                 "declaration's revision 9; 0: none).")
 @click.option("--duration", type=click.FloatRange(0.0, 15.0), default=0.0,
               help="Cap every run at this many seconds (a smoke test; 0: the studies' own).")
 @click.option("--replay", type=click.Path(exists=True, dir_okay=False, path_type=Path),
@@ -73,7 +77,7 @@ def _structures(text: str | None) -> list[str] | None:
               "effective size is 100; 0: no stage 5).")
 def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
                    draws: int | None, kernel_draws: int | None, directed_draws: int | None,
-                   duration: float,
+                   importance_draws: int | None, duration: float,
                    replay: Path | None, force: bool, record: bool, samples: int | None,
                    seed: int | None, stage2: int | None, chain_steps: int | None,
                    mixture_draws: int | None, envelope_draws: int | None,
@@ -107,7 +111,12 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
         _record(out, force, samples, seed, jobs, duration, stage2, chain_steps, mixture_draws,
                 envelope_draws)
         return
-    from mwip.calibration.comparison import DRAWS_FILE, RESULT_FILE, run_comparison
+    from mwip.calibration.comparison import (
+        DRAWS_FILE,
+        RESULT_FILE,
+        ROBOT_FILE,
+        run_comparison,
+    )
     from mwip.calibration.comparison_report import headline
 
     path = None if evidence == "book" else Path(evidence)
@@ -120,28 +129,32 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
         if bad:
             raise click.UsageError(f"--structures: unknown structure {bad[0]!r}; allowed: "
                                    f"{', '.join(known)}")  # fmt: skip
-    if replay is not None and ((draws, kernel_draws, directed_draws) != (None,) * 3
-                               or duration):  # fmt: skip
+    if replay is not None and ((draws, kernel_draws, directed_draws, importance_draws)
+                               != (None,) * 4 or duration):  # fmt: skip
         raise click.UsageError("--replay rebuilds a stored result: leave out --draws, "
-                               "--kernel-draws, --directed-draws and --duration")  # fmt: skip
+                               "--kernel-draws, --directed-draws, --importance-draws and "
+                               "--duration")  # fmt: skip
     target = outdir.check(out, force, command="twin calibrate")
     if replay is None and (draws, kernel_draws) == (None, None):
         click.echo("mwip: the declared sample evaluates 6,000 twins per structure on the 25 "
-                   "Chapter 6 runs, and 3,000 more in a directed search where none meets every "
-                   "fact (about 30 minutes with --jobs 2 on a 2-core machine, BENCHMARKS.md); "
-                   "it is resumable (Ctrl-C, then the same command continues)",
+                   "Chapter 6 runs, 3,000 more in a directed search where none meets every "
+                   "fact, and 4,000 more by importance sampling where one does (about 40 "
+                   "minutes with --jobs 2 on a 2-core machine, BENCHMARKS.md); it is "
+                   "resumable (Ctrl-C, then the same command continues)",
                    err=True)  # fmt: skip
     outdir.claim(target, "twin calibrate")
     try:
         doc = run_comparison(target, evidence=path, names=names, jobs=jobs, duration=duration,
                              prior_draws=draws, kernel_draws=kernel_draws, replay=replay,
-                             directed_draws=directed_draws,
+                             directed_draws=directed_draws, importance_draws=importance_draws,
                              note=lambda line: click.echo(line, err=True))  # fmt: skip
     except ValueError as exc:
         raise click.UsageError(str(exc).splitlines()[0]) from None
     click.echo(headline(doc))
     wrote = [RESULT_FILE, "structures.md", "structures.png"] + ([] if replay is not None
                                                                 else [DRAWS_FILE])  # fmt: skip
+    if doc.get("member") is not None:
+        wrote.append(ROBOT_FILE)
     click.echo(f"wrote {target / wrote[0]}, " + ", ".join(wrote[1:]))
 
 
@@ -178,7 +191,8 @@ def _robot_mode(ctx: click.Context, facts: Path, robot_file: Path | None, out: P
     from mwip.cli._common import need_extra, robot_option
 
     book_only = [p for p in ctx.command.params
-                 if p.name in ("structures", "replay", "record", "directed_draws") + _RECORD_ONLY
+                 if p.name in ("structures", "replay", "record", "directed_draws",
+                               "importance_draws") + _RECORD_ONLY
                  and ctx.get_parameter_source(p.name) == ParameterSource.COMMANDLINE]
     if book_only:
         names = ", ".join(max(p.opts, key=len) for p in book_only if isinstance(p, click.Option))
@@ -206,7 +220,8 @@ def _robot_mode(ctx: click.Context, facts: Path, robot_file: Path | None, out: P
 
 
 #: options of each mode: refused in the other one
-_COMPARE_ONLY = ("structures", "draws", "kernel_draws", "directed_draws", "replay")
+_COMPARE_ONLY = ("structures", "draws", "kernel_draws", "directed_draws", "importance_draws",
+                 "replay")
 _RECORD_ONLY = ("samples", "seed", "stage2", "chain_steps", "mixture_draws", "envelope_draws")
 
 
