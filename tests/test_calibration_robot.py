@@ -31,9 +31,13 @@ theta = 0.1
 
 
 def _robot(mass: float | None = None) -> object:
-    """The default robot with a prior of two free unknowns; its own values of them are not
-    the truth (the calibration must not read them)."""
-    rb = default_robot()
+    """A fixed robot (the book calibration's earlier twin of record, ``tests/data/
+    record_robot.toml``, so that the synthetic truth does not move with the default robot's
+    calibration) with a prior of two free unknowns; its own values of them are not the truth
+    (the calibration must not read them)."""
+    from mwip.robot import load_robot
+
+    rb = load_robot(Path(__file__).parent / "data" / "record_robot.toml")
     tw = rb.twin
     unknowns = []
     for u in tw.prior.unknowns:
@@ -185,7 +189,7 @@ def test_the_payload_of_the_robot_file_reaches_a_case2_scenario() -> None:
     ex = Path(__file__).resolve().parents[1] / "examples" / "hodosmc_twin.toml"
     rb = default_robot()
     out = []
-    for h in (0.02, 0.09):
+    for h in (0.08, 0.10):  # the prior: rods of 0.1 m (book-structures.toml)
         r = rb.with_values({"payload.height": h})
         sc = load_scenario(ex).with_overrides(robot=r, plant=r.body, design=r.design, case=2,
                                                duration=2.0)  # fmt: skip

@@ -139,26 +139,45 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path: Path, args: tuple[st
 
 
 def test_the_shipped_comparison_replays_byte_for_byte(tmp_path: Path) -> None:
-    """docs/book_calibration/structures.{json,md} are rebuilt from the shipped per-twin file
-    (at most 20 MB) by ``--replay``, byte for byte, and say what the declaration's sample
-    showed for every structure."""
+    """docs/book_calibration/structures.{json,md,png} are rebuilt from the shipped per-twin
+    file (at most 20 MB) by ``--replay``, byte for byte, with the default robot
+    (``src/mwip/robot/book.toml``: revision 9's most probable member of the most probable
+    structure), and say what the declaration's sample showed for every structure."""
     import json
+
+    from mwip.calibration.structures import load_importance
+    from mwip.hardware.identified import STATUS_FILE
+    from mwip.robot import BOOK_FILE, default_robot
 
     docs = Path(__file__).resolve().parents[1] / "docs" / "book_calibration"
     draws = docs / "structures.parquet"
-    assert draws.stat().st_size <= 20 * 2**20
+    assert draws.stat().st_size <= 20 * 10**6
     code, text = _run(tmp_path / "r", "--replay", str(draws))
     assert code == 0, text
     for f in ("structures.json", "structures.md", "structures.png"):
         assert (tmp_path / "r" / f).read_bytes() == (docs / f).read_bytes(), f
+    assert (tmp_path / "r" / "robot.toml").read_bytes() == BOOK_FILE.read_bytes()
+    assert (tmp_path / "r" / "book-twin.json").read_bytes() == STATUS_FILE.read_bytes()
     doc = json.loads((docs / "structures.json").read_text())
     plan = load_plan()
     directed = load_directed()
+    importance = load_importance()
     for s in doc["structures"].values():
         c = directed.generations * directed.per_generation  # stage C where A, B met not all
+        ab = s["hits_by_stage"]["A"] + s["hits_by_stage"]["B"]
+        d = importance.draws if ab + s["hits_by_stage"]["C"] > 0 else 0  # D where one met all
         assert s["stages"] == {"A": plan.prior_draws, "B": plan.kernel_draws,
-                               "C": c if s["hits_by_stage"]["A"] + s["hits_by_stage"]["B"] == 0
-                               else 0}  # fmt: skip
+                               "C": c if ab == 0 else 0, "D": d}  # fmt: skip
+    # the default robot is the member the document names, in its structure's firmware
+    m = doc["member"]
+    post = doc["posterior_probability"]
+    assert post[m["structure"]] == max(post.values()) > 0.5
+    robot = default_robot()
+    assert robot.values() == pytest.approx(m["values"], rel=1e-15)
+    st = load_structures()[m["structure"]]
+    assert robot.twin.firmware.gyro_zeroing == st.twin.firmware.gyro_zeroing
+    assert robot.twin.firmware.fusion.kind == st.twin.firmware.fusion.kind
+    assert robot.prior.names == st.prior.names
     # a structure rejected only by facts, never by a held-out claim: a claim that needs a
     # rejecting fact is "not judgeable" on that structure
     for c in doc["claims"]:

@@ -33,10 +33,10 @@ from mwip.hardware.elements import ELEMENTS
 from mwip.hardware.registry import DRIVE_CHAIN, ELEMENTS_BY_NAME
 from mwip.hardware.twin import run_on_twin
 from mwip.laws.registry import build
-from mwip.robot import default_robot
+from mwip.robot import load_robot
 
 assert DRIVE_CHAIN[0] is lag.ELEMENT and ELEMENTS_BY_NAME["lag"] is lag.ELEMENT
-robot = default_robot()
+robot = load_robot(sys.argv[2])  # a fixed robot: the book calibration's twin of record
 Ts = robot.Ts
 
 
@@ -99,6 +99,7 @@ from mwip.campaign.spec import parse_campaign
 camp = parse_campaign({
     "campaign": {"title": "lag", "samples": 4, "seed": 0, "duration": 2.0, "block": 4,
                  "sensors": "twin", "success_theta": 0.2},
+    "robot": {"file": sys.argv[2]},
     "controllers": [{"name": "lqr"}],
     "initial": {"theta": {"uniform": [-0.05, 0.05]}},
 })
@@ -193,7 +194,8 @@ def test_the_example_element_works_in_a_copy_of_the_package(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(pkg), "MWIP_CACHE_DIR": str(tmp_path / "cache"),
            "MWIP_AOT": "off", "NUMBA_CACHE_DIR": str(tmp_path / "nb"),
            "MWIP_NOTICES": "off"}  # fmt: skip
-    res = subprocess.run([sys.executable, "-c", SCRIPT, str(tmp_path / "campaigns")],
+    res = subprocess.run([sys.executable, "-c", SCRIPT, str(tmp_path / "campaigns"),
+                          str(ROOT / "tests" / "data" / "record_robot.toml")],
                          capture_output=True, text=True, env=env, timeout=1800,
                          cwd=tmp_path)  # fmt: skip
     assert res.returncode == 0, res.stderr[-3000:]

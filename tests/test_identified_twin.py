@@ -1,6 +1,7 @@
-"""The default twin is the book calibration's most probable member (issue 23): the packaged
-robot file's twin is the MAP of the packaged posterior, it does what the posterior says it
-does, and `mwip robot show`, the run record and the report say where it comes from."""
+"""The default twin is the most probable member of the book calibration's most probable twin
+structure (issues 23, 38; revision 9): the packaged robot file's twin is the member of the
+packaged status document, it does what the document says it does, and `mwip robot show`, the
+run record and the report say where it comes from."""
 
 from __future__ import annotations
 
@@ -11,7 +12,6 @@ import pytest
 
 from mwip.cli import main
 from mwip.hardware.identified import IDENTIFIED_FILE, STATUS_FILE, default_twin, status
-from mwip.hardware.prior import PRIOR, current_name
 from mwip.hardware.twin import Twin
 from mwip.robot import load_robot
 
@@ -22,14 +22,16 @@ def test_the_default_twin_is_the_posteriors_most_probable_member() -> None:
     tw = default_twin()
     assert tw == load_robot(IDENTIFIED_FILE).twin
     values = tw.values()
-    # the record names the unknowns as the calibration's run did (mwip.hardware.prior's
-    # LEGACY_NAMES); the firmware's torque gain came later: 1, the structure the calibration
-    # declared (its firmware agrees with its hardware)
-    recorded = {current_name(k): v for k, v in DOC["map_values"].items()}
-    assert set(recorded) == set(PRIOR.names) - {"firmware.torque_gain"}
-    assert values["firmware.torque_gain"] == 1.0
+    recorded = DOC["map_values"]
+    assert set(recorded) == set(values) == set(DOC["prior"]["names"])
     for name, v in recorded.items():
-        assert values[name] == pytest.approx(v, rel=1e-12, abs=1e-15), name
+        assert values[name] == v, name
+    # the member is a twin of the most probable structure: its firmware's torque gain is an
+    # unknown there, not the record's 1
+    sampler = DOC["posterior"]["sampler"]
+    assert sampler["kind"] == "importance" and sampler["probability"] == max(
+        sampler["structures"].values())
+    assert values["firmware.torque_gain"] != 1.0
     # and it is not the data-sheet twin the prior is centred on
     assert tw != Twin()
     assert DOC["posterior"]["map_index"] >= 0
@@ -37,19 +39,37 @@ def test_the_default_twin_is_the_posteriors_most_probable_member() -> None:
 
 def test_the_default_twin_does_what_the_posterior_records() -> None:
     """Rerun a few of the calibration's runs on the default twin itself: standing and the
-    calibration numbers as recorded for the MAP member (same code, one row)."""
+    calibration numbers as recorded for the member (same code, one row)."""
     from mwip.calibration.runs import RUNS, run_batch
 
     standing = DOC["map_standing"]
+    assert all(standing.values()) and len(standing) == 25  # every fact met: every run stands
     pick = [r for r in RUNS if r.name in ("exp-hodosmc-balance/smc.case1",
                                           "exp-hodosmc-balance/do1smc.case1")]  # fmt: skip
+    tw = default_twin()
     values = {k: np.array([v]) for k, v in DOC["map_values"].items()}
-    cols = run_batch(values, runs=tuple(pick))
+    cols = run_batch(values, runs=tuple(pick), twin=tw)
     for r in pick:
         assert bool(cols[f"{r.name}.stands"][0] == 1.0) == standing[r.name], r.name
     for num in DOC["calibration_numbers"]:
         if num["key"] in cols and num["map"] is not None:
             assert cols[num["key"]][0] == pytest.approx(num["map"], rel=1e-9), num["key"]
+
+
+def test_the_status_documents_verdicts_are_the_comparisons() -> None:
+    """One verdict per claim: the default twin's document judges each Chapter 6 claim as the
+    shipped comparison does over the structures (same fraction, same word)."""
+    from pathlib import Path
+
+    docs = Path(__file__).resolve().parents[1] / "docs" / "book_calibration"
+    comp = json.loads((docs / "structures.json").read_text())
+    assert len(DOC["claims"]) == len(comp["claims"])
+    for a, c in zip(DOC["claims"], comp["claims"], strict=True):
+        assert f"{a['study']}/{a['id']}" == c["claim"]
+        assert a["verdict"] == c["verdict"]
+        assert a["fraction"] == pytest.approx(c["p_holds"], rel=1e-9, abs=1e-12)
+        assert a["interval"][0] <= a["fraction"] <= a["interval"][1]
+    assert len(DOC["members"]) == 256
 
 
 def test_robot_show_prints_the_identified_twin_with_its_provenance(capsys) -> None:
@@ -59,8 +79,8 @@ def test_robot_show_prints_the_identified_twin_with_its_provenance(capsys) -> No
     out = capsys.readouterr().out
     assert out.startswith("# mwip robot file")
     assert 'notes = """\nThe book\'s robot: Tables 6.1' in out
-    assert "the most probable twin of the posterior conditioned on the book's" in out
-    assert "identified: most probable twin of the book calibration" in out
+    assert "the most probable member of the most probable twin structure" in out
+    assert "identified: most probable member of structure S1" in out
     assert main(["robot", "show", "--datasheet"]) == 0
     ds = capsys.readouterr().out
     assert "identified:" not in ds and "unknown (prior): MAXON GP 32 A 23:1" in ds
@@ -70,7 +90,11 @@ def test_status_says_which_twin_ran() -> None:
     st = status()
     size = DOC["posterior"]["size"]
     kind = (DOC["posterior"].get("sampler") or {}).get("kind")
-    if kind == "mixture":  # stages 4-5: a weighted pool with a most probable member
+    if kind == "importance":  # revision 9: the most probable structure's member
+        sampler = DOC["posterior"]["sampler"]
+        which = (f"the most probable member of twin structure {sampler['structure']}, the "
+                 "most probable given the book's calibration facts")
+    elif kind == "mixture":  # stages 4-5: a weighted pool with a most probable member
         which = f"the most probable of the {size:,} twins consistent"
     elif "sampler" in DOC["posterior"]:  # stage 3's chains: every state ties for most probable
         which = ("the first twin found consistent with the book's calibration facts, of "

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,12 +15,16 @@ from mwip.identify.body import LUMPED, body_stage, lumped_of
 from mwip.identify.fit import fit
 from mwip.identify.logs import Log
 from mwip.laws.registry import build
-from mwip.robot import default_robot
+from mwip.robot import load_robot
 
 
 @pytest.fixture(scope="module")
 def setup():  # type: ignore[no-untyped-def]
-    r = default_robot()
+    # a fixed robot, the book calibration's earlier twin of record (tests/data/), so that the
+    # synthetic truth does not move with the default robot's calibration; the default twin
+    # of revision 9 has 20 times its Coulomb friction, which the body fit does not model
+    # (issue 38's closing note: m22 then comes out 5.8 % low)
+    r = load_robot(Path(__file__).parent / "data" / "record_robot.toml")
     body = replace(r.body, l=1.15 * r.body.l, mb=1.1 * r.body.mb)  # l +15 %, mb +10 %
     ctrl = build("lqr", r.design, {}, Ts=r.Ts)
     return r, body, ctrl

@@ -56,7 +56,6 @@ SMALL: dict[str, list[str]] = {
 }
 #: Lines whose exit code is not 0, and why (the page says so beside the line).
 EXPECT: dict[str, tuple[int, str]] = {
-    "mwip simulate --controller asta --twin --case 2": (1, "falls"),  # the README: "it falls"
     "mwip twin fit log1.csv log2.parquet --out fit": (2, "log1.csv"),  # your robot's logs
     "mwip twin fit static_and_stand.csv --validate other_day.csv --out myrobot":
         (2, "static_and_stand.csv"),  # fmt: skip

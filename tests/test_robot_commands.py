@@ -2,18 +2,23 @@
 default changes each command's result in the direction physics predicts, so no command can
 silently fall back to the default robot.
 
-The robots differ from the default (:func:`mwip.robot.default_robot`) in one value each:
+The robots differ in one value each from a fixed base: for the torque gain, the book
+calibration's earlier twin of record (``tests/data/record_robot.toml``: structure S0, the
+firmware's torque gain 1), on which the physics below was checked, so that it does not move
+with the default robot's calibration (every run passes ``--robot``: a command falling back
+to the default would give both runs the same result); for the others the default
+(:func:`mwip.robot.default_robot`):
 
 - ``gain2``: ``firmware.torque_gain = 2`` (the drive delivers twice what the firmware
-  commands). Physics: the torque reaching the wheels is about twice as large for the same
-  command, so a run's peak *delivered* torque rises (the first commands, from the same
-  initial pitch and the same measurement, are equal; the loop's later corrections are
-  smaller, so the factor is below 2 but well above 1).
+  commands), against ``base``'s 1. Physics: the torque reaching the wheels is about twice as
+  large for the same command, so a run's peak *delivered* torque rises (the first commands,
+  from the same initial pitch and the same measurement, are equal; the loop's later
+  corrections are smaller, so the factor is below 2 but well above 1).
 - ``wheel5``: the body's wheel radius 0.05 m (the default's 0.04 m), the design model
   unchanged. Physics: a speed controller regulates the wheels' rate through its design
   model's radius, so the robot's true forward speed ``r psi'`` grows with the body's radius
   (about 0.05 / 0.04 = 1.25 times).
-- ``gear12``: ``drive.gear_ratio = 12`` (the default's 5.3). Physics: the largest wheel
+- ``gear12``: ``drive.gear_ratio = 12`` (the default's 4.2). Physics: the largest wheel
   torque ``N eta k_t i_max`` grows in proportion to the gear ratio.
 """
 
@@ -34,8 +39,10 @@ from mwip.robot import default_robot, load_robot, save_robot
 def robots(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     d = tmp_path_factory.mktemp("robots")
     r = default_robot()
+    base = load_robot(Path(__file__).parent / "data" / "record_robot.toml")
     out = {
-        "gain2": r.with_values({"firmware.torque_gain": 2.0}),
+        "base": base,
+        "gain2": base.with_values({"firmware.torque_gain": 2.0}),
         "wheel5": replace(r, body=replace(r.body, r=0.05)),
         "gear12": r.with_values({"drive.gear_ratio": 12.0}),
     }
@@ -56,7 +63,8 @@ def test_simulate(tmp_path: Path, robots: dict[str, Path]) -> None:
     """`mwip simulate --twin --robot`: the delivered torque is the firmware's command times
     its torque gain (the first sample after the delay, before any correction: ~2)."""
     peaks, ratios = [], []
-    for name, extra in (("default", []), ("gain2", ["--robot", str(robots["gain2"])])):
+    for name, extra in (("default", ["--robot", str(robots["base"])]),
+                        ("gain2", ["--robot", str(robots["gain2"])])):  # fmt: skip
         out = tmp_path / name
         assert main(["simulate", "--twin", "--duration", "1", "--theta0", "0.05", "--out",
                      str(out), *extra]) == 0  # fmt: skip
@@ -147,7 +155,9 @@ def test_campaign_run(tmp_path: Path, robots: dict[str, Path]) -> None:
     own.parent.mkdir()
     (own.parent / "gain2.toml").write_text(robots["gain2"].read_text())
     own.write_text(_CAMPAIGN.format(robot='file = "gain2.toml"'))
-    runs = {"default": [str(plain)], "option": [str(plain), "--robot", str(robots["gain2"])],
+    base = tmp_path / "b.toml"
+    base.write_text(_CAMPAIGN.format(robot=f'file = "{robots["base"].as_posix()}"'))
+    runs = {"default": [str(base)], "option": [str(plain), "--robot", str(robots["gain2"])],
             "file": [str(own)]}  # fmt: skip
     peak = {}
     for name, args in runs.items():
@@ -164,14 +174,15 @@ def test_bench(tmp_path: Path, robots: dict[str, Path]) -> None:
     pd = pytest.importorskip("pandas")
     pytest.importorskip("pyarrow")
     peak = []
-    for name, extra in (("default", []), ("gain2", ["--robot", str(robots["gain2"])])):
+    for name, extra in (("default", ["--robot", str(robots["base"])]),
+                        ("gain2", ["--robot", str(robots["gain2"])])):  # fmt: skip
         out = tmp_path / name
         assert main(["bench", "lqr", "--quick", "--jobs", "1", "--out", str(out), *extra]) == 0
         res = pd.read_parquet(out / "results.parquet")
         peak.append(float(res[res["axis"] == "nominal"]["peak_torque"].mean()))
     assert peak[1] > 1.5 * peak[0], peak
     page = (tmp_path / "gain2" / "index.html").read_text()
-    assert "the twin of robot &#x27;book&#x27;" in page  # which robot, not "the default twin"
+    assert "the twin of robot &#x27;record&#x27;" in page  # which robot, not "the default twin"
 
 
 _OBJECTIVE = """
@@ -218,7 +229,7 @@ def test_tune(tmp_path: Path, robots: dict[str, Path]) -> None:
                      *extra]) == 0  # fmt: skip
         costs.append((out / "trials.csv").read_text())
     assert costs[0] != costs[1]
-    assert "--robot (book)" in (tmp_path / "gain2" / "best.toml").read_text().splitlines()[0]
+    assert "--robot (record)" in (tmp_path / "gain2" / "best.toml").read_text().splitlines()[0]
 
 
 def test_export_verify(tmp_path: Path, robots: dict[str, Path],
@@ -231,7 +242,8 @@ def test_export_verify(tmp_path: Path, robots: dict[str, Path],
     if find_compiler() is None:
         pytest.skip("no C compiler ($CC, cc, gcc or clang) on this machine")
     peaks = []
-    for name, extra in (("default", []), ("gain2", ["--robot", str(robots["gain2"])])):
+    for name, extra in (("default", ["--robot", str(robots["base"])]),
+                        ("gain2", ["--robot", str(robots["gain2"])])):  # fmt: skip
         capsys.readouterr()
         assert main(["export", "c", "--controller", "lqr", "--out", str(tmp_path / name),
                      "--verify", "--twin", "--duration", "2", *extra]) == 0  # fmt: skip
@@ -300,8 +312,8 @@ def test_robot_file_round_trip(tmp_path: Path, robots: dict[str, Path],
     ("edit", "field"),
     [
         (("[body]\n", "[body]\nwheel_radius_typo = 1.0\n"), "body.wheel_radius_typo"),
-        (("\ntorque_gain = 1.0", "\ntorque_gain = \"two\""), "firmware.torque_gain"),
-        (("\ntorque_gain = 1.0", "\ntorque_gain = 9.0"), "firmware.torque_gain"),
+        (("\ntorque_gain = ", "\ntorque_gain = \"two\" # "), "firmware.torque_gain"),
+        (("\ntorque_gain = ", "\ntorque_gain = 9.0 # "), "firmware.torque_gain"),
         (("\nr = 0.04", "\nr = -0.04"), "body.r"),
         (("\nr = 0.04 ", "\n# r = 0.04 "), "body.r is missing"),
         (("\nr = 0.04 ", "\nr = 40 "), "body.r"),

@@ -294,7 +294,7 @@ def test_batch_stick_and_payload_conflicts() -> None:
         run_on_twin(_smc(cfg), 3, values={"stick.height": [0.01]}, stick_height=0.01,
                     duration=0.05)  # fmt: skip
     with pytest.raises(ValueError, match=r"pass base="):
-        run_on_twin(_smc(cfg), 2, values={"payload.height": [0.05]}, plant=REAL, duration=0.05)
+        run_on_twin(_smc(cfg), 2, values={"payload.height": [0.09]}, plant=REAL, duration=0.05)
     with pytest.raises(ValueError, match=r"rows has 2 entries, values 1"):
         run_on_twin(_smc(cfg), 1, values={"delay": [0.1]}, rows=[[], []], duration=0.05)
 

@@ -157,12 +157,10 @@ def toml_comment(text: str) -> str:
     return "\n".join(lines)
 
 
-def write_parquet_atomic(path: str | os.PathLike[str], frame: Any,
-                         compression: str = "snappy") -> Path:  # fmt: skip
-    """Write the pandas DataFrame ``frame`` to ``path`` as Parquet (no index, ``compression``
-    pyarrow's codec), atomically."""
-    return write_atomic(path, lambda fh: frame.to_parquet(fh, index=False,
-                                                          compression=compression))
+def write_parquet_atomic(path: str | os.PathLike[str], frame: Any, **options: Any) -> Path:
+    """Write the pandas DataFrame ``frame`` to ``path`` as Parquet (no index; ``options``
+    pyarrow's writer options, e.g. ``compression``), atomically."""
+    return write_atomic(path, lambda fh: frame.to_parquet(fh, index=False, **options))
 
 
 def read_toml(path: str | os.PathLike[str], what: str) -> dict[str, Any]:

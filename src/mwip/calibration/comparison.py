@@ -68,7 +68,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = ["run_comparison", "analyse_table", "member_robot_text", "STAGE_B", "DRAWS_FILE",
-           "RESULT_FILE", "ROBOT_FILE"]  # fmt: skip
+           "RESULT_FILE", "ROBOT_FILE", "STATUS_FILE"]  # fmt: skip
 
 #: Stage B's draw indices start here (stage A's at 0).
 STAGE_B = 1_000_000
@@ -76,6 +76,8 @@ DRAWS_FILE = "draws.parquet"
 RESULT_FILE = "structures.json"
 #: Revision 9's default robot (the most probable member of the most probable structure).
 ROBOT_FILE = "robot.toml"
+#: Its status document (:mod:`mwip.calibration.default_status`; ``mwip/hardware/book-twin.json``).
+STATUS_FILE = "book-twin.json"
 #: A marginal is "on a prior wall" when more than half its posterior mass lies in the outer
 #: ``WALL`` of its range (unit coordinates) at one end.
 WALL = 0.05
@@ -442,15 +444,24 @@ def member_robot_text(doc: dict[str, Any], structures: dict[str, Any]) -> str:
         f"Structure {n}: {st.title}. Its probability given the 27 calibration facts: "
         f"{doc['posterior_probability'][n]:.3g} (the others: {', '.join(others)}); Z = "
         f"P(its prior meets every fact) = {s['evidence']:.3g} (95 %: {lo:.3g}-{hi:.3g}), by "
-        f"importance sampling (stage D: {s['stages']['D']:,} twins, {s['hits_by_stage']['D']:,} "
-        f"meeting every fact, Kish effective size {s['conditioned_effective']:.1f}).\n"
-        f"This member: stage {m['stage']} draw {m['sample']}, the largest ABC kernel of the "
-        f"calibration numbers among them (ln kernel {m['log_kernel']:.3g}): {nums}.")
+        f"importance sampling ({s['stages']['D']:,} twins drawn around the "
+        f"{s['found'] - s['hits_by_stage']['D']:,} found first, {s['hits_by_stage']['D']:,} of "
+        f"them meeting every fact, whose weights count as about "
+        f"{s['conditioned_effective']:.0f} equally weighted twins).\n"
+        f"This member: draw {m['sample']}, the largest ABC kernel of the calibration numbers "
+        f"among them (ln kernel {m['log_kernel']:.3g}): {nums}.")
     src = (f"unknown (prior); identified: most probable member of structure {n}, the most "
            "probable of the book calibration (revision 9; robot.notes)")
+    fw = st.twin.firmware
+    switches = {"firmware.gyro_zeroing": f"assumed: {'' if fw.gyro_zeroing else 'no '}power-on "
+                f"gyro zeroing, as structure {n} declares, the most probable of the book "
+                "calibration (revision 9; robot.notes)",
+                "firmware.fusion.kind": f"assumed: a {fw.fusion.kind} fusion, as structure {n} "
+                "declares, the most probable of the book calibration (revision 9; "
+                "robot.notes)"}  # fmt: skip
     twin = st.twin.with_values(m["values"])
     robot = Robot(twin=twin, name="book", notes=notes,
-                  provenance=tuple((k, src) for k in m["values"]))  # fmt: skip
+                  provenance=tuple((k, src) for k in m["values"]) + tuple(switches.items()))
     return robot_to_toml(robot)
 
 
@@ -476,10 +487,18 @@ def write_result(out: Path, table: Any, structures: dict[str, Any], ev: Any) -> 
     write_text_atomic(out / RESULT_FILE, json_text(doc))
     write_text_atomic(out / "structures.md", report_md(doc))
     figure(doc, out / "structures.png")
-    if doc["member"] is not None:
+    from mwip.calibration.default_status import status_document
+    from mwip.calibration.structures import load_importance
+
+    plan = load_importance()
+    status = status_document(doc, table, structures, ev, 0 if plan is None else plan.seed)
+    if status is not None:
         write_text_atomic(out / ROBOT_FILE, member_robot_text(doc, structures))
-    elif (out / ROBOT_FILE).exists():
-        (out / ROBOT_FILE).unlink()  # a stale default robot of an earlier result
+        write_text_atomic(out / STATUS_FILE, json_text(status))
+    else:  # no default robot of this result: a stale one of an earlier result goes
+        for name in (ROBOT_FILE, STATUS_FILE):
+            if (out / name).exists():
+                (out / name).unlink()
     return doc
 
 
@@ -544,6 +563,11 @@ def run_comparison(out: Path, *, evidence: Path | None = None,
             df.insert(0, "structure", n)
             parts.append(df)
         table = pd.concat(parts, ignore_index=True)
-        write_parquet_atomic(out / DRAWS_FILE, table, compression="zstd")
+        # compact and lossless (the shipped file's limit is 20 MB): zstd over the floats'
+        # bytes split by significance
+        floats = [c for c in table.columns if table[c].dtype == np.float64]
+        write_parquet_atomic(out / DRAWS_FILE, table, compression="zstd", compression_level=9,
+                             use_dictionary=["structure", "stage"],
+                             use_byte_stream_split=floats)  # fmt: skip
         table = pd.read_parquet(out / DRAWS_FILE)
     return write_result(out, table, chosen, ev)

@@ -115,6 +115,7 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
         DRAWS_FILE,
         RESULT_FILE,
         ROBOT_FILE,
+        STATUS_FILE,
         run_comparison,
     )
     from mwip.calibration.comparison_report import headline
@@ -154,7 +155,7 @@ def twin_calibrate(evidence: str, out: Path, structures: str | None, jobs: int,
     wrote = [RESULT_FILE, "structures.md", "structures.png"] + ([] if replay is not None
                                                                 else [DRAWS_FILE])  # fmt: skip
     if doc.get("member") is not None:
-        wrote.append(ROBOT_FILE)
+        wrote += [ROBOT_FILE, STATUS_FILE]
     click.echo(f"wrote {target / wrote[0]}, " + ", ".join(wrote[1:]))
 
 

@@ -1,16 +1,18 @@
-"""The default twin: the book's robot identified from the book's evidence (issue 23).
+"""The default twin: the book's robot identified from the book's evidence (issues 23, 38).
 
 The default robot's twin (``mwip/robot/book.toml``, :func:`mwip.robot.default_robot`) is the
-most probable member of the posterior of ``mwip twin calibrate book --record``
-(:mod:`mwip.calibration.book`; the declaration ``mwip/calibration/book-evidence.toml``), with
-its provenance in the robot's notes. :func:`default_twin` is the twin of every command and
-study not given ``--robot FILE`` (``mwip robot show`` prints it). The data-sheet twin the
-prior is centred on, ``Twin()`` (``mwip robot show --datasheet``), stays what the elements'
-defaults say.
+most probable member of the most probable twin structure of ``mwip twin calibrate book``
+(revision 9, :mod:`mwip.calibration.comparison`; the declarations
+``mwip/calibration/book-evidence.toml`` and ``book-structures.toml``), with its provenance in
+the robot's notes; ``book-twin.json`` beside this module is that calibration's status
+document of it (:mod:`mwip.calibration.default_status`). :func:`default_twin` is the twin
+of every command and study not given ``--robot FILE`` (``mwip robot show`` prints it). The
+data-sheet twin the prior is centred on, ``Twin()`` (``mwip robot show --datasheet``), stays
+what the elements' defaults say.
 
-To refresh it after a new calibration: ``mwip twin calibrate book --record --out cal`` and copy
-``cal/robot.toml`` to ``mwip/robot/book.toml`` (a test checks that the file is the
-calibration's MAP member as recorded in ``docs/book_calibration/posterior.json``).
+To refresh it after a new calibration: ``mwip twin calibrate book --out cal`` and copy
+``cal/robot.toml`` to ``mwip/robot/book.toml`` and ``cal/book-twin.json`` here (a test checks
+that both are what ``--replay`` of ``docs/book_calibration/structures.parquet`` writes).
 """
 
 from __future__ import annotations
@@ -97,7 +99,12 @@ def status(twin: Any = None) -> dict[str, Any]:
     # in plain words (issue 38 item 5): how many twins were drawn, how many are consistent
     pool = (f"{drawn:,} twins drawn, {size:,} consistent with the calibration facts; "
             if drawn else "")
-    if s3 and s3.get("kind") == "mixture":  # stages 4-5: a weighted pool, the most probable
+    if s3 and s3.get("kind") == "importance":  # revision 9: the most probable structure's
+        which = (f"the most probable member of twin structure {s3.get('structure')}, the most "
+                 f"probable given the book's calibration facts (probability "
+                 f"{float(s3.get('probability', 0)):.3g}; {pool}")
+        s3 = None
+    elif s3 and s3.get("kind") == "mixture":  # stages 4-5: a weighted pool, the most probable
         which = (f"the most probable of the {size:,} twins consistent with the book's "
                  f"calibration facts ({pool}")
         s3 = None

@@ -409,7 +409,8 @@ def _identified_section(record: dict[str, Any], results: Sequence[StudyResult] =
         '<p class="muted">The twin\'s unknowns (gear ratio, back-EMF compensation, dead-band, '
         "friction, sensors, payload geometry) were identified from the book's calibration "
         "evidence only (every Chapter 6 run stands; Table 6.4's Case 1 SMC numbers), declared "
-        "before the fit in <code>mwip/calibration/book-evidence.toml</code>; the claims below "
+        "before the fit in <code>mwip/calibration/book-evidence.toml</code> (the twin "
+        "structures compared in <code>book-structures.toml</code>); the claims below "
         "are judged on evidence the fit never used, on the twins' measured signals (the "
         "board's pitch estimate, the encoder speeds). A claim holds or fails when it does in "
         "at least 95 % of the consistent twins, else it is undecided (the parameter that "
