@@ -245,22 +245,10 @@ def test_the_directed_search_finds_a_thin_set_the_prior_misses(tmp_path: Path,
         structure_evidence,
     )
     from mwip.calibration.evidence import load_evidence
-    from mwip.calibration.runs import run_names
     from mwip.calibration.structures import load_directed
 
     ev = load_evidence()
-    key = "exp-hodosmc-balance/smc.case1.rms_theta"
-
-    def fake(values: dict, **kw: object) -> dict:
-        ok = ((values["firmware.torque_gain"] >= 1.5) & (values["firmware.torque_gain"] <= 3)
-              & (values["drive.gear_ratio"] < 10.0))  # fmt: skip
-        cols = {f"{r}.stands": ok.astype(float) for r in run_names()}
-        for n in ev.numbers:
-            cols[n.key] = np.where(ok, n.book, np.nan)
-        d = np.abs(values["imu.gyro_bias"] - 0.016)
-        cols[key] = np.where(ok, 0.0216 * np.exp(np.maximum(d - 2e-4, 0) * 5000), np.nan)
-        return cols
-
+    fake, _ = _thin_fake(ev)
     monkeypatch.setattr(sample, "evaluate", fake)
     s1 = load_structures()["S1"]
     plan = replace(load_plan(), prior_draws=200, kernel_draws=100, seed=7, block=100)
@@ -280,7 +268,7 @@ def test_the_directed_search_finds_a_thin_set_the_prior_misses(tmp_path: Path,
 
 
 def _thin_fake(ev):  # type: ignore[no-untyped-def]
-    """The fake twin of the stage C test: stands where the torque gain is in [1.5, 3] and the
+    """The fake twin of the stage C and D tests: stands where the torque gain is in [1.5, 3] and the
     gear ratio below 10; meets Table 6.4's RMS pitch only where, besides, its gyro offset is
     within 2.8e-4 rad/s of 0.016. Its Z (``thin_z``) is known."""
     from mwip.calibration.runs import run_names
