@@ -47,7 +47,7 @@ def status_document(doc: dict[str, Any], table: Any, structures: dict[str, Any],
     a probability (no member)."""
     import pandas as pd
 
-    from mwip.calibration.claims import judge
+    from mwip.calibration.claims import claim_rows, judge
     from mwip.calibration.comparison import _evidence_with_d, _facts
     from mwip.calibration.evidence import EVIDENCE_FILE
     from mwip.calibration.runs import run_names
@@ -70,13 +70,15 @@ def status_document(doc: dict[str, Any], table: Any, structures: dict[str, Any],
     accepted = w > 0
     best = structures[m["structure"]]
     names = list(best.prior.names)
+    other = [n for n, p in post.items() if p > 0 and structures[n].prior.names != best.prior.names]
+    if other:  # one table of unknowns for the pool (S1 and S2 share theirs)
+        raise ValueError(f"structures {', '.join(other)} have a probability but not "
+                         f"{m['structure']}'s unknowns: no pooled posterior of one twin table")
     u = pool[[f"u.{k}" for k in names]].to_numpy(dtype=float)
     x = best.from_unit(u)
     params = {k: x[:, j] for j, k in enumerate(names)}
     cols = {c: pool[c].to_numpy(dtype=float) for c in pool.columns
             if c not in ("structure", "stage", "weight")}  # fmt: skip
-    from mwip.calibration.claims import claim_rows
-
     hit = (pool["structure"] == m["structure"]).to_numpy() & (
         pool["sample"] == m["sample"]).to_numpy()
     i = int(np.nonzero(hit)[0][0])
